@@ -1,0 +1,12 @@
+//! gmmcalib: multi-LiDAR extrinsic calibration by joint registration of all scans to one
+//! floating Gaussian mixture (JRMPC, Evangelidis & Horaud 2018, as used by GMMCalib).
+//!
+//! Data flows one way: bytes -> [`Cloud`] -> pre-align and crop -> views -> [`jrmpc`] ->
+//! [`calib`] -> results. The algorithm modules know nothing of JavaScript; `wasm` is a thin
+//! adapter compiled only for `wasm32`.
+
+pub mod cloud;
+pub mod se3;
+
+pub use cloud::{Aabb, Cloud};
+pub use se3::Pose;
