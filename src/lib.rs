@@ -5,8 +5,14 @@
 //! [`calib`] -> results. The algorithm modules know nothing of JavaScript; `wasm` is a thin
 //! adapter compiled only for `wasm32`.
 
+pub mod calib;
 pub mod cloud;
+pub mod jrmpc;
 pub mod se3;
+pub mod synth;
+pub mod target_fit;
 
 pub use cloud::{Aabb, Cloud};
 pub use se3::Pose;
+#[cfg(target_arch = "wasm32")]
+pub mod wasm;

@@ -1,0 +1,65 @@
+# gmmcalib: `make serve` builds and serves the app; `make test` runs every test.
+# Each target installs what it needs, idempotently. Never set RUSTFLAGS here: it would replace
+# the wasm flags in .cargo/config.toml.
+
+SHELL := bash
+.SHELLFLAGS := -euo pipefail -c
+WASM_TARGET := wasm32-unknown-unknown
+# The CLI must match the wasm-bindgen crate exactly (pinned with = in Cargo.toml).
+WASM_BINDGEN_VERSION := $(shell awk '/^name = "wasm-bindgen"$$/{getline; gsub(/[" ]/,""); sub("version=",""); print}' Cargo.lock)
+WASM_OUT := target/$(WASM_TARGET)/release/gmmcalib.wasm
+PORT ?= 5173
+
+.PHONY: serve build wasm test test-rust test-wasm test-browser lint bench bench-wasm setup-rust setup-node setup-browser clean
+
+serve: wasm setup-node
+	@echo "gmmcalib: open http://localhost:$(PORT)/"
+	cd www && npx vite --port $(PORT) --strictPort
+
+build: wasm setup-node
+	cd www && npx vite build
+
+test: lint test-rust test-wasm test-browser
+
+lint:
+	cargo fmt --check
+	cargo clippy --all-targets -- -D warnings
+	cargo clippy --lib --target $(WASM_TARGET) -- -D warnings
+
+test-rust:
+	cargo test
+
+test-wasm: setup-rust
+	cargo test --target $(WASM_TARGET)
+
+test-browser: build setup-browser
+	cd www && node --test e2e/
+
+bench: wasm
+	cargo run --release --bin bench
+	node www/bench/bench.mjs
+
+wasm: setup-rust
+	cargo build --lib --release --target $(WASM_TARGET)
+	wasm-bindgen --target web --out-dir www/pkg $(WASM_OUT)
+
+setup-rust:
+	rustup target add $(WASM_TARGET) >/dev/null 2>&1 || rustup target add $(WASM_TARGET)
+	@if [ "$$(wasm-bindgen --version 2>/dev/null | cut -d' ' -f2)" != "$(WASM_BINDGEN_VERSION)" ]; then \
+		echo "installing wasm-bindgen-cli $(WASM_BINDGEN_VERSION) (one-off, a few minutes)"; \
+		cargo install wasm-bindgen-cli --version $(WASM_BINDGEN_VERSION); \
+	fi
+
+setup-node:
+	@if [ ! -d www/node_modules ] || [ www/package-lock.json -nt www/node_modules/.package-lock.json ]; then \
+		cd www && npm ci --no-audit --no-fund; \
+	fi
+
+setup-browser: setup-node
+	@if [ ! -x /usr/bin/chromium ]; then \
+		apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y chromium; \
+	fi
+
+clean:
+	cargo clean
+	rm -rf www/pkg www/dist www/node_modules

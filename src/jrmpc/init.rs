@@ -1,0 +1,117 @@
+//! Initial component means: a geometric prior of the calibration target, placed at the centroid
+//! of the region-of-interest points (GMMCalib hard-codes a position; the centroid follows the data).
+
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+
+/// The target shape the mixture starts from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Prior {
+    /// Points on the surface of an axis-aligned cube of this edge (m).
+    Cube { edge: f64 },
+    /// Points on a sphere of this radius (m).
+    Sphere { radius: f64 },
+    /// Means given by the caller, used as they are (m, vehicle frame).
+    Means(Vec<[f64; 3]>),
+}
+
+impl Default for Prior {
+    /// GMMCalib's target: a 0.5 m cube.
+    fn default() -> Self {
+        Prior::Cube { edge: 0.5 }
+    }
+}
+
+impl Prior {
+    /// The prior's overall size (m): cube edge or sphere diameter; `None` for given means.
+    pub fn size(&self) -> Option<f64> {
+        match self {
+            Prior::Cube { edge } => Some(*edge),
+            Prior::Sphere { radius } => Some(2.0 * radius),
+            Prior::Means(_) => None,
+        }
+    }
+
+    /// `k` initial means centred on `centre`; `seed` drives the cube sampler.
+    /// For `Means`, `k`, `centre` and `seed` are ignored.
+    pub fn means(&self, k: usize, centre: [f64; 3], seed: u64) -> Vec<[f64; 3]> {
+        let offset = |p: [f64; 3]| [p[0] + centre[0], p[1] + centre[1], p[2] + centre[2]];
+        match self {
+            Prior::Cube { edge } => cube_surface(*edge, k, seed).into_iter().map(offset).collect(),
+            Prior::Sphere { radius } => {
+                sphere_surface(*radius, k).into_iter().map(offset).collect()
+            }
+            Prior::Means(means) => means.clone(),
+        }
+    }
+}
+
+/// `k` points uniformly distributed over the surface of a cube of edge `edge` centred on the
+/// origin (faces have equal area, so each point picks a face uniformly).
+pub fn cube_surface(edge: f64, k: usize, seed: u64) -> Vec<[f64; 3]> {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let h = edge / 2.0;
+    (0..k)
+        .map(|_| {
+            let face = rng.random_range(0..6usize);
+            let u = rng.random_range(-h..=h);
+            let v = rng.random_range(-h..=h);
+            let w = if face % 2 == 0 { h } else { -h };
+            match face / 2 {
+                0 => [w, u, v],
+                1 => [u, w, v],
+                _ => [u, v, w],
+            }
+        })
+        .collect()
+}
+
+/// `k` points on a sphere of radius `radius` centred on the origin, evenly spread by the
+/// Fibonacci lattice (deterministic, no clustering at the poles).
+pub fn sphere_surface(radius: f64, k: usize) -> Vec<[f64; 3]> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..k)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / k as f64;
+            let r = (1.0 - z * z).sqrt();
+            let phi = golden * i as f64;
+            [radius * r * phi.cos(), radius * r * phi.sin(), radius * z]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cube_points_lie_on_the_surface() {
+        let points = cube_surface(0.5, 400, 7);
+        assert_eq!(points.len(), 400);
+        for p in &points {
+            let m = p.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+            assert!((m - 0.25).abs() < 1e-12, "{p:?}");
+        }
+        // Every face is used.
+        for axis in 0..3 {
+            for sign in [-1.0, 1.0] {
+                assert!(points.iter().any(|p| (p[axis] - sign * 0.25).abs() < 1e-12));
+            }
+        }
+        assert_eq!(points, cube_surface(0.5, 400, 7), "seeded: same output every run");
+    }
+
+    #[test]
+    fn sphere_points_lie_on_the_sphere_and_prior_is_centred() {
+        let means = Prior::Sphere { radius: 2.0 }.means(100, [1.0, 2.0, 3.0], 0);
+        let n = means.len() as f64;
+        let c = [0, 1, 2].map(|i| means.iter().map(|p| p[i]).sum::<f64>() / n);
+        assert!(
+            (c[0] - 1.0).abs() < 0.05 && (c[1] - 2.0).abs() < 0.05 && (c[2] - 3.0).abs() < 0.05
+        );
+        for p in means {
+            let r = ((p[0] - 1.0).powi(2) + (p[1] - 2.0).powi(2) + (p[2] - 3.0).powi(2)).sqrt();
+            assert!((r - 2.0).abs() < 1e-12);
+        }
+    }
+}

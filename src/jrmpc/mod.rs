@@ -1,0 +1,314 @@
+//! Joint registration of multiple point sets (JRMPC; Evangelidis & Horaud, TPAMI 2018), as
+//! GMMCalib uses it: every view is registered to one Gaussian mixture that floats freely, and
+//! the mixture ends up as a reconstruction of the scene the views share.
+//!
+//! The data are centred on their common centroid before EM and accumulated in f64, so the
+//! expanded variance formula does not cancel with coordinates around 10 m; results are moved
+//! back to the caller's frame.
+
+mod estep;
+pub mod init;
+pub mod model;
+mod mstep;
+
+use std::fmt;
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+
+pub use init::Prior;
+pub use model::Mixture;
+
+use crate::se3::Pose;
+use model::ViewStats;
+
+/// EM settings. Defaults are GMMCalib's, except the variance floor and the convergence test.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Upper bound on EM iterations (GMMCalib runs exactly 100).
+    pub max_iterations: usize,
+    /// Stop once no view's transform relative to the first view's moves by more than this in
+    /// one iteration: rotation in rad, translation in m (about the data centroid). 0 runs all
+    /// `max_iterations`.
+    pub tolerance: f64,
+    /// Weight of the uniform outlier class relative to the mixture.
+    pub gamma: f64,
+    /// Added to every variance (m^2). The references use 1e-9; we floor sigma at 1 mm, ten
+    /// times below LiDAR range noise so it never binds on real data, which keeps `Q^1.5` small
+    /// enough for f32 arithmetic and stops a component collapsing onto a single point.
+    pub variance_floor: f64,
+    /// Re-estimate the mixing weights each iteration.
+    pub update_priors: bool,
+    /// Initial standard deviation of every component (m). `None`: the references' rule, the
+    /// diagonal of the bounding box of all points and means.
+    pub initial_sigma: Option<f64>,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            max_iterations: 100,
+            tolerance: 1e-8,
+            gamma: 0.1,
+            variance_floor: 1e-6,
+            update_priors: true,
+            initial_sigma: None,
+        }
+    }
+}
+
+/// What the progress callback sees after each iteration.
+pub struct Progress<'a> {
+    /// 1-based iteration just completed.
+    pub iteration: usize,
+    /// `T_model_view` for every view, in the caller's frame.
+    pub poses: &'a [Pose],
+    /// Mean component standard deviation (m).
+    pub mean_sigma: f64,
+    /// Largest transform change in this iteration (rad or m).
+    pub max_change: f64,
+}
+
+/// The callback's answer: go on or stop now (cancel).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Control {
+    Continue,
+    Stop,
+}
+
+/// Per-iteration figures, for convergence plots.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IterationStats {
+    pub mean_sigma: f64,
+    pub max_change: f64,
+}
+
+/// The outcome of a registration.
+#[derive(Clone, Debug)]
+pub struct Registration {
+    /// `T_model_view` per view: maps the view's points into the mixture's frame.
+    pub poses: Vec<Pose>,
+    /// The reconstructed scene, in the caller's frame.
+    pub mixture: Mixture,
+    /// Iterations run.
+    pub iterations: usize,
+    /// The tolerance was reached before `max_iterations`.
+    pub converged: bool,
+    /// The progress callback asked to stop.
+    pub cancelled: bool,
+    /// Views that lost all support at the last iteration; they kept their previous transform.
+    pub unsupported: Vec<usize>,
+    pub history: Vec<IterationStats>,
+}
+
+/// Why a registration could not start.
+#[derive(Clone, Debug, PartialEq)]
+pub enum JrmpcError {
+    NoViews,
+    NoComponents,
+    /// A view with fewer than three points, or whose points all coincide.
+    DegenerateView {
+        view: usize,
+        points: usize,
+    },
+    NonFinitePoint {
+        view: usize,
+        index: usize,
+    },
+    NonFiniteMean {
+        index: usize,
+    },
+    InvalidSetting(&'static str),
+}
+
+impl fmt::Display for JrmpcError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoViews => write!(f, "no views to register"),
+            Self::NoComponents => write!(f, "the mixture needs at least one component"),
+            Self::DegenerateView { view, points } => write!(
+                f,
+                "view {view} is degenerate ({points} points, need at least 3 distinct points)"
+            ),
+            Self::NonFinitePoint { view, index } => {
+                write!(f, "view {view}: point {index} is not finite")
+            }
+            Self::NonFiniteMean { index } => write!(f, "initial mean {index} is not finite"),
+            Self::InvalidSetting(what) => write!(f, "invalid setting: {what}"),
+        }
+    }
+}
+
+impl std::error::Error for JrmpcError {}
+
+/// Registers `views` (points in a common, roughly aligned frame) jointly to a mixture that
+/// starts at `initial_means`. `progress` runs after every iteration and may stop the run.
+pub fn register(
+    views: &[&[[f32; 3]]],
+    initial_means: &[[f64; 3]],
+    settings: &Settings,
+    mut progress: impl FnMut(&Progress) -> Control,
+) -> Result<Registration, JrmpcError> {
+    validate(views, initial_means, settings)?;
+    let centre = common_centroid(views);
+    let points: Vec<Vec<Vector3<f64>>> = views
+        .iter()
+        .map(|v| {
+            v.iter().map(|p| Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64) - centre).collect()
+        })
+        .collect();
+    let means: Vec<Vector3<f64>> =
+        initial_means.iter().map(|m| Vector3::new(m[0], m[1], m[2]) - centre).collect();
+    let k = means.len();
+
+    // Initialisation (as jrmpc.m): identity transforms, every variance the squared diagonal of
+    // the bounding box of all points and means, equal priors, and a fixed outlier term.
+    let variance = settings
+        .initial_sigma
+        .map_or_else(|| bounding_box_diagonal_sq(points.iter().flatten().chain(&means)), |s| s * s)
+        .max(settings.variance_floor);
+    let mut mixture = Mixture {
+        means,
+        variances: vec![variance; k],
+        priors: vec![1.0 / (k as f64 * (1.0 + settings.gamma)); k],
+    };
+    let h = 2.0 * variance; // 2 / mean(Q)
+    let beta = settings.gamma / (h * (1.0 + settings.gamma));
+    let mut transforms = vec![(Matrix3::identity(), Vector3::zeros()); views.len()];
+    let mut stats = vec![ViewStats::zeros(k); views.len()];
+    let mut scratch = Vec::with_capacity(k);
+    let mut history = Vec::new();
+    let mut unsupported = Vec::new();
+    let (mut converged, mut cancelled) = (false, false);
+
+    for iteration in 1..=settings.max_iterations {
+        let terms = estep::EStepTerms::new(&mixture, beta);
+        for ((view, st), (r, t)) in points.iter().zip(&mut stats).zip(&transforms) {
+            st.clear();
+            estep::accumulate(view, r, t, &mixture.means, &terms, st, &mut scratch);
+        }
+        unsupported.clear();
+        let previous = transforms.clone();
+        for (j, (st, current)) in stats.iter().zip(&mut transforms).enumerate() {
+            match mstep::view_transform(st, &mixture, &current.0) {
+                Some(next) => *current = next,
+                None => unsupported.push(j),
+            }
+        }
+        let max_change = relative_change(&previous, &transforms);
+        mstep::update_mixture(
+            &mut mixture,
+            &stats,
+            &transforms,
+            settings.gamma,
+            settings.variance_floor,
+            settings.update_priors,
+        );
+
+        let mean_sigma = mixture.mean_sigma();
+        history.push(IterationStats { mean_sigma, max_change });
+        let poses: Vec<Pose> = transforms.iter().map(|rt| uncentred(rt, &centre)).collect();
+        let answer = progress(&Progress { iteration, poses: &poses, mean_sigma, max_change });
+        if max_change <= settings.tolerance {
+            converged = true;
+            break;
+        }
+        if answer == Control::Stop {
+            cancelled = true;
+            break;
+        }
+    }
+
+    for m in &mut mixture.means {
+        *m += centre;
+    }
+    Ok(Registration {
+        poses: transforms.iter().map(|rt| uncentred(rt, &centre)).collect(),
+        mixture,
+        iterations: history.len(),
+        converged,
+        cancelled,
+        unsupported,
+        history,
+    })
+}
+
+fn validate(
+    views: &[&[[f32; 3]]],
+    means: &[[f64; 3]],
+    settings: &Settings,
+) -> Result<(), JrmpcError> {
+    if views.is_empty() {
+        return Err(JrmpcError::NoViews);
+    }
+    if means.is_empty() {
+        return Err(JrmpcError::NoComponents);
+    }
+    if let Some(index) = means.iter().position(|m| !m.iter().all(|c| c.is_finite())) {
+        return Err(JrmpcError::NonFiniteMean { index });
+    }
+    if !(settings.gamma.is_finite() && settings.gamma > 0.0) {
+        return Err(JrmpcError::InvalidSetting("gamma must be positive"));
+    }
+    if !(settings.variance_floor.is_finite() && settings.variance_floor > 0.0) {
+        return Err(JrmpcError::InvalidSetting("variance_floor must be positive"));
+    }
+    if !(settings.tolerance.is_finite() && settings.tolerance >= 0.0) {
+        return Err(JrmpcError::InvalidSetting("tolerance must be zero or positive"));
+    }
+    for (view, points) in views.iter().enumerate() {
+        if let Some(index) = points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+            return Err(JrmpcError::NonFinitePoint { view, index });
+        }
+        let distinct = points.iter().any(|p| p != &points[0]);
+        if points.len() < 3 || !distinct {
+            return Err(JrmpcError::DegenerateView { view, points: points.len() });
+        }
+    }
+    Ok(())
+}
+
+fn common_centroid(views: &[&[[f32; 3]]]) -> Vector3<f64> {
+    let (sum, n) =
+        views.iter().flat_map(|v| v.iter()).fold((Vector3::zeros(), 0usize), |(s, n), p| {
+            (s + Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64), n + 1)
+        });
+    sum / n as f64
+}
+
+fn bounding_box_diagonal_sq<'a>(points: impl Iterator<Item = &'a Vector3<f64>>) -> f64 {
+    let (lo, hi) = points.fold(
+        (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+    );
+    (hi - lo).norm_squared()
+}
+
+/// Largest change, in one iteration, of any view's transform relative to the first view's:
+/// rotation angle (rad) or translation (m). Relative, because the mixture floats: the views
+/// and the model may keep drifting together long after every calibration has settled. With a
+/// single view, its absolute change.
+fn relative_change(
+    before: &[(Matrix3<f64>, Vector3<f64>)],
+    after: &[(Matrix3<f64>, Vector3<f64>)],
+) -> f64 {
+    let relative = |all: &[(Matrix3<f64>, Vector3<f64>)], j: usize| {
+        let (r0, t0) = if all.len() > 1 { all[0] } else { (Matrix3::identity(), Vector3::zeros()) };
+        let (r, t) = all[j];
+        (r0.transpose() * r, r0.transpose() * (t - t0))
+    };
+    (0..after.len())
+        .map(|j| {
+            let (a, b) = (relative(before, j), relative(after, j));
+            let rotation = Rotation3::from_matrix_unchecked(a.0.transpose() * b.0);
+            rotation.angle().max((a.1 - b.1).norm())
+        })
+        .fold(0.0, f64::max)
+}
+
+/// A transform estimated on centred data (`p' = R (v - c) + t + c`) as a pose in the caller's
+/// frame: translation `t + c - R c`.
+fn uncentred((r, t): &(Matrix3<f64>, Vector3<f64>), centre: &Vector3<f64>) -> Pose {
+    let rotation = UnitQuaternion::from_matrix(r);
+    let translation = t + centre - rotation * centre;
+    Isometry3::from_parts(Translation3::from(translation), rotation)
+}

@@ -1,0 +1,369 @@
+//! The JavaScript surface (wasm-bindgen). Converts JS values to the library's types and back;
+//! no algorithm lives here. Bulk data crosses as flat typed arrays (`x, y, z, x, y, z, ...`).
+//! Every failure becomes a JS `Error` with a message; nothing here may panic, since a panic
+//! aborts the whole wasm instance.
+
+use std::collections::BTreeMap;
+
+use js_sys::{Float32Array, Function};
+use serde::{Deserialize, Serialize};
+use wasm_bindgen::prelude::*;
+
+use crate::calib::{self, Calibration, Rig, View};
+use crate::cloud::Aabb;
+use crate::jrmpc::{Control, Prior};
+use crate::se3::{Pose, pose_from_xyz_rpy, to_row_major, xyz_rpy};
+use crate::synth::{self, RigSpec};
+
+#[wasm_bindgen(start)]
+fn start() {
+    // Diagnostics only: errors are returned as values, so a panic here is a bug.
+    std::panic::set_hook(Box::new(|info| web_sys::console::error_1(&info.to_string().into())));
+}
+
+#[derive(Deserialize)]
+struct PoseInput {
+    xyz: [f64; 3],
+    rpy: [f64; 3],
+}
+
+#[derive(Deserialize)]
+struct RoiInput {
+    min: [f64; 3],
+    max: [f64; 3],
+}
+
+#[derive(Deserialize)]
+struct ViewInput {
+    sensor: String,
+    frame: String,
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    points: Float32Array,
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+enum TargetInput {
+    Cube { edge: f64 },
+    Sphere { radius: f64 },
+}
+
+#[derive(Deserialize)]
+struct CalibrateInput {
+    views: Vec<ViewInput>,
+    nominal: BTreeMap<String, PoseInput>,
+    roi: RoiInput,
+    reference: Option<String>,
+    target: Option<TargetInput>,
+    components: Option<usize>,
+    iterations: Option<usize>,
+    seed: Option<u64>,
+}
+
+#[derive(Serialize)]
+struct SpreadOutput {
+    xyz: [f64; 3],
+    rpy: [f64; 3],
+    frames: usize,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct SensorOutput {
+    name: String,
+    correction: [f64; 16],
+    extrinsic: [f64; 16],
+    relative: [f64; 16],
+    /// Translation (m) of the corrected extrinsic `T_vehicle_sensor`.
+    xyz: [f64; 3],
+    /// Roll, pitch, yaw (rad) of the corrected extrinsic.
+    rpy: [f64; 3],
+    spread: SpreadOutput,
+}
+
+#[derive(Serialize)]
+struct TargetOutput {
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    means: Float32Array,
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    sigmas: Float32Array,
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    priors: Float32Array,
+    rms: Option<f64>,
+    edge: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct SkippedOutput {
+    sensor: String,
+    frame: String,
+    reason: String,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct HistoryOutput {
+    mean_sigma: Vec<f64>,
+    max_change: Vec<f64>,
+}
+
+#[derive(Serialize)]
+struct CalibrateOutput {
+    method: &'static str,
+    reference: String,
+    iterations: usize,
+    converged: bool,
+    cancelled: bool,
+    sensors: Vec<SensorOutput>,
+    target: TargetOutput,
+    skipped: Vec<SkippedOutput>,
+    history: HistoryOutput,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct ProgressOutput<'a> {
+    iteration: usize,
+    max_iterations: usize,
+    mean_sigma: f64,
+    max_change: f64,
+    /// Current correction per sensor (row-major 4x4), in result order.
+    corrections: Vec<[f64; 16]>,
+    sensors: &'a [String],
+}
+
+fn to_js<T: Serialize>(value: &T) -> Result<JsValue, JsError> {
+    value
+        .serialize(&serde_wasm_bindgen::Serializer::json_compatible())
+        .map_err(|e| JsError::new(&format!("internal: cannot convert result: {e}")))
+}
+
+fn pose_of(name: &str, p: &PoseInput) -> Result<Pose, JsError> {
+    if p.xyz.iter().chain(&p.rpy).all(|v| v.is_finite()) {
+        Ok(pose_from_xyz_rpy(p.xyz, p.rpy))
+    } else {
+        Err(JsError::new(&format!("nominal extrinsic of sensor '{name}' is not finite")))
+    }
+}
+
+/// Calibrates a rig. `input` and the result are documented in the README ("Wasm API").
+/// `onProgress(progress)` runs after every EM iteration; returning `false` cancels the run.
+#[wasm_bindgen]
+pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValue, JsError> {
+    let input: CalibrateInput = serde_wasm_bindgen::from_value(input)
+        .map_err(|e| JsError::new(&format!("invalid calibrate input: {e}")))?;
+    let mut views = Vec::with_capacity(input.views.len());
+    for v in &input.views {
+        let flat = v.points.to_vec();
+        let cloud = crate::Cloud::from_flat(&flat).ok_or_else(|| {
+            JsError::new(&format!(
+                "view {}/{}: points length {} is not a multiple of 3",
+                v.sensor,
+                v.frame,
+                flat.len()
+            ))
+        })?;
+        views.push(View { sensor: v.sensor.clone(), frame: v.frame.clone(), points: cloud.points });
+    }
+    let nominal = input
+        .nominal
+        .iter()
+        .map(|(name, p)| Ok((name.clone(), pose_of(name, p)?)))
+        .collect::<Result<Vec<_>, JsError>>()?;
+    let rig = Rig {
+        views,
+        nominal,
+        roi: Aabb::new(input.roi.min, input.roi.max),
+        reference: input.reference,
+    };
+    let mut settings = calib::Settings::default();
+    if let Some(target) = input.target {
+        settings.prior = match target {
+            TargetInput::Cube { edge } if edge.is_finite() && edge > 0.0 => Prior::Cube { edge },
+            TargetInput::Sphere { radius } if radius.is_finite() && radius > 0.0 => {
+                Prior::Sphere { radius }
+            }
+            _ => return Err(JsError::new("target size must be a positive number")),
+        };
+    }
+    settings.components = input.components.unwrap_or(settings.components);
+    settings.jrmpc.max_iterations = input.iterations.unwrap_or(settings.jrmpc.max_iterations);
+    settings.seed = input.seed.unwrap_or(settings.seed);
+
+    let sensor_names = sensor_names(&rig);
+    let mut callback_error = None;
+    let result = calib::calibrate(&rig, &settings, |p| {
+        let Some(f) = &on_progress else { return Control::Continue };
+        let progress = ProgressOutput {
+            iteration: p.iteration,
+            max_iterations: p.max_iterations,
+            mean_sigma: p.mean_sigma,
+            max_change: p.max_change,
+            corrections: p.corrections.iter().map(to_row_major).collect(),
+            sensors: &sensor_names,
+        };
+        let answer =
+            to_js(&progress).map_err(JsValue::from).and_then(|v| f.call1(&JsValue::NULL, &v));
+        match answer {
+            Ok(v) if v == JsValue::FALSE => Control::Stop,
+            Ok(_) => Control::Continue,
+            Err(e) => {
+                callback_error = Some(e);
+                Control::Stop
+            }
+        }
+    });
+    if let Some(e) = callback_error {
+        let message = e.as_string().or_else(|| js_sys::Error::from(e).message().as_string());
+        return Err(JsError::new(&format!("onProgress threw: {}", message.unwrap_or_default())));
+    }
+    let calibration = result.map_err(|e| JsError::new(&e.to_string()))?;
+    to_js(&output(&calibration))
+}
+
+fn sensor_names(rig: &Rig) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for v in &rig.views {
+        if !names.contains(&v.sensor) {
+            names.push(v.sensor.clone());
+        }
+    }
+    names
+}
+
+fn f32_array(values: impl Iterator<Item = f64>) -> Float32Array {
+    let v: Vec<f32> = values.map(|x| x as f32).collect();
+    Float32Array::from(v.as_slice())
+}
+
+fn output(c: &Calibration) -> CalibrateOutput {
+    let sensors = c
+        .sensors
+        .iter()
+        .map(|s| {
+            let (xyz, rpy) = xyz_rpy(&s.extrinsic);
+            SensorOutput {
+                name: s.name.clone(),
+                correction: to_row_major(&s.correction),
+                extrinsic: to_row_major(&s.extrinsic),
+                relative: to_row_major(&s.relative),
+                xyz,
+                rpy,
+                spread: SpreadOutput {
+                    xyz: s.spread.xyz,
+                    rpy: s.spread.rpy,
+                    frames: s.spread.frames,
+                },
+            }
+        })
+        .collect();
+    let t = &c.target;
+    CalibrateOutput {
+        method: "jrmpc",
+        reference: c.reference.clone(),
+        iterations: c.iterations,
+        converged: c.converged,
+        cancelled: c.cancelled,
+        sensors,
+        target: TargetOutput {
+            means: f32_array(t.means.iter().flatten().copied()),
+            sigmas: f32_array(t.sigmas.iter().copied()),
+            priors: f32_array(t.priors.iter().copied()),
+            rms: t.fit.map(|f| f.rms),
+            edge: t.fit.map(|f| f.size),
+        },
+        skipped: c
+            .skipped
+            .iter()
+            .map(|s| SkippedOutput {
+                sensor: s.sensor.clone(),
+                frame: s.frame.clone(),
+                reason: s.reason.clone(),
+            })
+            .collect(),
+        history: HistoryOutput {
+            mean_sigma: c.history.iter().map(|h| h.mean_sigma).collect(),
+            max_change: c.history.iter().map(|h| h.max_change).collect(),
+        },
+    }
+}
+
+#[derive(Deserialize, Default)]
+#[serde(default, rename_all = "camelCase")]
+struct SyntheticInput {
+    sensors: Option<usize>,
+    frames: Option<usize>,
+    points_per_view: Option<usize>,
+    noise: Option<f64>,
+    partial: Option<bool>,
+    seed: Option<u64>,
+}
+
+#[derive(Serialize)]
+struct PoseOutput {
+    xyz: [f64; 3],
+    rpy: [f64; 3],
+}
+
+#[derive(Serialize)]
+struct SyntheticViewOutput {
+    sensor: String,
+    frame: String,
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    points: Float32Array,
+}
+
+#[derive(Serialize)]
+struct RoiOutput {
+    min: [f64; 3],
+    max: [f64; 3],
+}
+
+#[derive(Serialize)]
+struct SyntheticOutput {
+    views: Vec<SyntheticViewOutput>,
+    nominal: BTreeMap<String, PoseOutput>,
+    truth: BTreeMap<String, PoseOutput>,
+    roi: RoiOutput,
+}
+
+/// A synthetic rig with known truth (a cube seen by several sensors whose nominal extrinsics
+/// are wrong), in the shape `calibrate` takes, plus `truth` (true `T_vehicle_sensor`).
+#[wasm_bindgen(js_name = syntheticRig)]
+pub fn synthetic_rig(options: JsValue) -> Result<JsValue, JsError> {
+    let o: SyntheticInput = if options.is_undefined() || options.is_null() {
+        SyntheticInput::default()
+    } else {
+        serde_wasm_bindgen::from_value(options)
+            .map_err(|e| JsError::new(&format!("invalid syntheticRig options: {e}")))?
+    };
+    let d = RigSpec::default();
+    let spec = RigSpec {
+        sensors: o.sensors.unwrap_or(d.sensors).clamp(2, 16),
+        frames: o.frames.unwrap_or(d.frames).clamp(1, 1000),
+        points_per_view: o.points_per_view.unwrap_or(d.points_per_view).clamp(10, 1_000_000),
+        noise: o.noise.filter(|n| n.is_finite() && *n >= 0.0).unwrap_or(d.noise),
+        partial: o.partial.unwrap_or(d.partial),
+        seed: o.seed.unwrap_or(d.seed),
+        ..d
+    };
+    let rig = synth::generate(&spec);
+    let pose_out = |p: &Pose| {
+        let (xyz, rpy) = xyz_rpy(p);
+        PoseOutput { xyz, rpy }
+    };
+    to_js(&SyntheticOutput {
+        views: rig
+            .views
+            .iter()
+            .map(|v| SyntheticViewOutput {
+                sensor: v.sensor.clone(),
+                frame: v.frame.clone(),
+                points: Float32Array::from(v.points.as_flattened()),
+            })
+            .collect(),
+        nominal: rig.nominal.iter().map(|(n, p)| (n.clone(), pose_out(p))).collect(),
+        truth: rig.truth.iter().map(|(n, p)| (n.clone(), pose_out(p))).collect(),
+        roi: RoiOutput { min: rig.roi.min, max: rig.roi.max },
+    })
+}

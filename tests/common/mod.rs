@@ -1,0 +1,76 @@
+//! Helpers shared by the integration tests: synthetic rigs through the calibration pipeline,
+//! and the error of a result against the truth.
+
+#![allow(dead_code)]
+
+use gmmcalib::calib::{self, Calibration, Rig, View};
+use gmmcalib::jrmpc::Control;
+use gmmcalib::se3::Pose;
+use gmmcalib::synth::{self, RigSpec, SyntheticRig};
+
+pub fn rig_of(synthetic: &SyntheticRig) -> Rig {
+    Rig {
+        views: synthetic
+            .views
+            .iter()
+            .map(|v| View {
+                sensor: v.sensor.clone(),
+                frame: v.frame.clone(),
+                points: v.points.clone(),
+            })
+            .collect(),
+        nominal: synthetic.nominal.clone(),
+        roi: synthetic.roi,
+        reference: None,
+    }
+}
+
+/// Rotation (deg) and translation (m) error of one sensor's corrected extrinsic.
+pub fn extrinsic_error(result: &Calibration, truth: &SyntheticRig, i: usize) -> (f64, f64) {
+    let est: &Pose = &result.sensors[i].extrinsic;
+    let tru = &truth.truth[i].1;
+    let d = est.inverse() * tru;
+    (d.rotation.angle().to_degrees(), d.translation.vector.norm())
+}
+
+/// Worst error over the non-reference sensors.
+pub fn worst_error(result: &Calibration, truth: &SyntheticRig) -> (f64, f64) {
+    (1..truth.truth.len())
+        .map(|i| extrinsic_error(result, truth, i))
+        .fold((0.0, 0.0), |(a, t), (da, dt)| (f64::max(a, da), f64::max(t, dt)))
+}
+
+pub fn run(spec: &RigSpec, settings: &calib::Settings) -> (Calibration, SyntheticRig) {
+    let truth = synth::generate(spec);
+    let result =
+        calib::calibrate(&rig_of(&truth), settings, |_| Control::Continue).expect("calibration");
+    (result, truth)
+}
+
+/// Runs `f` for every seed on all cores (the accuracy tests sweep many seeds).
+pub fn for_seeds<T: Send>(
+    seeds: std::ops::RangeInclusive<u64>,
+    f: impl Fn(u64) -> T + Sync,
+) -> Vec<T> {
+    let seeds: Vec<u64> = seeds.collect();
+    let workers =
+        std::thread::available_parallelism().map_or(1, |n| n.get()).min(seeds.len()).max(1);
+    let mut results: Vec<(u64, T)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|w| {
+                let (seeds, f) = (&seeds, &f);
+                scope.spawn(move || {
+                    seeds.iter().skip(w).step_by(workers).map(|&s| (s, f(s))).collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles.into_iter().flat_map(|h| h.join().expect("seed worker panicked")).collect()
+    });
+    results.sort_by_key(|(s, _)| *s);
+    results.into_iter().map(|(_, r)| r).collect()
+}
+
+pub fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}

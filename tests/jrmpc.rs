@@ -1,0 +1,146 @@
+//! JRMPC on its own: exact recovery of known transforms, the convergence test, and degenerate
+//! input.
+
+use gmmcalib::jrmpc::{self, Control, JrmpcError, Settings, init::cube_surface};
+use gmmcalib::se3::{Pose, pose_from_xyz_rpy};
+use nalgebra::Point3;
+
+fn cube_points(n: usize, seed: u64, pose: &Pose) -> Vec<[f32; 3]> {
+    cube_surface(0.5, n, seed)
+        .iter()
+        .map(|p| {
+            let q = pose * Point3::new(p[0] + 4.0, p[1], p[2] + 0.25);
+            [q.x as f32, q.y as f32, q.z as f32]
+        })
+        .collect()
+}
+
+fn prior_means(k: usize) -> Vec<[f64; 3]> {
+    cube_surface(0.5, k, 99).iter().map(|p| [p[0] + 4.0, p[1], p[2] + 0.25]).collect()
+}
+
+/// Views holding the same sample positions under known offsets leave the method nothing to
+/// blur: the relative transforms must come back exactly, forward and inverse.
+#[test]
+fn recovers_known_offsets_exactly_when_views_share_samples() {
+    let offsets = [
+        Pose::identity(),
+        pose_from_xyz_rpy([0.05, -0.08, 0.03], [0.04, -0.03, 0.05]),
+        pose_from_xyz_rpy([-0.1, 0.02, -0.06], [-0.05, 0.05, -0.02]),
+    ];
+    let views: Vec<Vec<[f32; 3]>> = offsets.iter().map(|o| cube_points(1500, 1, o)).collect();
+    let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
+    let settings =
+        Settings { initial_sigma: Some(0.5), max_iterations: 300, ..Settings::default() };
+    let result =
+        jrmpc::register(&refs, &prior_means(300), &settings, |_| Control::Continue).unwrap();
+    assert!(result.converged, "stopped after {} iterations without converging", result.iterations);
+    for (j, offset) in offsets.iter().enumerate() {
+        // T_model_view_j maps view j onto the model; view j = offset_j * view 0.
+        let relative = result.poses[0].inverse() * result.poses[j];
+        let error = relative * offset;
+        assert!(error.rotation.angle() < 1e-6, "view {j}: {} rad", error.rotation.angle());
+        assert!(
+            error.translation.vector.norm() < 1e-6,
+            "view {j}: {} m",
+            error.translation.vector.norm()
+        );
+    }
+    assert!(result.history.iter().all(|h| h.mean_sigma.is_finite() && h.max_change.is_finite()));
+    assert!(result.unsupported.is_empty());
+}
+
+/// Stopping at the default tolerance gives the calibration 100 fixed iterations give, to 1e-5.
+#[test]
+fn convergence_test_matches_fixed_iterations() {
+    let offset = pose_from_xyz_rpy([0.03, 0.02, -0.01], [0.02, 0.01, -0.03]);
+    let views = [cube_points(1000, 2, &Pose::identity()), cube_points(1000, 2, &offset)];
+    let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
+    let means = prior_means(200);
+    let early = Settings { initial_sigma: Some(0.5), ..Settings::default() };
+    let fixed = Settings { tolerance: 0.0, ..early.clone() };
+    let a = jrmpc::register(&refs, &means, &early, |_| Control::Continue).unwrap();
+    let b = jrmpc::register(&refs, &means, &fixed, |_| Control::Continue).unwrap();
+    assert!(
+        a.converged && a.iterations < 100,
+        "converged: {}, iterations: {}",
+        a.converged,
+        a.iterations
+    );
+    assert_eq!(b.iterations, 100);
+    // The calibration is what must match: each view relative to the first (the mixture floats,
+    // so absolute poses may keep drifting together).
+    let (ra, rb) = (a.poses[0].inverse() * a.poses[1], b.poses[0].inverse() * b.poses[1]);
+    let d = ra.inverse() * rb;
+    assert!(d.rotation.angle() < 1e-5 && d.translation.vector.norm() < 1e-5, "{d}");
+}
+
+#[test]
+fn progress_runs_every_iteration_and_can_cancel() {
+    let views = [cube_points(300, 3, &Pose::identity()), cube_points(300, 4, &Pose::identity())];
+    let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
+    let settings = Settings { tolerance: 0.0, max_iterations: 20, ..Settings::default() };
+    let mut seen = Vec::new();
+    let result = jrmpc::register(&refs, &prior_means(50), &settings, |p| {
+        seen.push(p.iteration);
+        assert_eq!(p.poses.len(), 2);
+        if p.iteration == 7 { Control::Stop } else { Control::Continue }
+    })
+    .unwrap();
+    assert_eq!(seen, (1..=7).collect::<Vec<_>>());
+    assert!(result.cancelled && !result.converged);
+    assert_eq!(result.iterations, 7);
+}
+
+#[test]
+fn degenerate_input_is_a_typed_error() {
+    let good = cube_points(100, 5, &Pose::identity());
+    let means = prior_means(20);
+    let s = Settings::default();
+    let run = |views: &[&[[f32; 3]]], means: &[[f64; 3]]| {
+        jrmpc::register(views, means, &s, |_| Control::Continue).err()
+    };
+    assert_eq!(run(&[], &means), Some(JrmpcError::NoViews));
+    assert_eq!(run(&[&good], &[]), Some(JrmpcError::NoComponents));
+    assert_eq!(run(&[&good, &[]], &means), Some(JrmpcError::DegenerateView { view: 1, points: 0 }));
+    assert_eq!(
+        run(&[&good, &[[1.0, 2.0, 3.0]]], &means),
+        Some(JrmpcError::DegenerateView { view: 1, points: 1 })
+    );
+    let same = vec![[1.0f32, 2.0, 3.0]; 50];
+    assert_eq!(
+        run(&[&good, &same], &means),
+        Some(JrmpcError::DegenerateView { view: 1, points: 50 })
+    );
+    let mut nan = good.clone();
+    nan[17][1] = f32::NAN;
+    assert_eq!(
+        run(&[&good, &nan], &means),
+        Some(JrmpcError::NonFinitePoint { view: 1, index: 17 })
+    );
+    let mut bad_means = means.clone();
+    bad_means[3][0] = f64::INFINITY;
+    assert_eq!(run(&[&good], &bad_means), Some(JrmpcError::NonFiniteMean { index: 3 }));
+    let no_gamma = Settings { gamma: 0.0, ..Settings::default() };
+    assert!(jrmpc::register(&[&good], &means, &no_gamma, |_| Control::Continue).is_err());
+}
+
+/// Collinear points and far-away components must not produce NaN: the view keeps a rotation
+/// and components that lose all support drop out.
+#[test]
+fn weak_data_never_produces_nan() {
+    let line: Vec<[f32; 3]> = (0..100).map(|i| [4.0 + i as f32 * 0.005, 0.0, 0.25]).collect();
+    let good = cube_points(500, 6, &Pose::identity());
+    let mut means = prior_means(50);
+    means.push([500.0, 500.0, 500.0]); // a component nothing can reach
+    let settings = Settings { initial_sigma: Some(0.5), max_iterations: 30, ..Settings::default() };
+    let result =
+        jrmpc::register(&[&good, &line], &means, &settings, |_| Control::Continue).unwrap();
+    for pose in &result.poses {
+        assert!(pose.to_homogeneous().iter().all(|v| v.is_finite()));
+    }
+    let m = &result.mixture;
+    assert!(m.means.iter().all(|x| x.iter().all(|v| v.is_finite())));
+    assert!(m.variances.iter().all(|v| v.is_finite() && *v > 0.0));
+    assert_eq!(m.priors[50], 0.0, "the unreachable component drops out");
+}

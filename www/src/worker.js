@@ -1,0 +1,35 @@
+// All heavy work happens here, off the main thread: the wasm module is loaded once and each
+// request {type, id, ...} is answered with {type: 'result' | 'error', id, ...}.
+import init, { calibrate, syntheticRig } from '../pkg/gmmcalib.js';
+import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
+
+const ready = init({ module_or_path: wasmUrl });
+
+// Typed arrays inside a result, so they can be transferred instead of copied.
+function buffersOf(value, found = []) {
+  if (ArrayBuffer.isView(value)) found.push(value.buffer);
+  else if (value && typeof value === 'object') for (const v of Object.values(value)) buffersOf(v, found);
+  return found;
+}
+
+const handlers = {
+  synthetic: ({ options }) => syntheticRig(options),
+  calibrate: ({ input }, id) =>
+    calibrate(input, (progress) => {
+      self.postMessage({ type: 'progress', id, progress });
+      return true;
+    }),
+};
+
+self.onmessage = async ({ data }) => {
+  const { type, id } = data;
+  try {
+    await ready;
+    const handler = handlers[type];
+    if (!handler) throw new Error(`unknown request type '${type}'`);
+    const result = handler(data, id);
+    self.postMessage({ type: 'result', id, result }, buffersOf(result));
+  } catch (error) {
+    self.postMessage({ type: 'error', id, message: error?.message ?? String(error) });
+  }
+};

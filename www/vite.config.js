@@ -1,0 +1,8 @@
+import { defineConfig } from 'vite';
+
+// Relative asset paths, so the built site works from any static host and sub-path.
+export default defineConfig({
+  base: './',
+  worker: { format: 'es' },
+  build: { target: 'es2022' },
+});
