@@ -9,7 +9,7 @@ use js_sys::{Float32Array, Function};
 use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
-use crate::calib::{self, Calibration, Rig, View};
+use crate::calib::{self, Calibration, InitialSigma, Rig, View};
 use crate::cloud::Aabb;
 use crate::jrmpc::{Control, Prior};
 use crate::se3::{Pose, pose_from_xyz_rpy, to_row_major, xyz_rpy};
@@ -49,6 +49,7 @@ enum TargetInput {
 }
 
 #[derive(Deserialize)]
+#[serde(rename_all = "camelCase")]
 struct CalibrateInput {
     views: Vec<ViewInput>,
     nominal: BTreeMap<String, PoseInput>,
@@ -57,7 +58,17 @@ struct CalibrateInput {
     target: Option<TargetInput>,
     components: Option<usize>,
     iterations: Option<usize>,
+    tolerance: Option<f64>,
+    /// Initial component width (m), or "prior" / "bbox".
+    initial_sigma: Option<InitialSigmaInput>,
     seed: Option<u64>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum InitialSigmaInput {
+    Fixed(f64),
+    Rule(String),
 }
 
 #[derive(Serialize)]
@@ -188,7 +199,17 @@ pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValu
     }
     settings.components = input.components.unwrap_or(settings.components);
     settings.jrmpc.max_iterations = input.iterations.unwrap_or(settings.jrmpc.max_iterations);
+    settings.jrmpc.tolerance = input.tolerance.unwrap_or(settings.jrmpc.tolerance);
     settings.seed = input.seed.unwrap_or(settings.seed);
+    settings.initial_sigma = match input.initial_sigma {
+        None => settings.initial_sigma,
+        Some(InitialSigmaInput::Fixed(s)) if s.is_finite() && s > 0.0 => InitialSigma::Fixed(s),
+        Some(InitialSigmaInput::Rule(r)) if r == "prior" => InitialSigma::PriorSize,
+        Some(InitialSigmaInput::Rule(r)) if r == "bbox" => InitialSigma::BoundingBox,
+        Some(_) => {
+            return Err(JsError::new("initialSigma must be a positive number, 'prior' or 'bbox'"));
+        }
+    };
 
     let sensor_names = sensor_names(&rig);
     let mut callback_error = None;

@@ -2,6 +2,10 @@
 //! and out. Bad input must come back as a JS `Error` naming the problem, never as a panic.
 #![cfg(target_arch = "wasm32")]
 
+use gmmcalib::calib;
+use gmmcalib::jrmpc::Control;
+use gmmcalib::se3::{to_row_major, xyz_rpy};
+use gmmcalib::synth::{self, RigSpec};
 use gmmcalib::wasm::{calibrate, synthetic_rig};
 use js_sys::{Array, Error, Function, Reflect};
 use wasm_bindgen::prelude::*;
@@ -17,7 +21,7 @@ fn small_rig() -> JsValue {
         js("return { sensors: 2, frames: 3, pointsPerView: 600, seed: 4 };", &JsValue::NULL);
     let rig = synthetic_rig(options).map_err(JsValue::from).expect("syntheticRig");
     js(
-        "return { views: rig.views, nominal: rig.nominal, roi: rig.roi, truth: rig.truth, components: 150 };",
+        "return { views: rig.views, nominal: rig.nominal, roi: rig.roi, truth: rig.truth, components: 150, initialSigma: 'prior' };",
         &rig,
     )
 }
@@ -28,27 +32,59 @@ fn error_message(result: Result<JsValue, JsError>) -> String {
     value.unchecked_into::<Error>().message().into()
 }
 
+/// The JS API returns exactly what the library computes for the same rig, in the documented
+/// layout (row-major 4x4, rad, m), and that is close to the simulated truth.
 #[wasm_bindgen_test]
-fn calibrate_recovers_the_synthetic_truth() {
+fn calibrate_returns_the_library_result_for_the_synthetic_truth() {
     let rig = small_rig();
     let result = calibrate(rig.clone(), None).map_err(JsValue::from).expect("calibrate");
-    // Compare the corrected extrinsic of sensor_2 with the truth, in JS, as the page does.
-    let check = Function::new_with_args(
-        "rig, result",
-        "const s = result.sensors.find((s) => s.name === 'sensor_2');
-         const t = rig.truth.sensor_2;
-         const dx = Math.hypot(s.xyz[0] - t.xyz[0], s.xyz[1] - t.xyz[1], s.xyz[2] - t.xyz[2]);
-         const dr = Math.max(...s.rpy.map((v, i) => Math.abs(v - t.rpy[i])));
-         return [dx, dr, result.reference, result.target.means instanceof Float32Array,
-                 result.target.means.length, result.sensors[0].correction.length];",
+
+    let spec =
+        RigSpec { sensors: 2, frames: 3, points_per_view: 600, seed: 4, ..RigSpec::default() };
+    let truth = synth::generate(&spec);
+    let lib_rig = calib::Rig {
+        views: truth
+            .views
+            .iter()
+            .map(|v| calib::View {
+                sensor: v.sensor.clone(),
+                frame: v.frame.clone(),
+                points: v.points.clone(),
+            })
+            .collect(),
+        nominal: truth.nominal.clone(),
+        roi: truth.roi,
+        reference: None,
+    };
+    let settings = calib::Settings {
+        components: 150,
+        initial_sigma: calib::InitialSigma::PriorSize,
+        ..calib::Settings::default()
+    };
+    let expected = calib::calibrate(&lib_rig, &settings, |_| Control::Continue).unwrap();
+
+    let read = Function::new_with_args(
+        "result",
+        "const s = result.sensors[1];
+         return [...s.extrinsic, ...s.xyz, ...s.rpy, result.reference, result.iterations,
+                 result.target.means instanceof Float32Array, result.target.means.length];",
     );
-    let out: Array = check.call2(&JsValue::NULL, &rig, &result).unwrap().into();
-    let (dx, dr) = (out.get(0).as_f64().unwrap(), out.get(1).as_f64().unwrap());
-    assert!(dx < 0.02 && dr < 0.5f64.to_radians(), "error {dx} m, {dr} rad");
-    assert_eq!(out.get(2).as_string().unwrap(), "sensor_1");
-    assert_eq!(out.get(3), JsValue::TRUE);
-    assert_eq!(out.get(4).as_f64().unwrap(), 450.0);
-    assert_eq!(out.get(5).as_f64().unwrap(), 16.0);
+    let out: Array = read.call1(&JsValue::NULL, &result).unwrap().into();
+    let number = |i: u32| out.get(i).as_f64().unwrap();
+    let extrinsic = to_row_major(&expected.sensors[1].extrinsic);
+    let (xyz, rpy) = xyz_rpy(&expected.sensors[1].extrinsic);
+    let want: Vec<f64> = extrinsic.iter().chain(&xyz).chain(&rpy).copied().collect();
+    for (i, w) in want.iter().enumerate() {
+        assert!((number(i as u32) - w).abs() < 1e-12, "element {i}: {} vs {w}", number(i as u32));
+    }
+    assert_eq!(out.get(22).as_string().unwrap(), "sensor_1");
+    assert_eq!(number(23), expected.iterations as f64);
+    assert_eq!(out.get(24), JsValue::TRUE);
+    assert_eq!(number(25), 450.0);
+
+    // A small rig (3 frames of 600 points, K = 150) under plain JRMPC: near the truth.
+    let d = expected.sensors[1].extrinsic.inverse() * truth.truth[1].1;
+    assert!(d.rotation.angle() < 3f64.to_radians() && d.translation.vector.norm() < 0.2, "{d}");
 }
 
 #[wasm_bindgen_test]
@@ -73,6 +109,7 @@ fn bad_input_throws_errors_that_name_the_problem() {
         ("rig.views[0].points = [1, 2, 3]; return rig;", "invalid calibrate input"),
         ("rig.reference = 'nobody'; return rig;", "unknown reference sensor 'nobody'"),
         ("return 42;", "invalid calibrate input"),
+        ("rig.initialSigma = -1; return rig;", "initialSigma must be"),
     ];
     for (mutation, expected) in cases {
         let input = js(mutation, &small_rig());

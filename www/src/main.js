@@ -60,7 +60,8 @@ async function runDemo() {
   try {
     $('status').textContent = 'Generating scans…';
     const rig = await client.request('synthetic', { options });
-    const input = { views: rig.views, nominal: rig.nominal, roi: rig.roi };
+    // The synthetic ROI holds only the cube: start the mixture at the cube's size.
+    const input = { views: rig.views, nominal: rig.nominal, roi: rig.roi, initialSigma: 'prior' };
     const started = performance.now();
     const result = await client.request('calibrate', { input }, {
       onProgress: (p) => {
