@@ -1,0 +1,280 @@
+//! A kd-tree over f32 points for nearest and k-nearest queries by Euclidean distance.
+//!
+//! Flat and implicit (no node structs, no pointers): the points are stored in an order such that
+//! every range `[lo, hi)` of more than [`LEAF_SIZE`] points is split at its median
+//! `mid = lo + (hi - lo) / 2` along `axes[mid]`; points in `[lo, mid)` have a coordinate `<=` the
+//! median's on that axis, points in `(mid, hi)` `>=`. Smaller ranges are leaves, scanned linearly.
+//! Queries and distances are f64; ties are broken by the smaller original index, so results are
+//! deterministic and equal to a brute-force search.
+
+/// Ranges of at most this many points are scanned instead of split.
+const LEAF_SIZE: usize = 8;
+
+/// One query result: the index of the point in the slice the tree was built from and its
+/// squared distance (m^2) to the query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Neighbour {
+    pub index: usize,
+    pub sq_distance: f64,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    point: [f32; 3],
+    index: u32,
+}
+
+/// A kd-tree built once over a point slice, then queried many times.
+#[derive(Clone, Debug)]
+pub struct KdTree {
+    entries: Vec<Entry>,
+    axes: Vec<u8>,
+}
+
+/// Squared Euclidean distance (m^2) between a query and a stored point, in f64.
+pub fn sq_distance(q: [f64; 3], p: [f32; 3]) -> f64 {
+    let d = [q[0] - p[0] as f64, q[1] - p[1] as f64, q[2] - p[2] as f64];
+    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+}
+
+/// Orders candidates by distance, then by index.
+fn better(d: f64, index: u32, than: (f64, u32)) -> bool {
+    d < than.0 || (d == than.0 && index < than.1)
+}
+
+impl KdTree {
+    /// Builds the tree in O(n log n). Points with a non-finite coordinate are left out and are
+    /// never returned. Indices refer to `points`; at most `u32::MAX` points are indexed.
+    pub fn new(points: &[[f32; 3]]) -> Self {
+        let mut entries: Vec<Entry> = points
+            .iter()
+            .take(u32::MAX as usize)
+            .enumerate()
+            .filter(|(_, p)| p.iter().all(|c| c.is_finite()))
+            .map(|(i, p)| Entry { point: *p, index: i as u32 })
+            .collect();
+        let mut axes = vec![0u8; entries.len()];
+        build(&mut entries, &mut axes);
+        Self { entries, axes }
+    }
+
+    /// Number of indexed (finite) points.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// The nearest point to `q`, `None` when the tree is empty or `q` is not finite.
+    pub fn nearest(&self, q: [f64; 3]) -> Option<Neighbour> {
+        self.nearest_within(q, f64::INFINITY)
+    }
+
+    /// The nearest point to `q` within `max_distance` (m, inclusive). A finite bound prunes the
+    /// search, so this is faster than [`KdTree::nearest`] when most points are far. A negative
+    /// or NaN bound finds nothing.
+    pub fn nearest_within(&self, q: [f64; 3], max_distance: f64) -> Option<Neighbour> {
+        if !q.iter().all(|c| c.is_finite()) || max_distance.is_nan() || max_distance < 0.0 {
+            return None;
+        }
+        let mut best = (max_distance * max_distance, u32::MAX);
+        self.nearest_in(0, self.entries.len(), q, &mut best);
+        (best.1 != u32::MAX).then_some(Neighbour { index: best.1 as usize, sq_distance: best.0 })
+    }
+
+    /// The `k` nearest points to `q`, closest first (fewer when the tree holds fewer).
+    pub fn k_nearest(&self, q: [f64; 3], k: usize) -> Vec<Neighbour> {
+        let mut out = Vec::with_capacity(k.min(self.len()));
+        self.k_nearest_into(q, k, &mut out);
+        out
+    }
+
+    /// [`KdTree::k_nearest`] into a reused buffer (cleared first).
+    pub fn k_nearest_into(&self, q: [f64; 3], k: usize, out: &mut Vec<Neighbour>) {
+        out.clear();
+        if k == 0 || !q.iter().all(|c| c.is_finite()) {
+            return;
+        }
+        let mut found: Vec<(f64, u32)> = Vec::with_capacity(k.min(self.len()) + 1);
+        self.k_nearest_in(0, self.entries.len(), q, k, &mut found);
+        out.extend(found.iter().map(|&(d, i)| Neighbour { index: i as usize, sq_distance: d }));
+    }
+
+    fn nearest_in(&self, lo: usize, hi: usize, q: [f64; 3], best: &mut (f64, u32)) {
+        if hi - lo <= LEAF_SIZE {
+            for e in &self.entries[lo..hi] {
+                let d = sq_distance(q, e.point);
+                if better(d, e.index, *best) {
+                    *best = (d, e.index);
+                }
+            }
+            return;
+        }
+        let mid = lo + (hi - lo) / 2;
+        let e = self.entries[mid];
+        let axis = self.axes[mid] as usize;
+        let diff = q[axis] - e.point[axis] as f64;
+        let (near, far) =
+            if diff < 0.0 { ((lo, mid), (mid + 1, hi)) } else { ((mid + 1, hi), (lo, mid)) };
+        self.nearest_in(near.0, near.1, q, best);
+        let d = sq_distance(q, e.point);
+        if better(d, e.index, *best) {
+            *best = (d, e.index);
+        }
+        // `<=` keeps equally distant points with smaller indices reachable.
+        if diff * diff <= best.0 {
+            self.nearest_in(far.0, far.1, q, best);
+        }
+    }
+
+    fn k_nearest_in(
+        &self,
+        lo: usize,
+        hi: usize,
+        q: [f64; 3],
+        k: usize,
+        found: &mut Vec<(f64, u32)>,
+    ) {
+        let consider = |e: &Entry, found: &mut Vec<(f64, u32)>| {
+            let d = sq_distance(q, e.point);
+            if found.len() < k || better(d, e.index, found[found.len() - 1]) {
+                let at = found.partition_point(|&c| better(c.0, c.1, (d, e.index)));
+                found.insert(at, (d, e.index));
+                found.truncate(k);
+            }
+        };
+        if hi - lo <= LEAF_SIZE {
+            for e in &self.entries[lo..hi] {
+                consider(e, found);
+            }
+            return;
+        }
+        let mid = lo + (hi - lo) / 2;
+        let e = self.entries[mid];
+        let axis = self.axes[mid] as usize;
+        let diff = q[axis] - e.point[axis] as f64;
+        let (near, far) =
+            if diff < 0.0 { ((lo, mid), (mid + 1, hi)) } else { ((mid + 1, hi), (lo, mid)) };
+        self.k_nearest_in(near.0, near.1, q, k, found);
+        consider(&e, found);
+        if found.len() < k || diff * diff <= found[found.len() - 1].0 {
+            self.k_nearest_in(far.0, far.1, q, k, found);
+        }
+    }
+}
+
+/// Recursively orders `entries` around medians; `axes` is the matching slice of split axes.
+fn build(entries: &mut [Entry], axes: &mut [u8]) {
+    if entries.len() <= LEAF_SIZE {
+        return;
+    }
+    let axis = widest_axis(entries);
+    let mid = entries.len() / 2;
+    entries.select_nth_unstable_by(mid, |a, b| a.point[axis].total_cmp(&b.point[axis]));
+    axes[mid] = axis as u8;
+    let (left, rest) = entries.split_at_mut(mid);
+    let (left_axes, rest_axes) = axes.split_at_mut(mid);
+    build(left, left_axes);
+    build(&mut rest[1..], &mut rest_axes[1..]);
+}
+
+/// The axis along which the points spread the most.
+fn widest_axis(entries: &[Entry]) -> usize {
+    let mut min = [f32::INFINITY; 3];
+    let mut max = [f32::NEG_INFINITY; 3];
+    for e in entries {
+        for i in 0..3 {
+            min[i] = min[i].min(e.point[i]);
+            max[i] = max[i].max(e.point[i]);
+        }
+    }
+    let spread = [max[0] - min[0], max[1] - min[1], max[2] - min[2]];
+    if spread[0] >= spread[1] && spread[0] >= spread[2] {
+        0
+    } else if spread[1] >= spread[2] {
+        1
+    } else {
+        2
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64;
+
+    /// Brute force: every finite point, sorted by (distance, index), the first `k`.
+    fn brute_force(points: &[[f32; 3]], q: [f64; 3], k: usize) -> Vec<Neighbour> {
+        let mut all: Vec<Neighbour> = points
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.iter().all(|c| c.is_finite()))
+            .map(|(index, p)| Neighbour { index, sq_distance: sq_distance(q, *p) })
+            .collect();
+        all.sort_by(|a, b| a.sq_distance.total_cmp(&b.sq_distance).then(a.index.cmp(&b.index)));
+        all.truncate(k);
+        all
+    }
+
+    /// Random cloud with clumps of exact duplicates and points snapped to a coarse grid, so
+    /// that ties in distance really occur.
+    fn random_cloud(rng: &mut Pcg64, n: usize) -> Vec<[f32; 3]> {
+        let mut points = Vec::with_capacity(n);
+        while points.len() < n {
+            let p: [f32; 3] = std::array::from_fn(|_| rng.random_range(-5.0f32..5.0));
+            match rng.random_range(0..4) {
+                0 => points.push(p.map(|c| c.round())),
+                1 if !points.is_empty() => {
+                    let i = rng.random_range(0..points.len());
+                    points.push(points[i]);
+                }
+                _ => points.push(p),
+            }
+        }
+        points
+    }
+
+    #[test]
+    fn k_nearest_equals_brute_force() {
+        let mut rng = Pcg64::seed_from_u64(7);
+        for n in [0, 1, 2, 5, 8, 9, 17, 100, 1000] {
+            let points = random_cloud(&mut rng, n);
+            let tree = KdTree::new(&points);
+            assert_eq!(tree.len(), n);
+            for _ in 0..50 {
+                let q: [f64; 3] = std::array::from_fn(|_| rng.random_range(-6.0..6.0));
+                // Also query exactly at stored points (duplicates make ties at distance 0).
+                let q = if n > 0 && rng.random_range(0..3) == 0 {
+                    points[rng.random_range(0..n)].map(f64::from)
+                } else {
+                    q
+                };
+                for k in [1, 2, 3, 8, 20, n, n + 5] {
+                    assert_eq!(tree.k_nearest(q, k), brute_force(&points, q, k), "n {n} k {k}");
+                }
+                assert_eq!(tree.nearest(q), brute_force(&points, q, 1).first().copied());
+                let within = tree.nearest_within(q, 1.5);
+                let expected =
+                    brute_force(&points, q, 1).into_iter().find(|nb| nb.sq_distance <= 2.25);
+                assert_eq!(within, expected);
+            }
+        }
+    }
+
+    #[test]
+    fn skips_non_finite_points_and_queries() {
+        let points =
+            vec![[0.0, 0.0, 0.0], [f32::NAN, 0.0, 0.0], [1.0, 0.0, 0.0], [f32::INFINITY; 3]];
+        let tree = KdTree::new(&points);
+        assert_eq!(tree.len(), 2);
+        let found = tree.k_nearest([0.9, 0.0, 0.0], 10);
+        assert_eq!(found.iter().map(|n| n.index).collect::<Vec<_>>(), vec![2, 0]);
+        assert!(tree.nearest([f64::NAN, 0.0, 0.0]).is_none());
+        assert!(tree.k_nearest([0.0, f64::INFINITY, 0.0], 3).is_empty());
+        assert!(tree.nearest_within([5.0, 0.0, 0.0], 1.0).is_none());
+        assert!(KdTree::new(&[]).nearest([0.0; 3]).is_none());
+    }
+}
