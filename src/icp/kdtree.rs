@@ -67,6 +67,11 @@ impl KdTree {
         self.entries.is_empty()
     }
 
+    /// Indices of the indexed points in tree order: consecutive points are spatially close.
+    pub fn tree_order(&self) -> impl Iterator<Item = usize> + '_ {
+        self.entries.iter().map(|e| e.index as usize)
+    }
+
     /// The nearest point to `q`, `None` when the tree is empty or `q` is not finite.
     pub fn nearest(&self, q: [f64; 3]) -> Option<Neighbour> {
         self.nearest_within(q, f64::INFINITY)
@@ -79,9 +84,16 @@ impl KdTree {
         if !q.iter().all(|c| c.is_finite()) || max_distance.is_nan() || max_distance < 0.0 {
             return None;
         }
-        let mut best = (max_distance * max_distance, u32::MAX);
-        self.nearest_in(0, self.entries.len(), q, &mut best);
-        (best.1 != u32::MAX).then_some(Neighbour { index: best.1 as usize, sq_distance: best.0 })
+        self.nearest_within_sq(q, max_distance * max_distance)
+    }
+
+    /// [`KdTree::nearest_within`] with the bound given as a squared distance (m^2), so that a
+    /// caller holding a candidate at squared distance `d` can pass `d` exactly.
+    pub(crate) fn nearest_within_sq(&self, q: [f64; 3], max_sq_distance: f64) -> Option<Neighbour> {
+        let mut best = Nearest { sq_distance: max_sq_distance, index: u32::MAX };
+        self.search(0, self.entries.len(), &q, &mut [0.0; 3], &mut best);
+        (best.index != u32::MAX)
+            .then_some(Neighbour { index: best.index as usize, sq_distance: best.sq_distance })
     }
 
     /// The `k` nearest points to `q`, closest first (fewer when the tree holds fewer).
@@ -97,57 +109,55 @@ impl KdTree {
         if k == 0 || !q.iter().all(|c| c.is_finite()) {
             return;
         }
-        let mut found: Vec<(f64, u32)> = Vec::with_capacity(k.min(self.len()) + 1);
-        self.k_nearest_in(0, self.entries.len(), q, k, &mut found);
-        out.extend(found.iter().map(|&(d, i)| Neighbour { index: i as usize, sq_distance: d }));
+        let mut collector = KNearest { k, max_sq_distance: f64::INFINITY, found: out };
+        self.search(0, self.entries.len(), &q, &mut [0.0; 3], &mut collector);
     }
 
-    fn nearest_in(&self, lo: usize, hi: usize, q: [f64; 3], best: &mut (f64, u32)) {
-        if hi - lo <= LEAF_SIZE {
-            for e in &self.entries[lo..hi] {
-                let d = sq_distance(q, e.point);
-                if better(d, e.index, *best) {
-                    *best = (d, e.index);
-                }
-            }
+    /// Calls `f(index, neighbours)` with the `k` nearest points of every indexed point
+    /// (itself included), as [`KdTree::k_nearest`] would find them. Points are visited in
+    /// tree order, so consecutive queries are close, and each search starts bounded by the
+    /// previous one: its k-th distance plus the step between the two queries (triangle
+    /// inequality) still encloses k points.
+    pub fn for_each_k_nearest(&self, k: usize, mut f: impl FnMut(usize, &[Neighbour])) {
+        if k == 0 {
             return;
         }
-        let mid = lo + (hi - lo) / 2;
-        let e = self.entries[mid];
-        let axis = self.axes[mid] as usize;
-        let diff = q[axis] - e.point[axis] as f64;
-        let (near, far) =
-            if diff < 0.0 { ((lo, mid), (mid + 1, hi)) } else { ((mid + 1, hi), (lo, mid)) };
-        self.nearest_in(near.0, near.1, q, best);
-        let d = sq_distance(q, e.point);
-        if better(d, e.index, *best) {
-            *best = (d, e.index);
-        }
-        // `<=` keeps equally distant points with smaller indices reachable.
-        if diff * diff <= best.0 {
-            self.nearest_in(far.0, far.1, q, best);
+        let mut found = Vec::with_capacity(k.min(self.len()));
+        let mut previous: Option<([f64; 3], f64)> = None;
+        for e in &self.entries {
+            let q = e.point.map(f64::from);
+            let max_sq_distance = match previous {
+                Some((p, radius)) if found.len() == k => {
+                    let step = sq_distance(p, e.point).sqrt();
+                    // Relative slack absorbs rounding of the square roots.
+                    (radius + step).powi(2) * (1.0 + 1e-9) + f64::MIN_POSITIVE
+                }
+                _ => f64::INFINITY,
+            };
+            found.clear();
+            let mut collector = KNearest { k, max_sq_distance, found: &mut found };
+            self.search(0, self.entries.len(), &q, &mut [0.0; 3], &mut collector);
+            previous = found.last().map(|last| (q, last.sq_distance.sqrt()));
+            f(e.index as usize, &found);
         }
     }
 
-    fn k_nearest_in(
+    /// Offers every point of the range `[lo, hi)` that may beat `c.bound()` to `c`, nearer
+    /// half first. `offset[i]` is the distance along axis i from `q` to the range's cell; a
+    /// half is skipped when its cell is farther than the bound (Arya & Mount's incremental
+    /// distance). The cell distance is summed in the same order as [`sq_distance`], so rounding
+    /// never makes it exceed the distance of a point inside, and ties are never pruned.
+    fn search<C: Collector>(
         &self,
         lo: usize,
         hi: usize,
-        q: [f64; 3],
-        k: usize,
-        found: &mut Vec<(f64, u32)>,
+        q: &[f64; 3],
+        offset: &mut [f64; 3],
+        c: &mut C,
     ) {
-        let consider = |e: &Entry, found: &mut Vec<(f64, u32)>| {
-            let d = sq_distance(q, e.point);
-            if found.len() < k || better(d, e.index, found[found.len() - 1]) {
-                let at = found.partition_point(|&c| better(c.0, c.1, (d, e.index)));
-                found.insert(at, (d, e.index));
-                found.truncate(k);
-            }
-        };
         if hi - lo <= LEAF_SIZE {
             for e in &self.entries[lo..hi] {
-                consider(e, found);
+                c.offer(sq_distance(*q, e.point), e.index);
             }
             return;
         }
@@ -157,11 +167,82 @@ impl KdTree {
         let diff = q[axis] - e.point[axis] as f64;
         let (near, far) =
             if diff < 0.0 { ((lo, mid), (mid + 1, hi)) } else { ((mid + 1, hi), (lo, mid)) };
-        self.k_nearest_in(near.0, near.1, q, k, found);
-        consider(&e, found);
-        if found.len() < k || diff * diff <= found[found.len() - 1].0 {
-            self.k_nearest_in(far.0, far.1, q, k, found);
+        self.search(near.0, near.1, q, offset, c);
+        c.offer(sq_distance(*q, e.point), e.index);
+        let old = offset[axis];
+        offset[axis] = diff;
+        let cell = offset[0] * offset[0] + offset[1] * offset[1] + offset[2] * offset[2];
+        if cell <= c.bound() {
+            self.search(far.0, far.1, q, offset, c);
         }
+        offset[axis] = old;
+    }
+}
+
+/// Collects search results; `bound` is the squared distance a point must not exceed to count.
+trait Collector {
+    fn bound(&self) -> f64;
+    fn offer(&mut self, sq_distance: f64, index: u32);
+}
+
+/// The single best point within an initial bound.
+struct Nearest {
+    sq_distance: f64,
+    index: u32,
+}
+
+impl Collector for Nearest {
+    fn bound(&self) -> f64 {
+        self.sq_distance
+    }
+
+    #[inline(always)]
+    fn offer(&mut self, d: f64, index: u32) {
+        if better(d, index, (self.sq_distance, self.index)) {
+            (self.sq_distance, self.index) = (d, index);
+        }
+    }
+}
+
+/// The `k` best points within a bound, kept sorted.
+struct KNearest<'a> {
+    k: usize,
+    max_sq_distance: f64,
+    found: &'a mut Vec<Neighbour>,
+}
+
+impl Collector for KNearest<'_> {
+    fn bound(&self) -> f64 {
+        if self.found.len() < self.k {
+            self.max_sq_distance
+        } else {
+            self.found[self.k - 1].sq_distance
+        }
+    }
+
+    #[inline(always)]
+    fn offer(&mut self, d: f64, index: u32) {
+        let found = &mut *self.found;
+        if d > self.max_sq_distance {
+            return;
+        }
+        if found.len() == self.k {
+            let last = found[self.k - 1];
+            if !better(d, index, (last.sq_distance, last.index as u32)) {
+                return;
+            }
+            found.pop();
+        }
+        // Insertion from the back (most accepted candidates land near the end): shift the
+        // worse entries up one, then write the new one once.
+        let new = Neighbour { index: index as usize, sq_distance: d };
+        found.push(new);
+        let mut i = found.len() - 1;
+        while i > 0 && better(d, index, (found[i - 1].sq_distance, found[i - 1].index as u32)) {
+            found[i] = found[i - 1];
+            i -= 1;
+        }
+        found[i] = new;
     }
 }
 
@@ -265,11 +346,40 @@ mod tests {
     }
 
     #[test]
+    fn for_each_k_nearest_equals_brute_force() {
+        let mut rng = Pcg64::seed_from_u64(11);
+        for n in [0, 1, 3, 9, 50, 700] {
+            let mut points = random_cloud(&mut rng, n);
+            if n > 3 {
+                points[2] = [f32::NAN, 0.0, 0.0];
+            }
+            let tree = KdTree::new(&points);
+            for k in [1, 3, 20, n + 1] {
+                let mut seen = vec![false; n];
+                tree.for_each_k_nearest(k, |i, found| {
+                    assert!(!seen[i], "point {i} visited twice");
+                    seen[i] = true;
+                    assert_eq!(
+                        found,
+                        brute_force(&points, points[i].map(f64::from), k),
+                        "n {n} k {k}"
+                    );
+                });
+                let finite = points.iter().filter(|p| p.iter().all(|c| c.is_finite())).count();
+                assert_eq!(seen.iter().filter(|s| **s).count(), finite);
+            }
+        }
+    }
+
+    #[test]
     fn skips_non_finite_points_and_queries() {
         let points =
             vec![[0.0, 0.0, 0.0], [f32::NAN, 0.0, 0.0], [1.0, 0.0, 0.0], [f32::INFINITY; 3]];
         let tree = KdTree::new(&points);
         assert_eq!(tree.len(), 2);
+        let mut order: Vec<usize> = tree.tree_order().collect();
+        order.sort();
+        assert_eq!(order, vec![0, 2]);
         let found = tree.k_nearest([0.9, 0.0, 0.0], 10);
         assert_eq!(found.iter().map(|n| n.index).collect::<Vec<_>>(), vec![2, 0]);
         assert!(tree.nearest([f64::NAN, 0.0, 0.0]).is_none());

@@ -2,7 +2,7 @@
 //! ICP and plane-regularised covariances for GICP (Segal et al. 2009, section III.B, with the
 //! eigenvalues replaced as in fast_gicp / small_gicp).
 
-use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+use nalgebra::{Matrix3, SymmetricEigen, U3, Vector3};
 
 use super::kdtree::{KdTree, Neighbour};
 
@@ -19,14 +19,9 @@ const MIN_VARIANCE: f64 = 1e-12;
 /// nearest neighbours in `tree`, which must be built from `points`. Zero where the
 /// neighbourhood has no shape (all neighbours coincide, or the point is not finite).
 pub fn normals(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Vector3<f64>> {
-    let mut out = Vec::with_capacity(points.len());
-    for_each_shape(points, tree, k, |shape| {
-        out.push(match shape {
-            Some(eig) => eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned(),
-            None => Vector3::zeros(),
-        });
-    });
-    out
+    shapes(points, tree, k, Vector3::zeros(), |eig| {
+        eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned()
+    })
 }
 
 /// GICP covariance (m^2) of each point: the principal directions of its `k` nearest
@@ -34,44 +29,38 @@ pub fn normals(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Vector3<f64>
 /// `PLANE_IN_PLANE`, `PLANE_NORMAL`, so every surface is modelled as a thin plane. Identity
 /// (no preferred direction) where the neighbourhood has no shape.
 pub fn plane_covariances(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Matrix3<f64>> {
-    let mut out = Vec::with_capacity(points.len());
-    for_each_shape(points, tree, k, |shape| {
-        out.push(match shape {
-            Some(eig) => {
-                let normal_axis = eig.eigenvalues.imin();
-                let values =
-                    Vector3::from_fn(
-                        |i, _| if i == normal_axis { PLANE_NORMAL } else { PLANE_IN_PLANE },
-                    );
-                let v = &eig.eigenvectors;
-                v * Matrix3::from_diagonal(&values) * v.transpose()
-            }
-            None => Matrix3::identity(),
-        });
-    });
-    out
+    shapes(points, tree, k, Matrix3::identity(), |eig| {
+        let normal_axis = eig.eigenvalues.imin();
+        let values =
+            Vector3::from_fn(|i, _| if i == normal_axis { PLANE_NORMAL } else { PLANE_IN_PLANE });
+        let v = &eig.eigenvectors;
+        v * Matrix3::from_diagonal(&values) * v.transpose()
+    })
 }
 
-/// Calls `f` once per point, in order, with the eigen-decomposition of its neighbourhood's
-/// covariance, or `None` when that neighbourhood has no shape.
-fn for_each_shape(
+/// `shape(eigen-decomposition of the neighbourhood covariance)` for every point, or
+/// `shapeless` where the neighbourhood has no shape.
+fn shapes<T: Clone>(
     points: &[[f32; 3]],
     tree: &KdTree,
     k: usize,
-    mut f: impl FnMut(Option<SymmetricEigen<f64, nalgebra::U3>>),
-) {
-    let mut neighbours: Vec<Neighbour> = Vec::with_capacity(k);
-    for p in points {
-        let q = p.map(f64::from);
-        tree.k_nearest_into(q, k, &mut neighbours);
-        let covariance = neighbourhood_covariance(points, q, &neighbours);
-        f(covariance.and_then(|c| {
+    shapeless: T,
+    shape: impl Fn(&SymmetricEigen<f64, U3>) -> T,
+) -> Vec<T> {
+    let mut out = vec![shapeless; points.len()];
+    tree.for_each_k_nearest(k, |i, neighbours| {
+        let q = points[i].map(f64::from);
+        let eig = neighbourhood_covariance(points, q, neighbours).and_then(|c| {
             // Bounded iterations: a decomposition that does not converge is treated as shapeless.
             let eig = SymmetricEigen::try_new(c, f64::EPSILON, 1000)?;
             let largest = eig.eigenvalues.max();
             (largest.is_finite() && largest > MIN_VARIANCE).then_some(eig)
-        }));
-    }
+        });
+        if let Some(eig) = eig {
+            out[i] = shape(&eig);
+        }
+    });
+    out
 }
 
 /// Sample covariance (m^2) of the neighbours, accumulated relative to `q` to keep precision

@@ -5,7 +5,7 @@
 
 use nalgebra::{Matrix6, Point3, Translation3, UnitQuaternion, Vector3, Vector6};
 
-use super::kdtree::KdTree;
+use super::kdtree::{KdTree, sq_distance};
 use super::{Alignment, IcpError, IcpSettings};
 use crate::se3::Pose;
 
@@ -87,33 +87,54 @@ impl<F: Factor> Step for LevenbergMarquardt<F> {
     }
 }
 
-/// Matches each source point, mapped by `t`, to its nearest target point within
-/// `max_distance` (m). Returns the sum of squared distances (m^2).
-fn correspond(
-    tree: &KdTree,
-    source: &[Vector3<f64>],
-    t: &Pose,
-    max_distance: f64,
-    pairs: &mut Vec<Pair>,
-) -> f64 {
-    pairs.clear();
-    let mut sum_sq = 0.0;
-    for (i, p) in source.iter().enumerate() {
-        let q = t * Point3::from(*p);
-        if let Some(nb) = tree.nearest_within([q.x, q.y, q.z], max_distance) {
-            pairs.push(Pair { source: i, target: nb.index });
-            sum_sq += nb.sq_distance;
-        }
+/// Nearest-neighbour matching of source points into the target, warm-started: a point's
+/// previous match, at its distance under the new pose, bounds the search, which then only
+/// looks where a nearer point can be. The result is the same as an unbounded search.
+struct Matcher<'a> {
+    tree: &'a KdTree,
+    target: &'a [[f32; 3]],
+    previous: Vec<Option<usize>>,
+}
+
+impl<'a> Matcher<'a> {
+    fn new(tree: &'a KdTree, target: &'a [[f32; 3]], source_len: usize) -> Self {
+        Self { tree, target, previous: vec![None; source_len] }
     }
-    sum_sq
+
+    /// Matches each source point, mapped by `t`, to its nearest target point within
+    /// `max_distance` (m). Returns the sum of squared distances (m^2).
+    fn correspond(
+        &mut self,
+        source: &[Vector3<f64>],
+        t: &Pose,
+        max_distance: f64,
+        pairs: &mut Vec<Pair>,
+    ) -> f64 {
+        pairs.clear();
+        let max_sq = max_distance * max_distance;
+        let mut sum_sq = 0.0;
+        for (i, p) in source.iter().enumerate() {
+            let q = t * Point3::from(*p);
+            let q = [q.x, q.y, q.z];
+            let bound =
+                self.previous[i].map_or(max_sq, |j| sq_distance(q, self.target[j]).min(max_sq));
+            self.previous[i] = self.tree.nearest_within_sq(q, bound).map(|nb| {
+                pairs.push(Pair { source: i, target: nb.index });
+                sum_sq += nb.sq_distance;
+                nb.index
+            });
+        }
+        sum_sq
+    }
 }
 
 /// Fewest correspondences that determine a rigid transform.
 pub(crate) const MIN_PAIRS: usize = 3;
 
-/// Runs ICP from `init` until the update is below both tolerances or `max_iterations`.
+/// Runs ICP from `init` (`tree` is built over `target`) until the update is below both tolerances or `max_iterations`.
 pub(crate) fn run(
     tree: &KdTree,
+    target: &[[f32; 3]],
     source: &[Vector3<f64>],
     step: &mut dyn Step,
     init: &Pose,
@@ -122,10 +143,11 @@ pub(crate) fn run(
     let max_distance = settings.max_correspondence_distance;
     let mut t = *init;
     let mut pairs = Vec::with_capacity(source.len());
+    let mut matcher = Matcher::new(tree, target, source.len());
     let mut converged = false;
     let mut iterations = 0;
     while iterations < settings.max_iterations && !converged {
-        correspond(tree, source, &t, max_distance, &mut pairs);
+        matcher.correspond(source, &t, max_distance, &mut pairs);
         if pairs.len() < MIN_PAIRS {
             return Err(IcpError::NoCorrespondences {
                 found: pairs.len(),
@@ -149,7 +171,7 @@ pub(crate) fn run(
         iterations += 1;
     }
     // Score the final pose with fresh correspondences.
-    let sum_sq = correspond(tree, source, &t, max_distance, &mut pairs);
+    let sum_sq = matcher.correspond(source, &t, max_distance, &mut pairs);
     if pairs.is_empty() {
         return Err(IcpError::NoCorrespondences { found: 0, max_distance, iteration: iterations });
     }
@@ -170,6 +192,39 @@ pub(crate) fn is_finite(pose: &Pose) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn warm_started_matching_equals_fresh_search() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        // A coarse grid makes equal distances (ties) common.
+        let mut cloud = |n: usize| -> Vec<[f32; 3]> {
+            (0..n).map(|_| std::array::from_fn(|_| rng.random_range(0..40) as f32 * 0.1)).collect()
+        };
+        let target = cloud(500);
+        let source: Vec<Vector3<f64>> =
+            cloud(300).iter().map(|p| Vector3::from(p.map(f64::from))).collect();
+        let tree = KdTree::new(&target);
+        let mut matcher = Matcher::new(&tree, &target, source.len());
+        let mut pairs = Vec::new();
+        for step in 0..6 {
+            let s = step as f64;
+            let t =
+                crate::se3::pose_from_xyz_rpy([0.05 * s, -0.1 * s, 0.0], [0.0, 0.01 * s, -0.1 * s]);
+            let sum = matcher.correspond(&source, &t, 0.3, &mut pairs);
+            let mut expected = Vec::new();
+            let mut expected_sum = 0.0;
+            for (i, p) in source.iter().enumerate() {
+                let q = t * Point3::from(*p);
+                if let Some(nb) = tree.nearest_within([q.x, q.y, q.z], 0.3) {
+                    expected.push(Pair { source: i, target: nb.index });
+                    expected_sum += nb.sq_distance;
+                }
+            }
+            assert_eq!(pairs, expected, "step {step}");
+            assert_eq!(sum, expected_sum);
+        }
+    }
 
     #[test]
     fn retraction_matches_first_order_jacobian() {

@@ -88,19 +88,31 @@ impl Target {
         if !solver::is_finite(init) {
             return Err(IcpError::InvalidInitialPose);
         }
-        let source_f32 = prepare(source, Role::Source, settings)?;
+        let source = prepare(source, Role::Source, settings)?;
+        // Visit source points in tree order: consecutive queries then land close together in
+        // the target tree, which stays in cache (merged or downsampled clouds are unordered).
+        let source_tree = KdTree::new(&source);
+        let order: Vec<usize> = source_tree.tree_order().collect();
+        // GICP source covariances, from the source's own neighbourhoods.
+        let source_covariances: Vec<Matrix3<f64>> = if self.method == Method::Gicp {
+            let covariances = plane_covariances(&source, &source_tree, settings.neighbours);
+            order.iter().map(|&i| covariances[i]).collect()
+        } else {
+            Vec::new()
+        };
         let source: Vec<Vector3<f64>> =
-            source_f32.iter().map(|p| Vector3::from(p.map(f64::from))).collect();
-        let target = &self.points;
+            order.iter().map(|&i| Vector3::from(source[i].map(f64::from))).collect();
+        let (tree, target) = (&self.tree, &self.points[..]);
         match self.method {
             Method::PointToPoint => {
                 let mut step = PointToPoint { target, source: &source };
-                solver::run(&self.tree, &source, &mut step, init, settings)
+                solver::run(tree, target, &source, &mut step, init, settings)
             }
             Method::PointToPlane => {
                 let factor = PointToPlane { target, normals: &self.normals, source: &source };
                 solver::run(
-                    &self.tree,
+                    tree,
+                    target,
                     &source,
                     &mut LevenbergMarquardt::new(factor),
                     init,
@@ -108,9 +120,6 @@ impl Target {
                 )
             }
             Method::Gicp => {
-                let source_tree = KdTree::new(&source_f32);
-                let source_covariances =
-                    plane_covariances(&source_f32, &source_tree, settings.neighbours);
                 let factor = Gicp {
                     target,
                     target_covariances: &self.covariances,
@@ -118,7 +127,8 @@ impl Target {
                     source_covariances: &source_covariances,
                 };
                 solver::run(
-                    &self.tree,
+                    tree,
+                    target,
                     &source,
                     &mut LevenbergMarquardt::new(factor),
                     init,
