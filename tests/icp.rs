@@ -356,3 +356,74 @@ fn sparse_overlap_below_three_pairs_is_an_error() {
         assert!(matches!(err, IcpError::NoCorrespondences { found: 2, .. }), "{method}: {err}");
     }
 }
+
+/// Random small clouds over many scales (with duplicates, lines and far-off points), random
+/// initial poses and settings: every call returns an error or a finite pose, never a panic.
+#[test]
+fn arbitrary_input_gives_an_error_or_a_finite_pose() {
+    let mut rng = Pcg64::seed_from_u64(99);
+    let mut outcomes = [0usize; 2];
+    for case in 0..150 {
+        let scale = 10f64.powi(rng.random_range(-6..30));
+        let cloud = |rng: &mut Pcg64| -> Vec<[f32; 3]> {
+            let n = rng.random_range(0..60);
+            let line = rng.random_range(0..4) == 0;
+            let mut points: Vec<[f32; 3]> = (0..n)
+                .map(|_| {
+                    let t = rng.random_range(-1.0..1.0);
+                    let p: [f64; 3] = if line {
+                        [t, 2.0 * t, -t]
+                    } else {
+                        std::array::from_fn(|_| rng.random_range(-1.0..1.0))
+                    };
+                    p.map(|c| (c * scale) as f32)
+                })
+                .collect();
+            if n > 2 && rng.random_range(0..3) == 0 {
+                points[1] = points[0];
+            }
+            points
+        };
+        let target = cloud(&mut rng);
+        let source = cloud(&mut rng);
+        let init = Pose::from_parts(
+            Translation3::new(
+                rng.random_range(-1.0..1.0) * scale,
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            ),
+            UnitQuaternion::from_euler_angles(
+                rng.random_range(-3.0..3.0),
+                rng.random_range(-1.5..1.5),
+                rng.random_range(-3.0..3.0),
+            ),
+        );
+        let settings = IcpSettings {
+            max_correspondence_distance: 10f64.powi(rng.random_range(-3..32)),
+            max_iterations: rng.random_range(0..12),
+            neighbours: rng.random_range(3..25),
+            voxel: (rng.random_range(0..4) == 0).then(|| scale * rng.random_range(0.01..0.5)),
+            ..IcpSettings::default()
+        };
+        for method in Method::ALL {
+            match align(&target, &source, &init, method, &settings) {
+                Ok(a) => {
+                    let pose = a.target_from_source;
+                    let finite = pose.translation.vector.iter().chain(pose.rotation.coords.iter());
+                    assert!(
+                        finite.clone().all(|c| c.is_finite()),
+                        "case {case} {method}: {pose:?}"
+                    );
+                    assert!(a.rmse.is_finite() && a.inliers > 0, "case {case} {method}: {a:?}");
+                    outcomes[0] += 1;
+                }
+                Err(e) => {
+                    assert!(!e.to_string().is_empty());
+                    outcomes[1] += 1;
+                }
+            }
+        }
+    }
+    // Both outcomes occur, so the cases are neither all trivial nor all rejected.
+    assert!(outcomes[0] > 20 && outcomes[1] > 20, "{outcomes:?}");
+}
