@@ -196,11 +196,16 @@ impl fmt::Display for IcpError {
             IcpError::Degenerate { cloud, reason } => {
                 write!(f, "the {cloud} cloud is degenerate: {reason}")
             }
-            IcpError::NoCorrespondences { found, max_distance, iteration } => write!(
-                f,
-                "only {found} source points have a target point within {max_distance} m \
-                 (iteration {iteration}); the clouds do not overlap at the initial pose"
-            ),
+            IcpError::NoCorrespondences { found, max_distance, iteration } => {
+                write!(
+                    f,
+                    "only {found} source points have a target point within {max_distance} m"
+                )?;
+                match iteration {
+                    0 => write!(f, " at the initial pose: the clouds do not overlap"),
+                    n => write!(f, " after {n} iterations: the registration diverged"),
+                }
+            }
             IcpError::IllConditioned { iteration, reason } => {
                 write!(f, "registration is ill-conditioned at iteration {iteration}: {reason}")
             }

@@ -131,7 +131,8 @@ impl<'a> Matcher<'a> {
 /// Fewest correspondences that determine a rigid transform.
 pub(crate) const MIN_PAIRS: usize = 3;
 
-/// Runs ICP from `init` (`tree` is built over `target`) until the update is below both tolerances or `max_iterations`.
+/// Runs ICP from `init` (`tree` is built over `target`) until the update is below both
+/// tolerances or `max_iterations` is reached.
 pub(crate) fn run(
     tree: &KdTree,
     target: &[[f32; 3]],

@@ -90,7 +90,7 @@ impl Target {
         }
         let source = prepare(source, Role::Source, settings)?;
         // Visit source points in tree order: consecutive queries then land close together in
-        // the target tree, which stays in cache (merged or downsampled clouds are unordered).
+        // the target tree, which stays in cache (merged clouds are not spatially ordered).
         let source_tree = KdTree::new(&source);
         let order: Vec<usize> = source_tree.tree_order().collect();
         // GICP source covariances, from the source's own neighbourhoods.
