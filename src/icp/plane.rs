@@ -15,27 +15,31 @@ pub(crate) struct PointToPlane<'a> {
 
 impl PointToPlane<'_> {
     fn residual(&self, pair: Pair, t: &Pose) -> f64 {
-        let q = self.target[pair.target].map(f64::from);
+        let q = Vector3::from(self.target[pair.target].map(f64::from));
         let tp = t * Point3::from(self.source[pair.source]);
-        self.normals[pair.target].dot(&(Vector3::from(q) - tp.coords))
+        self.normals[pair.target].dot(&(q - tp.coords))
     }
 }
 
 impl Factor for PointToPlane<'_> {
-    fn error(&self, pair: Pair, t: &Pose) -> f64 {
-        0.5 * self.residual(pair, t).powi(2)
+    fn linearize(&mut self, pairs: &[Pair], t: &Pose) -> (Matrix6<f64>, Vector6<f64>, f64) {
+        let (mut h, mut b, mut error) = (Matrix6::zeros(), Vector6::zeros(), 0.0);
+        let inverse = t.rotation.inverse();
+        for &pair in pairs {
+            let r = self.residual(pair, t);
+            // dr/d(omega, v) = -n^T [-R [p]x, R] = [(R^T n x p)^T, -(R^T n)^T].
+            let rn = inverse * self.normals[pair.target];
+            let w = rn.cross(&self.source[pair.source]);
+            let j = Vector6::new(w.x, w.y, w.z, -rn.x, -rn.y, -rn.z);
+            h.ger(1.0, &j, &j, 1.0);
+            b.axpy(r, &j, 1.0);
+            error += 0.5 * r * r;
+        }
+        (h, b, error)
     }
 
-    fn linearize(&self, pair: Pair, t: &Pose, h: &mut Matrix6<f64>, b: &mut Vector6<f64>) -> f64 {
-        let r = self.residual(pair, t);
-        // dr/d(omega, v) = -n^T [-R [p]x, R] = [(R^T n x p)^T, -(R^T n)^T].
-        let rn = t.rotation.inverse() * self.normals[pair.target];
-        let p = self.source[pair.source];
-        let w = rn.cross(&p);
-        let j = Vector6::new(w.x, w.y, w.z, -rn.x, -rn.y, -rn.z);
-        h.ger(1.0, &j, &j, 1.0);
-        b.axpy(r, &j, 1.0);
-        0.5 * r * r
+    fn error(&self, pairs: &[Pair], t: &Pose) -> f64 {
+        pairs.iter().map(|&pair| 0.5 * self.residual(pair, t).powi(2)).sum()
     }
 }
 
@@ -49,13 +53,13 @@ mod tests {
         let target = [[1.0f32, 2.0, 3.0]];
         let normals = [Vector3::new(0.0, 0.6, 0.8)];
         let source = [Vector3::new(0.5, -1.0, 2.0)];
-        let factor = PointToPlane { target: &target, normals: &normals, source: &source };
+        let mut factor = PointToPlane { target: &target, normals: &normals, source: &source };
         let pair = Pair { source: 0, target: 0 };
         let t = crate::se3::pose_from_xyz_rpy([0.1, 0.2, -0.3], [0.3, -0.2, 0.5]);
-        let (mut h, mut b) = (Matrix6::zeros(), Vector6::zeros());
-        let e = factor.linearize(pair, &t, &mut h, &mut b);
+        let (h, b, e) = factor.linearize(&[pair], &t);
         let r = factor.residual(pair, &t);
         assert!((e - 0.5 * r * r).abs() < 1e-12);
+        assert!((e - factor.error(&[pair], &t)).abs() < 1e-12);
         let j = b / r;
         assert!((h - j * j.transpose()).abs().max() < 1e-9);
         let eps = 1e-7;

@@ -22,13 +22,13 @@ pub(crate) trait Step {
     fn next(&mut self, pairs: &[Pair], t: &Pose) -> Result<Pose, &'static str>;
 }
 
-/// One correspondence's residual, linearised with respect to a right perturbation
+/// Residuals of correspondences, linearised with respect to a right perturbation
 /// `T * exp(delta)`, `delta = (omega, v)`, retracted as rotation `exp(omega)`, translation `v`.
 pub(crate) trait Factor {
-    /// Error (half the squared weighted residual) of the pair at `t`.
-    fn error(&self, pair: Pair, t: &Pose) -> f64;
-    /// Adds `J^T W J` to `h` and `J^T W r` to `b`; returns the error at `t`.
-    fn linearize(&self, pair: Pair, t: &Pose, h: &mut Matrix6<f64>, b: &mut Vector6<f64>) -> f64;
+    /// At `t`: `H = sum J^T W J`, `b = sum J^T W r` and the error `sum r^T W r / 2`.
+    fn linearize(&mut self, pairs: &[Pair], t: &Pose) -> (Matrix6<f64>, Vector6<f64>, f64);
+    /// The error at `t` of the pairs last linearised (with the weights fixed then).
+    fn error(&self, pairs: &[Pair], t: &Pose) -> f64;
 }
 
 /// `T * exp(delta)` with the retraction the factors' Jacobians assume.
@@ -58,10 +58,7 @@ impl<F: Factor> LevenbergMarquardt<F> {
 
 impl<F: Factor> Step for LevenbergMarquardt<F> {
     fn next(&mut self, pairs: &[Pair], t: &Pose) -> Result<Pose, &'static str> {
-        let mut h = Matrix6::zeros();
-        let mut b = Vector6::zeros();
-        let error: f64 =
-            pairs.iter().map(|&pair| self.factor.linearize(pair, t, &mut h, &mut b)).sum();
+        let (h, b, error) = self.factor.linearize(pairs, t);
         if !error.is_finite() {
             return Err("the error is not finite");
         }
@@ -74,8 +71,7 @@ impl<F: Factor> Step for LevenbergMarquardt<F> {
                 return Err("the update is not finite");
             }
             let candidate = retract(t, &delta);
-            let new_error: f64 =
-                pairs.iter().map(|&pair| self.factor.error(pair, &candidate)).sum();
+            let new_error = self.factor.error(pairs, &candidate);
             if new_error <= error {
                 self.lambda /= LAMBDA_FACTOR;
                 return Ok(candidate);

@@ -120,12 +120,7 @@ impl Target {
                 )
             }
             Method::Gicp => {
-                let factor = Gicp {
-                    target,
-                    target_covariances: &self.covariances,
-                    source: &source,
-                    source_covariances: &source_covariances,
-                };
+                let factor = Gicp::new(target, &self.covariances, &source, &source_covariances);
                 solver::run(
                     tree,
                     target,
