@@ -91,7 +91,7 @@ impl KdTree {
     /// caller holding a candidate at squared distance `d` can pass `d` exactly.
     pub(crate) fn nearest_within_sq(&self, q: [f64; 3], max_sq_distance: f64) -> Option<Neighbour> {
         let mut best = Nearest { sq_distance: max_sq_distance, index: u32::MAX };
-        self.search(0, self.entries.len(), &q, &mut [0.0; 3], &mut best);
+        self.search(&q, &mut best);
         (best.index != u32::MAX)
             .then_some(Neighbour { index: best.index as usize, sq_distance: best.sq_distance })
     }
@@ -110,7 +110,7 @@ impl KdTree {
             return;
         }
         let mut collector = KNearest { k, max_sq_distance: f64::INFINITY, found: out };
-        self.search(0, self.entries.len(), &q, &mut [0.0; 3], &mut collector);
+        self.search(&q, &mut collector);
     }
 
     /// Calls `f(index, neighbours)` with the `k` nearest points of every indexed point
@@ -136,46 +136,54 @@ impl KdTree {
             };
             found.clear();
             let mut collector = KNearest { k, max_sq_distance, found: &mut found };
-            self.search(0, self.entries.len(), &q, &mut [0.0; 3], &mut collector);
+            self.search(&q, &mut collector);
             previous = found.last().map(|last| (q, last.sq_distance.sqrt()));
             f(e.index as usize, &found);
         }
     }
 
-    /// Offers every point of the range `[lo, hi)` that may beat `c.bound()` to `c`, nearer
-    /// half first. `offset[i]` is the distance along axis i from `q` to the range's cell; a
-    /// half is skipped when its cell is farther than the bound (Arya & Mount's incremental
-    /// distance). The cell distance is summed in the same order as [`sq_distance`], so rounding
-    /// never makes it exceed the distance of a point inside, and ties are never pruned.
-    fn search<C: Collector>(
-        &self,
-        lo: usize,
-        hi: usize,
-        q: &[f64; 3],
-        offset: &mut [f64; 3],
-        c: &mut C,
-    ) {
-        if hi - lo <= LEAF_SIZE {
-            for e in &self.entries[lo..hi] {
+    /// Offers every point that may beat `c.bound()` to `c`: descends to the query's leaf,
+    /// pushing each far half with the squared distance from `q` to its splitting plane, then
+    /// pops the halves that can still hold a point within the bound. The plane distance is a
+    /// coordinate difference of [`sq_distance`]'s, so rounding never makes it exceed the distance
+    /// of a point behind the plane, and ties are never pruned.
+    fn search<C: Collector>(&self, q: &[f64; 3], c: &mut C) {
+        let entries = &self.entries[..];
+        // One pending far half per level; medians halve ranges, so u32 indices need at most 32.
+        let mut stack = [(0u32, 0u32, 0.0f64); 64];
+        let mut depth = 0;
+        let (mut lo, mut hi) = (0, entries.len());
+        loop {
+            while hi - lo > LEAF_SIZE {
+                let mid = lo + (hi - lo) / 2;
+                let e = entries[mid];
+                let axis = self.axes[mid] as usize;
+                let diff = q[axis] - e.point[axis] as f64;
+                c.offer(sq_distance(*q, e.point), e.index);
+                if diff < 0.0 {
+                    stack[depth] = ((mid + 1) as u32, hi as u32, diff * diff);
+                    hi = mid;
+                } else {
+                    stack[depth] = (lo as u32, mid as u32, diff * diff);
+                    lo = mid + 1;
+                }
+                depth += 1;
+            }
+            for e in &entries[lo..hi] {
                 c.offer(sq_distance(*q, e.point), e.index);
             }
-            return;
+            loop {
+                if depth == 0 {
+                    return;
+                }
+                depth -= 1;
+                let (far_lo, far_hi, plane) = stack[depth];
+                if plane <= c.bound() {
+                    (lo, hi) = (far_lo as usize, far_hi as usize);
+                    break;
+                }
+            }
         }
-        let mid = lo + (hi - lo) / 2;
-        let e = self.entries[mid];
-        let axis = self.axes[mid] as usize;
-        let diff = q[axis] - e.point[axis] as f64;
-        let (near, far) =
-            if diff < 0.0 { ((lo, mid), (mid + 1, hi)) } else { ((mid + 1, hi), (lo, mid)) };
-        self.search(near.0, near.1, q, offset, c);
-        c.offer(sq_distance(*q, e.point), e.index);
-        let old = offset[axis];
-        offset[axis] = diff;
-        let cell = offset[0] * offset[0] + offset[1] * offset[1] + offset[2] * offset[2];
-        if cell <= c.bound() {
-            self.search(far.0, far.1, q, offset, c);
-        }
-        offset[axis] = old;
     }
 }
 
