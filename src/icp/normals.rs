@@ -49,7 +49,10 @@ fn shapes<T: Clone>(
 ) -> Vec<T> {
     let mut out = vec![shapeless; points.len()];
     tree.for_each_k_nearest(k, |i, neighbours| {
-        let q = points[i].map(f64::from);
+        // Indices beyond `points` (a tree built from other points) are skipped, not a panic.
+        let Some(q) = points.get(i).map(|p| p.map(f64::from)) else {
+            return;
+        };
         let eig = neighbourhood_covariance(points, q, neighbours).and_then(|c| {
             // Bounded iterations: a decomposition that does not converge is treated as shapeless.
             let eig = SymmetricEigen::try_new(c, f64::EPSILON, 1000)?;
@@ -64,7 +67,7 @@ fn shapes<T: Clone>(
 }
 
 /// Sample covariance (m^2) of the neighbours, accumulated relative to `q` to keep precision
-/// far from the origin. `None` for fewer than two neighbours.
+/// far from the origin. `None` for fewer than two neighbours or an index beyond `points`.
 fn neighbourhood_covariance(
     points: &[[f32; 3]],
     q: [f64; 3],
@@ -76,7 +79,7 @@ fn neighbourhood_covariance(
     let mut sum = Vector3::zeros();
     let mut sum_sq = Matrix3::zeros();
     for nb in neighbours {
-        let p = points[nb.index];
+        let p = points.get(nb.index)?;
         let d = Vector3::new(p[0] as f64 - q[0], p[1] as f64 - q[1], p[2] as f64 - q[2]);
         sum += d;
         sum_sq += d * d.transpose();
@@ -123,6 +126,15 @@ mod tests {
             assert!(((in_plane.transpose() * c * in_plane)[0] - PLANE_IN_PLANE).abs() < 1e-6);
             assert!((c - c.transpose()).abs().max() < 1e-12);
         }
+    }
+
+    #[test]
+    fn mismatched_tree_does_not_panic() {
+        let (points, _) = tilted_plane();
+        let tree = KdTree::new(&points);
+        let fewer = &points[..10];
+        assert_eq!(normals(fewer, &tree, 20).len(), 10);
+        assert_eq!(plane_covariances(fewer, &tree, 20).len(), 10);
     }
 
     #[test]
