@@ -7,6 +7,7 @@
 
 pub mod calib;
 pub mod cloud;
+pub mod icp;
 pub mod jrmpc;
 pub mod se3;
 pub mod synth;

@@ -1,0 +1,187 @@
+//! A target cloud prepared once for registration (kd-tree plus normals or covariances, as the
+//! method needs) and reused for any number of sources, e.g. every sensor's view of one frame.
+
+use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+
+use super::gicp::Gicp;
+use super::kdtree::KdTree;
+use super::normals::{normals, plane_covariances};
+use super::plane::PointToPlane;
+use super::point::PointToPoint;
+use super::solver::{self, LevenbergMarquardt};
+use super::{Alignment, IcpError, IcpSettings, Method, Role};
+use crate::cloud::Cloud;
+use crate::se3::Pose;
+
+/// A cloud smaller than this cannot fix a rigid transform.
+const MIN_POINTS: usize = 3;
+
+/// A cloud whose second principal standard deviation is below this fraction of the first is
+/// a line (1e-4: a 10 m line less than a millimetre thick): rotation about it is undetermined.
+const MIN_SPREAD_RATIO: f64 = 1e-4;
+
+/// Largest principal variance (m^2) below which all points coincide (to a micrometre).
+const MIN_VARIANCE: f64 = 1e-12;
+
+/// The target side of a registration, prepared for one [`Method`].
+#[derive(Clone, Debug)]
+pub struct Target {
+    method: Method,
+    points: Vec<[f32; 3]>,
+    tree: KdTree,
+    normals: Vec<Vector3<f64>>,
+    covariances: Vec<Matrix3<f64>>,
+}
+
+impl Target {
+    /// Checks and (when `settings.voxel` is set) downsamples `points`, builds the kd-tree and,
+    /// from `settings.neighbours` nearest neighbours, the normals (point-to-plane) or the
+    /// plane-regularised covariances (GICP).
+    pub fn new(
+        points: &[[f32; 3]],
+        method: Method,
+        settings: &IcpSettings,
+    ) -> Result<Self, IcpError> {
+        settings.validate()?;
+        let points = prepare(points, Role::Target, settings)?;
+        let tree = KdTree::new(&points);
+        let k = settings.neighbours;
+        let normals =
+            if method == Method::PointToPlane { normals(&points, &tree, k) } else { Vec::new() };
+        let covariances =
+            if method == Method::Gicp { plane_covariances(&points, &tree, k) } else { Vec::new() };
+        Ok(Self { method, points, tree, normals, covariances })
+    }
+
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    /// The points used (after downsampling), in f32 as given.
+    pub fn points(&self) -> &[[f32; 3]] {
+        &self.points
+    }
+
+    pub fn tree(&self) -> &KdTree {
+        &self.tree
+    }
+
+    /// Unit normals per point (zero where undefined); empty unless point-to-plane.
+    pub fn normals(&self) -> &[Vector3<f64>] {
+        &self.normals
+    }
+
+    /// Plane-regularised covariances per point (m^2); empty unless GICP.
+    pub fn covariances(&self) -> &[Matrix3<f64>] {
+        &self.covariances
+    }
+
+    /// Registers `source` onto this target starting from `init` (`T_target_source`). Uses
+    /// every setting but `neighbours` and `voxel` from `settings`, and those for the source.
+    pub fn align(
+        &self,
+        source: &[[f32; 3]],
+        init: &Pose,
+        settings: &IcpSettings,
+    ) -> Result<Alignment, IcpError> {
+        settings.validate()?;
+        if !solver::is_finite(init) {
+            return Err(IcpError::InvalidInitialPose);
+        }
+        let source = prepare(source, Role::Source, settings)?;
+        // Visit source points in tree order: consecutive queries then land close together in
+        // the target tree, which stays in cache (merged clouds are not spatially ordered).
+        let source_tree = KdTree::new(&source);
+        let order: Vec<usize> = source_tree.tree_order().collect();
+        // GICP source covariances, from the source's own neighbourhoods.
+        let source_covariances: Vec<Matrix3<f64>> = if self.method == Method::Gicp {
+            let covariances = plane_covariances(&source, &source_tree, settings.neighbours);
+            order.iter().map(|&i| covariances[i]).collect()
+        } else {
+            Vec::new()
+        };
+        let source: Vec<Vector3<f64>> =
+            order.iter().map(|&i| Vector3::from(source[i].map(f64::from))).collect();
+        let (tree, target) = (&self.tree, &self.points[..]);
+        match self.method {
+            Method::PointToPoint => {
+                let mut step = PointToPoint { target, source: &source };
+                solver::run(tree, target, &source, &mut step, init, settings)
+            }
+            Method::PointToPlane => {
+                let factor = PointToPlane { target, normals: &self.normals, source: &source };
+                solver::run(
+                    tree,
+                    target,
+                    &source,
+                    &mut LevenbergMarquardt::new(factor),
+                    init,
+                    settings,
+                )
+            }
+            Method::Gicp => {
+                let factor = Gicp::new(target, &self.covariances, &source, &source_covariances);
+                solver::run(
+                    tree,
+                    target,
+                    &source,
+                    &mut LevenbergMarquardt::new(factor),
+                    init,
+                    settings,
+                )
+            }
+        }
+    }
+}
+
+/// Rejects non-finite points, downsamples, then rejects clouds too small or without spread.
+fn prepare(
+    points: &[[f32; 3]],
+    role: Role,
+    settings: &IcpSettings,
+) -> Result<Vec<[f32; 3]>, IcpError> {
+    if let Some(index) = points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(IcpError::NonFinitePoint { cloud: role, index });
+    }
+    let points = match settings.voxel {
+        Some(voxel) => Cloud::from_points(points.to_vec()).voxel_downsampled(voxel).points,
+        None => points.to_vec(),
+    };
+    if points.len() < MIN_POINTS {
+        return Err(IcpError::TooFewPoints {
+            cloud: role,
+            count: points.len(),
+            required: MIN_POINTS,
+        });
+    }
+    check_spread(&points).map_err(|reason| IcpError::Degenerate { cloud: role, reason })?;
+    Ok(points)
+}
+
+/// `Err` with the reason when the points coincide or lie on one line.
+fn check_spread(points: &[[f32; 3]]) -> Result<(), &'static str> {
+    // Covariance relative to the first point, for precision far from the origin.
+    let origin = Vector3::from(points[0].map(f64::from));
+    let (mut sum, mut sum_sq) = (Vector3::zeros(), Matrix3::zeros());
+    for p in points {
+        let d = Vector3::from(p.map(f64::from)) - origin;
+        sum += d;
+        sum_sq += d * d.transpose();
+    }
+    let n = points.len() as f64;
+    let covariance = sum_sq / n - (sum / n) * (sum / n).transpose();
+    let eig = SymmetricEigen::try_new(covariance, f64::EPSILON, 1000)
+        .ok_or("its spread cannot be computed")?;
+    let mut values: Vec<f64> = eig.eigenvalues.iter().copied().collect();
+    values.sort_by(|a, b| b.total_cmp(a));
+    if !values[0].is_finite() {
+        return Err("its spread is not finite");
+    }
+    if values[0] <= MIN_VARIANCE {
+        return Err("all points coincide");
+    }
+    if values[1].max(0.0) <= MIN_SPREAD_RATIO * MIN_SPREAD_RATIO * values[0] {
+        return Err("all points lie on one line");
+    }
+    Ok(())
+}
