@@ -1,8 +1,12 @@
 //! Benchmarks (not tests): `cargo run --release --bin bench [-- --quick]`.
 //! Prints wall time, iterations and Gaussian terms evaluated per second for the JRMPC jobs the
-//! README reports; the wasm twin is `www/bench/bench.mjs` (same jobs under Node).
+//! README reports (the wasm twin is `www/bench/bench.mjs`, same jobs under Node), then the ICP
+//! baselines' per-pair times.
 
 use std::time::Instant;
+
+#[path = "icp.rs"]
+mod icp;
 
 use gmmcalib::calib::{self, Rig, View};
 use gmmcalib::jrmpc::Control;
@@ -35,7 +39,6 @@ fn run(job: &Job) {
         frames: job.frames,
         points_per_view: job.points_per_view,
         partial: true,
-        target_distance: 10.0,
         ..RigSpec::default()
     };
     let rig = synth::generate(&spec);
@@ -49,7 +52,11 @@ fn run(job: &Job) {
         roi: rig.roi,
         reference: None,
     };
-    let mut settings = calib::Settings { components: job.components, ..Default::default() };
+    let mut settings = calib::Settings {
+        method: calib::Method::Jrmpc,
+        components: job.components,
+        ..Default::default()
+    };
     settings.jrmpc.tolerance = 0.0; // always the full 100 iterations, like the reference
     let points: usize = rig.views.iter().map(|v| v.points.len()).sum();
     let started = Instant::now();
@@ -75,4 +82,5 @@ fn main() {
     for job in JOBS.iter().take(if quick { 1 } else { JOBS.len() }) {
         run(job);
     }
+    icp::run();
 }

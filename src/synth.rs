@@ -17,7 +17,8 @@ pub struct RigSpec {
     pub frames: usize,
     /// Points per view (target plus ground).
     pub points_per_view: usize,
-    /// Standard deviation of the Gaussian noise added to every coordinate (m).
+    /// Standard deviation of the Gaussian range noise (m): each point moves along its sensor's
+    /// ray, as a LiDAR's errors do (DESIGN: sigma about 1 cm).
     pub noise: f64,
     /// Only the cube faces a sensor can see, plus a ground patch; otherwise all six faces.
     pub partial: bool,
@@ -88,7 +89,8 @@ fn true_mount(i: usize, n: usize) -> Pose {
 
 pub fn generate(spec: &RigSpec) -> SyntheticRig {
     let mut rng = Pcg64::seed_from_u64(spec.seed);
-    let noise = Normal::new(0.0, spec.noise.max(0.0)).unwrap_or(Normal::new(0.0, 0.0).unwrap());
+    let noise =
+        Normal::new(0.0, spec.noise).unwrap_or_else(|_| Normal::new(0.0, 0.0).expect("zero sigma"));
     let h = spec.edge / 2.0;
     let centre = [spec.target_distance, 0.0, h];
     let names: Vec<String> = (1..=spec.sensors).map(|i| format!("sensor_{i}")).collect();
@@ -131,8 +133,9 @@ pub fn generate(spec: &RigSpec) -> SyntheticRig {
                 } else {
                     cube_point(&mut rng, centre, h, &faces)
                 };
-                let p = p.map(|c| c + noise.sample(&mut rng));
                 let q = vehicle_to_sensor * nalgebra::Point3::new(p[0], p[1], p[2]);
+                let range = q.coords.norm();
+                let q = q * ((range + noise.sample(&mut rng)) / range);
                 points.push([q.x as f32, q.y as f32, q.z as f32]);
             }
             views.push(SyntheticView { sensor: name.clone(), frame: frame.to_string(), points });

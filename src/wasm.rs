@@ -55,6 +55,7 @@ struct CalibrateInput {
     nominal: BTreeMap<String, PoseInput>,
     roi: RoiInput,
     reference: Option<String>,
+    method: Option<String>,
     target: Option<TargetInput>,
     components: Option<usize>,
     iterations: Option<usize>,
@@ -188,6 +189,10 @@ pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValu
         reference: input.reference,
     };
     let mut settings = calib::Settings::default();
+    if let Some(method) = &input.method {
+        settings.method =
+            method.parse().map_err(|e: calib::CalibError| JsError::new(&e.to_string()))?;
+    }
     if let Some(target) = input.target {
         settings.prior = match target {
             TargetInput::Cube { edge } if edge.is_finite() && edge > 0.0 => Prior::Cube { edge },
@@ -280,7 +285,7 @@ fn output(c: &Calibration) -> CalibrateOutput {
         .collect();
     let t = &c.target;
     CalibrateOutput {
-        method: "jrmpc",
+        method: c.method.name(),
         reference: c.reference.clone(),
         iterations: c.iterations,
         converged: c.converged,

@@ -146,3 +146,23 @@ fn progress_fires_every_iteration_and_can_cancel() {
     let message = error_message(calibrate(rig, Some(throws)));
     assert!(message.contains("onProgress threw: boom"), "{message}");
 }
+
+/// The ICP baselines go through the same entry point.
+#[wasm_bindgen_test]
+fn calibrate_with_gicp() {
+    let rig = js("rig.method = 'gicp'; return rig;", &small_rig());
+    let result = calibrate(rig.clone(), None).map_err(JsValue::from).expect("calibrate gicp");
+    let read = Function::new_with_args(
+        "rig, result",
+        "const s = result.sensors[1]; const t = rig.truth.sensor_2;
+         return [result.method, Math.hypot(s.xyz[0] - t.xyz[0], s.xyz[1] - t.xyz[1], s.xyz[2] - t.xyz[2]),
+                 result.target.means.length, s.spread.frames];",
+    );
+    let out: Array = read.call2(&JsValue::NULL, &rig, &result).unwrap().into();
+    assert_eq!(out.get(0).as_string().unwrap(), "gicp");
+    assert!(out.get(1).as_f64().unwrap() < 0.05, "translation error {:?}", out.get(1));
+    assert_eq!(out.get(2).as_f64(), Some(0.0), "ICP reconstructs no target");
+    assert_eq!(out.get(3).as_f64(), Some(3.0));
+    let bad = js("rig.method = 'ndt'; return rig;", &small_rig());
+    assert!(error_message(calibrate(bad, None)).contains("unknown method 'ndt'"));
+}

@@ -2,20 +2,75 @@
 //!
 //! 1. pre-align each view's raw points with its sensor's nominal `T_vehicle_sensor`;
 //! 2. crop to the region of interest (views left with too few points are skipped and reported);
-//! 3. register all views jointly (JRMPC), starting from the target prior at the ROI centroid;
-//! 4. per frame, `C_ref_s(f) = T_ref,f^-1 T_s,f` maps sensor s's pre-aligned points onto the
-//!    reference sensor's; frames that lack either sensor are skipped;
-//! 5. average over frames (chordal mean rotation, mean translation) with per-axis spread;
-//! 6. fit the prior shape to the reconstructed means as a plausibility check.
+//! 3. per frame, the correction `C_ref_s(f)` that maps sensor s's pre-aligned points onto the
+//!    reference sensor's, by the chosen [`Method`] (frames that lack either sensor are skipped):
+//!    - `jrmpc`: register all views jointly to one floating mixture, starting from the target
+//!      prior at the ROI centroid; `C_ref_s(f) = T_ref,f^-1 T_s,f`;
+//!    - `gmm` (default): `jrmpc`, then point-to-plane ICP of each frame onto the reference's
+//!      same frame from the JRMPC correction (README, "Why refine");
+//!    - `p2p`, `p2l`, `gicp`: ICP of each frame onto the reference's, from the nominal;
+//! 4. average over frames (chordal mean rotation, mean translation) with per-axis spread;
+//! 5. fit the prior shape to the reconstructed means as a plausibility check.
+
+mod average;
+mod refine;
 
 use std::fmt;
 
-use nalgebra::Vector3;
+use std::str::FromStr;
 
 use crate::cloud::{Aabb, Cloud};
+use crate::icp::{self, IcpSettings};
 use crate::jrmpc::{self, Control, JrmpcError, Prior};
-use crate::se3::{Pose, mean_pose};
+use crate::se3::Pose;
 use crate::target_fit::{ShapeFit, fit_prior};
+use average::average;
+pub use refine::RefineSettings;
+
+/// How the per-frame corrections are found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// JRMPC, then per-frame point-to-plane refinement: the product's default.
+    Gmm,
+    /// Plain JRMPC, as GMMCalib computes it.
+    Jrmpc,
+    /// An ICP baseline from the nominal pre-alignment.
+    Icp(icp::Method),
+}
+
+impl Method {
+    pub const ALL: [Method; 5] = [
+        Method::Gmm,
+        Method::Jrmpc,
+        Method::Icp(icp::Method::PointToPoint),
+        Method::Icp(icp::Method::PointToPlane),
+        Method::Icp(icp::Method::Gicp),
+    ];
+
+    /// `gmm`, `jrmpc`, `p2p`, `p2l` or `gicp`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::Gmm => "gmm",
+            Method::Jrmpc => "jrmpc",
+            Method::Icp(m) => m.name(),
+        }
+    }
+
+    fn uses_jrmpc(&self) -> bool {
+        matches!(self, Method::Gmm | Method::Jrmpc)
+    }
+}
+
+impl FromStr for Method {
+    type Err = CalibError;
+
+    fn from_str(s: &str) -> Result<Self, CalibError> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| CalibError::UnknownMethod(s.to_string()))
+    }
+}
 
 /// One scan: points `x, y, z` in the sensor's own frame (m).
 #[derive(Clone, Debug)]
@@ -58,6 +113,7 @@ pub enum InitialSigma {
 /// Calibration settings; every default number lives here or in `jrmpc::Settings`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
+    pub method: Method,
     pub prior: Prior,
     /// Number of mixture components K (GMMCalib: about 400).
     pub components: usize,
@@ -67,17 +123,24 @@ pub struct Settings {
     pub min_view_points: usize,
     pub initial_sigma: InitialSigma,
     pub jrmpc: jrmpc::Settings,
+    /// For the ICP baselines.
+    pub icp: IcpSettings,
+    /// For `gmm`'s refinement.
+    pub refine: RefineSettings,
 }
 
 impl Default for Settings {
     fn default() -> Self {
         Self {
+            method: Method::Gmm,
             prior: Prior::default(),
             components: 400,
             seed: 0,
             min_view_points: 10,
             initial_sigma: InitialSigma::BoundingBox,
             jrmpc: jrmpc::Settings::default(),
+            icp: IcpSettings::default(),
+            refine: RefineSettings::default(),
         }
     }
 }
@@ -112,7 +175,8 @@ pub struct Target {
     /// Standard deviations (m).
     pub sigmas: Vec<f64>,
     pub priors: Vec<f64>,
-    /// The prior shape fitted to the means (None for user-given means).
+    /// The prior shape fitted to the means (None for user-given means and ICP methods, which
+    /// reconstruct nothing).
     pub fit: Option<ShapeFit>,
 }
 
@@ -125,6 +189,7 @@ pub struct SkippedView {
 
 #[derive(Clone, Debug)]
 pub struct Calibration {
+    pub method: Method,
     pub reference: String,
     pub sensors: Vec<SensorResult>,
     pub target: Target,
@@ -161,7 +226,13 @@ pub enum CalibError {
     NoCommonFrames(String),
     NoPointsInRoi(String),
     InvalidSetting(&'static str),
+    UnknownMethod(String),
     Registration(JrmpcError),
+    /// Every frame of this sensor failed to register.
+    FramesFailed {
+        sensor: String,
+        reason: String,
+    },
 }
 
 impl fmt::Display for CalibError {
@@ -186,7 +257,13 @@ impl fmt::Display for CalibError {
             }
             Self::NoPointsInRoi(s) => write!(f, "sensor '{s}' has no usable points in the ROI"),
             Self::InvalidSetting(what) => write!(f, "invalid setting: {what}"),
+            Self::UnknownMethod(m) => {
+                write!(f, "unknown method '{m}' (expected gmm, jrmpc, p2p, p2l or gicp)")
+            }
             Self::Registration(e) => write!(f, "registration failed: {e}"),
+            Self::FramesFailed { sensor, reason } => {
+                write!(f, "no frame of sensor '{sensor}' could be registered: {reason}")
+            }
         }
     }
 }
@@ -260,12 +337,117 @@ pub fn calibrate(
         }
     }
 
-    // 3. Joint registration from the prior placed at the centroid of the ROI points.
-    let all =
-        Cloud::from_points(usable.iter().flat_map(|(_, _, c)| c.points.iter().copied()).collect());
+    // 3. Per-frame corrections by the chosen method.
+    let clouds: Vec<&[[f32; 3]]> = usable.iter().map(|(_, _, c)| c.points.as_slice()).collect();
+    let (mut per_frame, registration) = if settings.method.uses_jrmpc() {
+        let registration = register_jointly(&clouds, &pairs, settings, &mut progress)?;
+        let corrections = pairs
+            .iter()
+            .map(|p| {
+                p.iter()
+                    .map(|&(r, s)| {
+                        ((r, s), registration.poses[r].inverse() * registration.poses[s])
+                    })
+                    .collect()
+            })
+            .collect();
+        (corrections, Some(registration))
+    } else {
+        (vec![Vec::new(); sensors.len()], None)
+    };
+    let refinement = match settings.method {
+        Method::Gmm => Some((icp::Method::PointToPlane, &settings.refine.icp)),
+        Method::Icp(m) => Some((m, &settings.icp)),
+        Method::Jrmpc => None,
+    };
+    if let Some((icp_method, icp_settings)) = refinement {
+        let schedule = match settings.method {
+            Method::Gmm => settings.refine.match_distances.as_slice(),
+            _ => std::slice::from_ref(&icp_settings.max_correspondence_distance),
+        };
+        let report = refine::per_frame(
+            &clouds,
+            &pairs,
+            r,
+            &mut per_frame,
+            icp_method,
+            icp_settings,
+            schedule,
+            &mut progress,
+        )?;
+        for failure in report {
+            let (_, frame, _) = &usable[failure.view];
+            let sensor = usable[failure.view].0;
+            skipped.push(SkippedView {
+                sensor: sensors[sensor].clone(),
+                frame: frame.clone(),
+                reason: failure.reason,
+            });
+        }
+    }
+
+    // 4. Average over frames.
+    let reference_nominal = nominal(&reference).unwrap_or_default();
+    let mut results = Vec::with_capacity(sensors.len());
+    for (s, name) in sensors.iter().enumerate() {
+        let corrections: Vec<Pose> = per_frame[s].iter().map(|(_, c)| *c).collect();
+        let Some((correction, spread)) = average(&corrections) else {
+            return Err(CalibError::FramesFailed {
+                sensor: name.clone(),
+                reason: "every frame failed".into(),
+            });
+        };
+        let extrinsic = correction * nominal(name).unwrap_or_default();
+        results.push(SensorResult {
+            name: name.clone(),
+            correction,
+            extrinsic,
+            relative: reference_nominal.inverse() * extrinsic,
+            spread,
+        });
+    }
+
+    // 5. Plausibility of the reconstruction.
+    let (target, iterations, converged, cancelled, history) = match registration {
+        Some(reg) => {
+            let mix = &reg.mixture;
+            let target = Target {
+                means: mix.means.iter().map(|m| [m.x, m.y, m.z]).collect(),
+                sigmas: mix.variances.iter().map(|v| v.sqrt()).collect(),
+                priors: mix.priors.clone(),
+                fit: fit_prior(&settings.prior, &mix.means, &mix.priors),
+            };
+            (target, reg.iterations, reg.converged, reg.cancelled, reg.history)
+        }
+        None => {
+            let empty = Target { means: vec![], sigmas: vec![], priors: vec![], fit: None };
+            (empty, 0, true, false, vec![])
+        }
+    };
+    Ok(Calibration {
+        method: settings.method,
+        reference,
+        sensors: results,
+        target,
+        iterations,
+        converged,
+        cancelled,
+        skipped,
+        history,
+    })
+}
+
+/// Step 3 for the GMM methods: all views to one mixture started from the prior at the ROI
+/// points' centroid, reporting the running per-sensor corrections after every iteration.
+fn register_jointly(
+    clouds: &[&[[f32; 3]]],
+    pairs: &[Vec<(usize, usize)>],
+    settings: &Settings,
+    progress: &mut impl FnMut(&Progress) -> Control,
+) -> Result<jrmpc::Registration, CalibError> {
+    let all = Cloud::from_points(clouds.iter().flat_map(|c| c.iter().copied()).collect());
     let centre = all.centroid().unwrap_or([0.0; 3]);
     let means = settings.prior.means(settings.components, centre, settings.seed);
-    let views: Vec<&[[f32; 3]]> = usable.iter().map(|(_, _, c)| c.points.as_slice()).collect();
     let jrmpc_settings = jrmpc::Settings {
         initial_sigma: match settings.initial_sigma {
             InitialSigma::PriorSize => settings.prior.size(),
@@ -274,9 +456,15 @@ pub fn calibrate(
         },
         ..settings.jrmpc.clone()
     };
-    let registration = jrmpc::register(&views, &means, &jrmpc_settings, |p| {
-        let corrections: Vec<Pose> =
-            (0..sensors.len()).map(|s| average(&pairs[s], p.poses).0).collect();
+    let registration = jrmpc::register(clouds, &means, &jrmpc_settings, |p| {
+        let corrections: Vec<Pose> = pairs
+            .iter()
+            .map(|frames| {
+                let per_frame: Vec<Pose> =
+                    frames.iter().map(|&(r, s)| p.poses[r].inverse() * p.poses[s]).collect();
+                average(&per_frame).map_or_else(Pose::identity, |(c, _)| c)
+            })
+            .collect();
         progress(&Progress {
             iteration: p.iteration,
             max_iterations: settings.jrmpc.max_iterations,
@@ -285,43 +473,7 @@ pub fn calibrate(
             corrections: &corrections,
         })
     })?;
-
-    // 4-5. Per-frame corrections, averaged.
-    let reference_nominal = nominal(&reference).unwrap_or_default();
-    let results = sensors
-        .iter()
-        .enumerate()
-        .map(|(s, name)| {
-            let (correction, spread) = average(&pairs[s], &registration.poses);
-            let extrinsic = correction * nominal(name).unwrap_or_default();
-            SensorResult {
-                name: name.clone(),
-                correction,
-                extrinsic,
-                relative: reference_nominal.inverse() * extrinsic,
-                spread,
-            }
-        })
-        .collect();
-
-    // 6. Plausibility.
-    let mix = &registration.mixture;
-    let target = Target {
-        means: mix.means.iter().map(|m| [m.x, m.y, m.z]).collect(),
-        sigmas: mix.variances.iter().map(|v| v.sqrt()).collect(),
-        priors: mix.priors.clone(),
-        fit: fit_prior(&settings.prior, &mix.means, &mix.priors),
-    };
-    Ok(Calibration {
-        reference,
-        sensors: results,
-        target,
-        iterations: registration.iterations,
-        converged: registration.converged,
-        cancelled: registration.cancelled,
-        skipped,
-        history: registration.history,
-    })
+    Ok(registration)
 }
 
 /// Sensor names in order of first appearance among the views, after checking the nominals.
@@ -365,20 +517,4 @@ fn frame_pairs(
         }
     }
     pairs
-}
-
-/// Mean of `C(f) = T_ref,f^-1 T_s,f` over the frame pairs, and its per-axis spread.
-fn average(pairs: &[(usize, usize)], poses: &[Pose]) -> (Pose, Spread) {
-    let per_frame: Vec<Pose> = pairs.iter().map(|&(r, s)| poses[r].inverse() * poses[s]).collect();
-    let mean = mean_pose(&per_frame).unwrap_or_default();
-    let n = per_frame.len() as f64;
-    let (mut xyz, mut rot) = (Vector3::zeros(), Vector3::zeros());
-    for c in &per_frame {
-        let dt = c.translation.vector - mean.translation.vector;
-        let dr = (mean.rotation.inverse() * c.rotation).scaled_axis();
-        xyz += dt.component_mul(&dt);
-        rot += dr.component_mul(&dr);
-    }
-    let std = |v: Vector3<f64>| [v.x, v.y, v.z].map(|s| (s / n).sqrt());
-    (mean, Spread { xyz: std(xyz), rpy: std(rot), frames: per_frame.len() })
 }

@@ -1,0 +1,118 @@
+//! Per-frame ICP of each sensor's view onto the reference sensor's view of the same frame:
+//! the ICP baselines, and `gmm`'s refinement of the JRMPC corrections.
+//!
+//! Why refine: JRMPC's isotropic Gaussians blend the sensors' different samplings of the same
+//! surfaces, and each view is pulled point-to-point toward that blend, which leaves a bias
+//! along the surfaces (README, "Why refine"). Point-to-plane removes the in-plane force; JRMPC
+//! supplies the basin of convergence. The match distance shrinks over stages, so the first
+//! stage can still catch what JRMPC left and the last one ignores what does not overlap.
+
+use crate::icp::{self, IcpSettings};
+use crate::jrmpc::Control;
+use crate::se3::Pose;
+
+use super::Progress;
+use super::average::average;
+
+/// The refinement's settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefineSettings {
+    /// Maximum correspondence distance (m) of each stage, in order.
+    pub match_distances: Vec<f64>,
+    /// The ICP settings of every stage (the match distance is taken from the stages).
+    pub icp: IcpSettings,
+}
+
+impl Default for RefineSettings {
+    fn default() -> Self {
+        Self {
+            match_distances: vec![0.5, 0.2, 0.1, 0.05],
+            icp: IcpSettings {
+                // Tight: the refinement is the last word on the calibration.
+                translation_tolerance: 1e-5,
+                rotation_tolerance: 1e-5,
+                ..IcpSettings::default()
+            },
+        }
+    }
+}
+
+/// A frame whose registration failed; it is left out of the average.
+pub struct Failure {
+    /// Index of the sensor's view.
+    pub view: usize,
+    pub reason: String,
+}
+
+/// For each sensor and frame pair `(reference view, sensor view)`, registers the sensor's view
+/// onto the reference's from the current correction (identity when `corrections[s]` is empty,
+/// i.e. the nominal pre-alignment) and replaces it. Frames that fail are dropped and returned.
+#[allow(clippy::too_many_arguments)]
+pub fn per_frame(
+    clouds: &[&[[f32; 3]]],
+    pairs: &[Vec<(usize, usize)>],
+    reference: usize,
+    corrections: &mut [Vec<((usize, usize), Pose)>],
+    method: icp::Method,
+    settings: &IcpSettings,
+    match_distances: &[f64],
+    progress: &mut impl FnMut(&Progress) -> Control,
+) -> Result<Vec<Failure>, super::CalibError> {
+    let total: usize =
+        pairs.iter().enumerate().filter(|(s, _)| *s != reference).map(|(_, p)| p.len()).sum();
+    let mut done = 0;
+    let mut failures = Vec::new();
+    // Targets are built once per reference view and shared by every sensor.
+    let mut targets: Vec<Option<icp::Target>> = (0..clouds.len()).map(|_| None).collect();
+    let mut refined: Vec<Vec<((usize, usize), Pose)>> = vec![Vec::new(); pairs.len()];
+    for (s, frames) in pairs.iter().enumerate() {
+        if s == reference {
+            refined[s] = frames.iter().map(|&pair| (pair, Pose::identity())).collect();
+            continue;
+        }
+        for &(r, v) in frames {
+            let start = corrections[s]
+                .iter()
+                .find(|(p, _)| *p == (r, v))
+                .map_or_else(Pose::identity, |(_, c)| *c);
+            let target = match &targets[r] {
+                Some(t) => Ok(t),
+                None => {
+                    icp::Target::new(clouds[r], method, settings).map(|t| &*targets[r].insert(t))
+                }
+            };
+            let result = target.and_then(|target| {
+                match_distances.iter().try_fold(start, |pose, &distance| {
+                    let stage =
+                        IcpSettings { max_correspondence_distance: distance, ..settings.clone() };
+                    target.align(clouds[v], &pose, &stage).map(|a| a.target_from_source)
+                })
+            });
+            match result {
+                Ok(pose) => refined[s].push(((r, v), pose)),
+                Err(e) => failures
+                    .push(Failure { view: v, reason: format!("{} failed: {e}", method.name()) }),
+            }
+            done += 1;
+            let running: Vec<Pose> = refined
+                .iter()
+                .map(|c| {
+                    average(&c.iter().map(|(_, p)| *p).collect::<Vec<_>>())
+                        .map_or_else(Pose::identity, |(m, _)| m)
+                })
+                .collect();
+            let answer = progress(&Progress {
+                iteration: done,
+                max_iterations: total,
+                mean_sigma: 0.0,
+                max_change: 0.0,
+                corrections: &running,
+            });
+            if answer == Control::Stop {
+                break;
+            }
+        }
+    }
+    corrections.iter_mut().zip(refined).for_each(|(c, r)| *c = r);
+    Ok(failures)
+}
