@@ -120,6 +120,7 @@ struct HistoryOutput {
 }
 
 #[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
 struct CalibrateOutput {
     method: &'static str,
     reference: String,
@@ -129,6 +130,7 @@ struct CalibrateOutput {
     sensors: Vec<SensorOutput>,
     target: TargetOutput,
     skipped: Vec<SkippedOutput>,
+    kept_jrmpc: Vec<SkippedOutput>,
     history: HistoryOutput,
 }
 
@@ -260,6 +262,17 @@ fn sensor_names(rig: &Rig) -> Vec<String> {
 fn f32_array(values: impl Iterator<Item = f64>) -> Float32Array {
     let v: Vec<f32> = values.map(|x| x as f32).collect();
     Float32Array::from(v.as_slice())
+}
+
+fn notes(notes: &[calib::FrameNote]) -> Vec<SkippedOutput> {
+    notes
+        .iter()
+        .map(|s| SkippedOutput {
+            sensor: s.sensor.clone(),
+            frame: s.frame.clone(),
+            reason: s.reason.clone(),
+        })
+        .collect()
 }
 
 fn output(c: &Calibration) -> CalibrateOutput {

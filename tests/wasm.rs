@@ -120,7 +120,7 @@ fn bad_input_throws_errors_that_name_the_problem() {
 
 #[wasm_bindgen_test]
 fn progress_fires_every_iteration_and_can_cancel() {
-    let rig = js("rig.iterations = 12; return rig;", &small_rig());
+    let rig = js("rig.iterations = 12; rig.method = 'jrmpc'; return rig;", &small_rig());
     let counter = js("const calls = []; return calls;", &JsValue::NULL);
     let on_progress = Function::new_with_args(
         "calls",

@@ -181,7 +181,7 @@ pub struct Target {
 }
 
 #[derive(Clone, Debug)]
-pub struct SkippedView {
+pub struct FrameNote {
     pub sensor: String,
     pub frame: String,
     pub reason: String,
@@ -196,7 +196,10 @@ pub struct Calibration {
     pub iterations: usize,
     pub converged: bool,
     pub cancelled: bool,
-    pub skipped: Vec<SkippedView>,
+    /// Views left out (too few points in the ROI, failed registration).
+    pub skipped: Vec<FrameNote>,
+    /// `gmm` frames whose refinement was rejected; they keep the JRMPC correction.
+    pub kept_jrmpc: Vec<FrameNote>,
     pub history: Vec<jrmpc::IterationStats>,
 }
 
@@ -295,6 +298,7 @@ pub fn calibrate(
     // 1-2. Pre-align and crop.
     let mut usable = Vec::new(); // (sensor index, frame, cropped cloud)
     let mut skipped = Vec::new();
+    let mut kept_jrmpc = Vec::new();
     for view in &rig.views {
         if let Some(index) = view.points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(CalibError::NonFinitePoint {
@@ -314,7 +318,7 @@ pub fn calibrate(
             } else {
                 "all points in the ROI coincide".to_string()
             };
-            skipped.push(SkippedView {
+            skipped.push(FrameNote {
                 sensor: view.sensor.clone(),
                 frame: view.frame.clone(),
                 reason,
@@ -361,9 +365,11 @@ pub fn calibrate(
         Method::Jrmpc => None,
     };
     if let Some((icp_method, icp_settings)) = refinement {
-        let schedule = match settings.method {
-            Method::Gmm => settings.refine.match_distances.as_slice(),
-            _ => std::slice::from_ref(&icp_settings.max_correspondence_distance),
+        let (schedule, guard) = match settings.method {
+            Method::Gmm => {
+                (settings.refine.match_distances.as_slice(), Some(settings.refine.max_departure))
+            }
+            _ => (std::slice::from_ref(&icp_settings.max_correspondence_distance), None),
         };
         let report = refine::per_frame(
             &clouds,
@@ -373,16 +379,21 @@ pub fn calibrate(
             icp_method,
             icp_settings,
             schedule,
+            guard,
             &mut progress,
         )?;
         for failure in report {
-            let (_, frame, _) = &usable[failure.view];
-            let sensor = usable[failure.view].0;
-            skipped.push(SkippedView {
-                sensor: sensors[sensor].clone(),
+            let (sensor, frame, _) = &usable[failure.view];
+            let note = FrameNote {
+                sensor: sensors[*sensor].clone(),
                 frame: frame.clone(),
                 reason: failure.reason,
-            });
+            };
+            if failure.kept_start {
+                kept_jrmpc.push(note);
+            } else {
+                skipped.push(note);
+            }
         }
     }
 
@@ -433,6 +444,7 @@ pub fn calibrate(
         converged,
         cancelled,
         skipped,
+        kept_jrmpc,
         history,
     })
 }

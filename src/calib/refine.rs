@@ -21,27 +21,34 @@ pub struct RefineSettings {
     pub match_distances: Vec<f64>,
     /// The ICP settings of every stage (the match distance is taken from the stages).
     pub icp: IcpSettings,
+    /// A refinement that moves a frame's correction further than this from where it started
+    /// (rad, m) has slid off (on sparse views, poor normals can drag point-to-plane away); the
+    /// frame keeps its starting correction and is reported. JRMPC's errors stay well inside.
+    pub max_departure: (f64, f64),
 }
 
 impl Default for RefineSettings {
     fn default() -> Self {
         Self {
-            match_distances: vec![0.5, 0.2, 0.1, 0.05],
+            match_distances: vec![0.2, 0.1, 0.05],
             icp: IcpSettings {
                 // Tight: the refinement is the last word on the calibration.
                 translation_tolerance: 1e-5,
                 rotation_tolerance: 1e-5,
                 ..IcpSettings::default()
             },
+            max_departure: (2f64.to_radians(), 0.2),
         }
     }
 }
 
-/// A frame whose registration failed; it is left out of the average.
+/// A frame whose registration failed (left out of the average) or whose refinement was
+/// rejected (the starting correction kept).
 pub struct Failure {
     /// Index of the sensor's view.
     pub view: usize,
     pub reason: String,
+    pub kept_start: bool,
 }
 
 /// For each sensor and frame pair `(reference view, sensor view)`, registers the sensor's view
@@ -56,6 +63,7 @@ pub fn per_frame(
     method: icp::Method,
     settings: &IcpSettings,
     match_distances: &[f64],
+    max_departure: Option<(f64, f64)>,
     progress: &mut impl FnMut(&Progress) -> Control,
 ) -> Result<Vec<Failure>, super::CalibError> {
     let total: usize =
@@ -89,9 +97,18 @@ pub fn per_frame(
                 })
             });
             match result {
-                Ok(pose) => refined[s].push(((r, v), pose)),
-                Err(e) => failures
-                    .push(Failure { view: v, reason: format!("{} failed: {e}", method.name()) }),
+                Ok(pose) => match departure_beyond(&start, &pose, max_departure) {
+                    None => refined[s].push(((r, v), pose)),
+                    Some(reason) => {
+                        failures.push(Failure { view: v, reason, kept_start: true });
+                        refined[s].push(((r, v), start));
+                    }
+                },
+                Err(e) => failures.push(Failure {
+                    view: v,
+                    reason: format!("{} failed: {e}", method.name()),
+                    kept_start: false,
+                }),
             }
             done += 1;
             let running: Vec<Pose> = refined
@@ -115,4 +132,18 @@ pub fn per_frame(
     }
     corrections.iter_mut().zip(refined).for_each(|(c, r)| *c = r);
     Ok(failures)
+}
+
+/// Why `end` is too far from `start` to be trusted, if it is.
+fn departure_beyond(start: &Pose, end: &Pose, limit: Option<(f64, f64)>) -> Option<String> {
+    let (angle, distance) = limit?;
+    let d = start.inverse() * end;
+    let (a, t) = (d.rotation.angle(), d.translation.vector.norm());
+    (a > angle || t > distance).then(|| {
+        format!(
+            "refinement moved {:.2} deg / {:.3} m from the JRMPC correction; kept that instead",
+            a.to_degrees(),
+            t
+        )
+    })
 }
