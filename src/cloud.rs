@@ -79,7 +79,7 @@ impl Cloud {
     /// which is how sensors mark missing returns. Returns how many were dropped.
     pub fn drop_invalid(&mut self) -> usize {
         let before = self.len();
-        self.retain(|p| is_valid_point(p));
+        self.retain(is_valid_point);
         before - self.len()
     }
 
