@@ -6,6 +6,7 @@
 //! adapter compiled only for `wasm32`.
 
 pub mod cloud;
+pub mod io;
 pub mod se3;
 
 pub use cloud::{Aabb, Cloud};
