@@ -321,10 +321,10 @@ fn read_ascii(
         let mut cursor = 0usize;
         for ((name, property), role) in vertex.properties.iter().zip(roles) {
             let token = tokens.get(cursor).ok_or_else(|| {
-                Fault::line(
-                    n,
-                    format!("too few values ({}) for the vertex properties", tokens.len()),
-                )
+                let cut = if lines.remaining() == 0 { "truncated: " } else { "" };
+                let problem =
+                    format!("{cut}too few values ({}) for the vertex properties", tokens.len());
+                Fault::line(n, problem)
             })?;
             cursor += 1;
             match property {
