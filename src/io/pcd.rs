@@ -164,7 +164,7 @@ fn read_ascii(header: &Header, body: &[u8]) -> Result<Builder, Fault> {
     let [x, y, z] = header.xyz.map(token_of);
     let intensity = header.intensity.map(token_of);
     let mut out = Builder::new(header.points, intensity.is_some());
-    let mut tokens = Vec::with_capacity(per_point);
+    let mut tokens = Vec::new();
     let mut lines = Lines::new(body, header.body_line, header.body_start);
     while out.seen() < header.points {
         let Some((n, line)) = lines.next() else {
