@@ -447,8 +447,8 @@ fn huge_declared_sizes_fail_fast_without_allocating() {
         );
     }
     // No points but a huge COUNT: nothing may be sized from the COUNT alone.
-    let no_points = edited("v06.pcd", "POINTS 4", "POINTS 0").iter().copied().collect::<Vec<u8>>();
-    let no_points = String::from_utf8(no_points).unwrap().replace("WIDTH 4", "WIDTH 0");
+    let no_points = String::from_utf8(edited("v06.pcd", "POINTS 4", "POINTS 0")).unwrap();
+    let no_points = no_points.replace("WIDTH 4", "WIDTH 0");
     let huge_count = no_points.replace("COUNT 1 1 1 1", &format!("COUNT 1 1 1 {tera}"));
     assert!(parse_cloud(huge_count.as_bytes(), "c.pcd").unwrap().cloud.is_empty());
     // An element without properties takes no bytes, however many records it declares.

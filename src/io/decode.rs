@@ -1,5 +1,5 @@
-//! Building blocks shared by the PCD and PLY readers: scalar types and their byte decoding,
-//! strided column reads, a point collector that drops missing returns, and ASCII tokenising.
+//! Binary building blocks shared by the readers: scalar types and their byte decoding, strided
+//! column reads, and a point collector that drops missing returns.
 
 use crate::cloud::{Cloud, is_valid_point};
 
@@ -108,12 +108,47 @@ impl Column {
             .is_some_and(|end| end <= len)
     }
 
-    #[inline(always)]
-    fn read(&self, data: &[u8], i: usize, e: Endian) -> f32 {
-        // `fits` was checked for every index used, so the fallback is unreachable; NaN would
-        // only make the point count as dropped, never panic.
-        let at = self.base + i * self.stride;
-        data.get(at..).and_then(|b| self.ty.read_f32(b, e)).unwrap_or(f32::NAN)
+    /// Decodes the values of points `first..first + out.len()` into `out`. The type and byte
+    /// order are matched once per block, so each inner loop is a plain strided load.
+    fn fill(&self, data: &[u8], first: usize, e: Endian, out: &mut [f32]) {
+        macro_rules! fill_as {
+            ($t:ty, $from:ident) => {{
+                const N: usize = std::mem::size_of::<$t>();
+                for (k, slot) in out.iter_mut().enumerate() {
+                    let at = self.base + (first + k) * self.stride;
+                    // `fits` was checked for every index used, so the NaN fallback is
+                    // unreachable; it would only count the point as dropped, never panic.
+                    let bytes = data.get(at..at + N).and_then(|b| <[u8; N]>::try_from(b).ok());
+                    *slot = bytes.map_or(f32::NAN, |b| <$t>::$from(b) as f32);
+                }
+            }};
+        }
+        match (self.ty, e) {
+            (Scalar::F32, Endian::Little) => fill_as!(f32, from_le_bytes),
+            (Scalar::F32, Endian::Big) => fill_as!(f32, from_be_bytes),
+            (Scalar::F64, Endian::Little) => fill_as!(f64, from_le_bytes),
+            (Scalar::F64, Endian::Big) => fill_as!(f64, from_be_bytes),
+            (Scalar::I8 | Scalar::U8, _) => {
+                let signed = self.ty == Scalar::I8;
+                for (k, slot) in out.iter_mut().enumerate() {
+                    let byte = data.get(self.base + (first + k) * self.stride).copied();
+                    *slot =
+                        byte.map_or(f32::NAN, |b| if signed { b as i8 as f32 } else { b as f32 });
+                }
+            }
+            (Scalar::I16, Endian::Little) => fill_as!(i16, from_le_bytes),
+            (Scalar::I16, Endian::Big) => fill_as!(i16, from_be_bytes),
+            (Scalar::U16, Endian::Little) => fill_as!(u16, from_le_bytes),
+            (Scalar::U16, Endian::Big) => fill_as!(u16, from_be_bytes),
+            (Scalar::I32, Endian::Little) => fill_as!(i32, from_le_bytes),
+            (Scalar::I32, Endian::Big) => fill_as!(i32, from_be_bytes),
+            (Scalar::U32, Endian::Little) => fill_as!(u32, from_le_bytes),
+            (Scalar::U32, Endian::Big) => fill_as!(u32, from_be_bytes),
+            (Scalar::I64, Endian::Little) => fill_as!(i64, from_le_bytes),
+            (Scalar::I64, Endian::Big) => fill_as!(i64, from_be_bytes),
+            (Scalar::U64, Endian::Little) => fill_as!(u64, from_le_bytes),
+            (Scalar::U64, Endian::Big) => fill_as!(u64, from_be_bytes),
+        }
     }
 }
 
@@ -130,11 +165,20 @@ pub(crate) fn decode_columns(
     if !xyz.iter().chain(intensity.iter()).all(|c| c.fits(n, data.len())) {
         return false;
     }
-    let [cx, cy, cz] = xyz;
-    for i in 0..n {
-        let p = [cx.read(data, i, e), cy.read(data, i, e), cz.read(data, i, e)];
-        let value = intensity.map_or(0.0, |c| c.read(data, i, e));
-        out.push(p, value);
+    // Blocks small enough to stay in L1 while the columns are merged into points.
+    const BLOCK: usize = 256;
+    let mut values = [[0.0f32; BLOCK]; 4];
+    let mut first = 0;
+    while first < n {
+        let len = (n - first).min(BLOCK);
+        for (column, slot) in xyz.iter().chain(intensity.iter()).zip(values.iter_mut()) {
+            column.fill(data, first, e, &mut slot[..len]);
+        }
+        let [xs, ys, zs, is] = &values;
+        for k in 0..len {
+            out.push([xs[k], ys[k], zs[k]], is[k]);
+        }
+        first += len;
     }
     true
 }
@@ -177,81 +221,5 @@ impl Builder {
     /// The cloud and the number of dropped points.
     pub fn finish(self) -> (Cloud, usize) {
         (Cloud { points: self.points, intensity: self.intensity }, self.dropped)
-    }
-}
-
-/// Lines of a byte buffer with their 1-based numbers and their start offsets; a trailing `\r` is
-/// removed (files written on Windows).
-pub(crate) struct Lines<'a> {
-    rest: &'a [u8],
-    offset: usize,
-    number: usize,
-}
-
-impl<'a> Lines<'a> {
-    /// Lines of `data`, which starts at line `first_number` and byte `offset` of the file.
-    pub fn new(data: &'a [u8], first_number: usize, offset: usize) -> Self {
-        Self { rest: data, offset, number: first_number }
-    }
-
-    /// Byte offset in the file of the next line not yet returned.
-    pub fn offset(&self) -> usize {
-        self.offset
-    }
-
-    /// Bytes not yet returned.
-    pub fn remaining(&self) -> usize {
-        self.rest.len()
-    }
-
-    /// Number of the next line not yet returned.
-    pub fn number(&self) -> usize {
-        self.number
-    }
-}
-
-impl<'a> Iterator for Lines<'a> {
-    /// `(line number, line without its terminator)`.
-    type Item = (usize, &'a [u8]);
-
-    fn next(&mut self) -> Option<Self::Item> {
-        if self.rest.is_empty() {
-            return None;
-        }
-        let (line, consumed) = match self.rest.iter().position(|&b| b == b'\n') {
-            Some(end) => (&self.rest[..end], end + 1),
-            None => (self.rest, self.rest.len()),
-        };
-        let line = line.strip_suffix(b"\r").unwrap_or(line);
-        let number = self.number;
-        self.rest = &self.rest[consumed..];
-        self.offset += consumed;
-        self.number += 1;
-        Some((number, line))
-    }
-}
-
-/// Splits `line` at ASCII whitespace into `out` (cleared first), reusing its allocation.
-#[inline]
-pub(crate) fn tokenize<'a>(line: &'a [u8], out: &mut Vec<&'a [u8]>) {
-    out.clear();
-    out.extend(line.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty()));
-}
-
-/// Parses one ASCII token as f32 (`nan`, `inf` and exponents accepted, as C's `strtof` writes).
-#[inline]
-pub(crate) fn parse_f32(token: &[u8]) -> Result<f32, String> {
-    std::str::from_utf8(token)
-        .ok()
-        .and_then(|s| s.parse::<f32>().ok())
-        .ok_or_else(|| format!("'{}' is not a number", shown(token)))
-}
-
-/// A token for an error message: lossy UTF-8, at most 40 characters.
-pub(crate) fn shown(token: &[u8]) -> String {
-    let text = String::from_utf8_lossy(token);
-    match text.char_indices().nth(40) {
-        Some((cut, _)) => format!("{}...", &text[..cut]),
-        None => text.into_owned(),
     }
 }

@@ -15,6 +15,7 @@ mod kitti;
 pub mod lzf;
 mod pcd;
 mod ply;
+mod text;
 mod write;
 
 use std::fmt;

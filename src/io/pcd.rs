@@ -13,7 +13,8 @@ mod header;
 
 use std::borrow::Cow;
 
-use super::decode::{Builder, Column, Endian, Lines, Scalar, decode_columns, parse_f32, tokenize};
+use super::decode::{Builder, Column, Endian, Scalar, decode_columns};
+use super::text::{TextLines, parse_f32, tokenize};
 use super::{Decoded, Fault, Format, lzf};
 use header::{Header, offset_of, parse_header, record_size};
 
@@ -165,19 +166,19 @@ fn read_ascii(header: &Header, body: &[u8]) -> Result<Builder, Fault> {
     let intensity = header.intensity.map(token_of);
     let mut out = Builder::new(header.points, intensity.is_some());
     let mut tokens = Vec::new();
-    let mut lines = Lines::new(body, header.body_line, header.body_start);
+    let mut lines = TextLines::new(body, header.body_line);
     while out.seen() < header.points {
         let Some((n, line)) = lines.next() else {
             let seen = out.seen();
             let problem = format!("truncated: data ends after {seen} of {} points", header.points);
-            return Err(Fault::line(lines.number(), problem));
+            return Err(lines.ran_out(problem));
         };
         tokenize(line, &mut tokens);
-        if tokens.first().is_none_or(|t| t.starts_with(b"#")) {
+        if tokens.first().is_none_or(|t| t.starts_with('#')) {
             continue;
         }
         if tokens.len() != per_point {
-            let cut = if lines.remaining() == 0 { "truncated: " } else { "" };
+            let cut = if lines.at_end() { "truncated: " } else { "" };
             let problem = format!("{cut}expected {per_point} values, found {}", tokens.len());
             return Err(Fault::line(n, problem));
         }

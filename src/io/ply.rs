@@ -6,7 +6,8 @@
 //! no padding, and list properties make records variable-length, so elements stored before
 //! `vertex` (faces, say) are walked record by record to find where the vertices begin.
 
-use super::decode::{Builder, Column, Endian, Lines, Scalar, decode_columns, parse_f32, tokenize};
+use super::decode::{Builder, Column, Endian, Scalar, decode_columns};
+use super::text::{Lines, TextLines, parse_f32, tokenize};
 use super::{Decoded, Fault, Format};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,7 +47,7 @@ impl Element {
 
 /// Reads a PLY file.
 pub(crate) fn read(bytes: &[u8]) -> Result<Decoded, Fault> {
-    let (format, elements, mut lines) = parse_header(bytes)?;
+    let (format, elements, lines) = parse_header(bytes)?;
     let Some(v) = elements.iter().position(|e| e.name == "vertex") else {
         return Err(Fault::whole("no vertex element"));
     };
@@ -78,6 +79,8 @@ pub(crate) fn read(bytes: &[u8]) -> Result<Decoded, Fault> {
     let has_intensity = roles.contains(&Some(3));
     let builder = match format {
         Format::PlyAscii => {
+            let body = bytes.get(lines.offset()..).unwrap_or_default();
+            let mut lines = TextLines::new(body, lines.number());
             for element in &elements[..v] {
                 skip_ascii(element, &mut lines)?;
             }
@@ -281,13 +284,13 @@ fn read_binary(
 }
 
 /// Skips `element`'s records, one per non-blank line.
-fn skip_ascii(element: &Element, lines: &mut Lines<'_>) -> Result<(), Fault> {
+fn skip_ascii(element: &Element, lines: &mut TextLines<'_>) -> Result<(), Fault> {
     // An element without properties has nothing to write, so it takes no lines.
     let count = if element.properties.is_empty() { 0 } else { element.count };
     let mut record = 0;
     while record < count {
         let Some((_, line)) = lines.next() else {
-            return Err(Fault::line(lines.number(), ends_in(element, record)));
+            return Err(lines.ran_out(ends_in(element, record)));
         };
         record += usize::from(!line.trim_ascii().is_empty());
     }
@@ -298,7 +301,7 @@ fn read_ascii(
     vertex: &Element,
     roles: &[Option<usize>],
     has_intensity: bool,
-    lines: &mut Lines<'_>,
+    lines: &mut TextLines<'_>,
 ) -> Result<Builder, Fault> {
     // Each value takes at least one character and one separator.
     let most = lines.remaining() / vertex.properties.len().saturating_mul(2).max(1) + 1;
@@ -311,7 +314,7 @@ fn read_ascii(
     let mut tokens = Vec::new();
     while out.seen() < vertex.count {
         let Some((n, line)) = lines.next() else {
-            return Err(Fault::line(lines.number(), ends_in(vertex, out.seen())));
+            return Err(lines.ran_out(ends_in(vertex, out.seen())));
         };
         tokenize(line, &mut tokens);
         if tokens.is_empty() {
@@ -321,7 +324,7 @@ fn read_ascii(
         let mut cursor = 0usize;
         for ((name, property), role) in vertex.properties.iter().zip(roles) {
             let token = tokens.get(cursor).ok_or_else(|| {
-                let cut = if lines.remaining() == 0 { "truncated: " } else { "" };
+                let cut = if lines.at_end() { "truncated: " } else { "" };
                 let problem =
                     format!("{cut}too few values ({}) for the vertex properties", tokens.len());
                 Fault::line(n, problem)
@@ -334,8 +337,7 @@ fn read_ascii(
                     }
                 }
                 Property::List { .. } => {
-                    let len = std::str::from_utf8(token).ok().and_then(|t| t.parse::<usize>().ok());
-                    let len = len.ok_or_else(|| {
+                    let len = token.parse::<usize>().ok().ok_or_else(|| {
                         Fault::line(n, format!("list {name} has no valid length"))
                     })?;
                     cursor = cursor.saturating_add(len);

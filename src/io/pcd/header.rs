@@ -4,7 +4,8 @@
 
 use nalgebra::{Quaternion, Translation3, UnitQuaternion};
 
-use super::super::decode::{Lines, Scalar};
+use super::super::decode::Scalar;
+use super::super::text::Lines;
 use super::super::{Fault, Format};
 use crate::se3::Pose;
 
