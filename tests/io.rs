@@ -161,6 +161,11 @@ fn viewpoint_is_applied_unless_disabled() {
 
 #[test]
 fn pcd_v06_with_shuffled_header_and_i_field() {
+    // Without WIDTH, POINTS fill HEIGHT rows.
+    let no_width = edited("v06.pcd", "HEIGHT 1\n", "HEIGHT 2\n");
+    let no_width = String::from_utf8(no_width).unwrap().replace("WIDTH 4\n", "");
+    let parsed = parse_cloud(no_width.as_bytes(), "w.pcd").unwrap();
+    assert_eq!((parsed.width, parsed.height, parsed.cloud.len()), (2, 2, 4));
     let parsed = parse_fixture("v06.pcd");
     assert_eq!(
         parsed.cloud,
@@ -398,6 +403,14 @@ fn ply_and_kitti_errors() {
     assert_fails(b"x", "scan.xyz", &["unknown extension"]);
     assert_fails(b"x", "noextension", &["unknown extension"]);
     assert!(parse_cloud(&fixture("same.bin"), "K.BIN").is_ok(), "extensions are case-insensitive");
+    // Header text must be UTF-8, except comments, where writers put Latin-1.
+    let mut latin1 = fixture("same_le.ply");
+    let at = latin1.windows(7).position(|w| w == b"fixture").unwrap();
+    latin1[at + 6] = 0xe9; // "fixtur\xe9": Latin-1, not UTF-8
+    assert!(parse_cloud(&latin1, "c.ply").is_ok());
+    let at = latin1.windows(5).position(|w| w == b"float").unwrap();
+    latin1[at] = 0xe9;
+    assert_fails(&latin1, "c.ply", &["line 6", "not valid UTF-8"]);
 }
 
 #[test]

@@ -122,7 +122,12 @@ pub(super) fn parse_header(bytes: &[u8]) -> Result<Header, Fault> {
         (None, _, None) => return Err(Fault::whole("no POINTS or WIDTH line")),
         (w, h, p) => {
             let h = h.map_or(1, |(_, h)| h);
-            let w = w.map_or_else(|| p.map_or(0, |(_, p)| p), |(_, w)| w);
+            let w = match (w, p) {
+                (Some((_, w)), _) => w,
+                // Without WIDTH the points fill HEIGHT rows (when they divide evenly).
+                (None, Some((_, p))) => p.checked_div(h).filter(|w| w * h == p).unwrap_or(p),
+                (None, None) => 0,
+            };
             let product = w
                 .checked_mul(h)
                 .ok_or_else(|| Fault::whole(format!("WIDTH*HEIGHT = {w}*{h} overflows")))?;
