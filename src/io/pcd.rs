@@ -13,7 +13,7 @@ mod header;
 
 use std::borrow::Cow;
 
-use super::decode::{Builder, Column, Endian, Scalar, decode_columns};
+use super::decode::{Builder, Column, Endian, decode_columns};
 use super::text::{TextLines, parse_f32, tokenize};
 use super::{Decoded, Fault, Format, lzf};
 use header::{Header, offset_of, parse_header, record_size};
@@ -22,25 +22,22 @@ use header::{Header, offset_of, parse_header, record_size};
 pub(crate) fn read(bytes: &[u8]) -> Result<Decoded, Fault> {
     let header = parse_header(bytes)?;
     let body = bytes.get(header.body_start..).unwrap_or_default();
-    let has_intensity = header.intensity.is_some();
     let builder = match header.format {
         Format::PcdAscii => read_ascii(&header, body)?,
         Format::PcdBinary => {
             let record = record_size(&header.fields)?;
             let stored = body_size(&header, record)?;
             check_present(&header, stored, body.len())?;
-            let columns = columns(&header, |j| offset_of(&header.fields, j).map(|o| (o, record)))?;
-            decode(&header, body, columns, has_intensity)?
+            decode(&header, body, |j| offset_of(&header.fields, j).map(|o| (o, record)))?
         }
         _ => {
             let raw = decompress(&header, body)?;
             let n = header.points;
             // Field-major: field j starts after all points of the fields before it.
-            let columns = columns(&header, |j| {
+            decode(&header, &raw, |j| {
                 let base = offset_of(&header.fields, j)?.checked_mul(n)?;
                 Some((base, header.fields.get(j)?.bytes()?))
-            })?;
-            decode(&header, &raw, columns, has_intensity)?
+            })?
         }
     };
     let (cloud, dropped) = builder.finish();
@@ -78,36 +75,25 @@ fn check_present(header: &Header, needed: usize, present: usize) -> Result<(), F
     Ok(())
 }
 
-/// Columns of x, y, z and intensity from `place(j) = (base, stride)` of field `j`.
-fn columns(
-    header: &Header,
-    place: impl Fn(usize) -> Option<(usize, usize)>,
-) -> Result<[Option<Column>; 4], Fault> {
-    let column = |j: usize| -> Result<Column, Fault> {
-        let (base, stride) = place(j).ok_or_else(|| Fault::whole("field offsets overflow"))?;
-        let ty = header.fields.get(j).map_or(Scalar::F32, |f| f.scalar);
-        Ok(Column { base, stride, ty })
-    };
-    let [x, y, z] = header.xyz;
-    Ok([
-        Some(column(x)?),
-        Some(column(y)?),
-        Some(column(z)?),
-        header.intensity.map(column).transpose()?,
-    ])
-}
-
+/// Decodes the points in `data`, where point `i`'s value of field `j` starts at
+/// `base + i * stride` for `(base, stride) = place(j)`.
 fn decode(
     header: &Header,
     data: &[u8],
-    columns: [Option<Column>; 4],
-    has_intensity: bool,
+    place: impl Fn(usize) -> Option<(usize, usize)>,
 ) -> Result<Builder, Fault> {
-    let mut out = Builder::new(header.points, has_intensity);
-    let [Some(x), Some(y), Some(z), intensity] = columns else {
-        return Err(Fault::whole("internal: missing x/y/z column"));
+    let column = |j: usize| -> Result<Column, Fault> {
+        let ty = header.fields.get(j).map(|f| f.scalar);
+        match (place(j), ty) {
+            (Some((base, stride)), Some(ty)) => Ok(Column { base, stride, ty }),
+            _ => Err(Fault::whole("field offsets overflow")),
+        }
     };
-    if !decode_columns(data, header.points, [x, y, z], intensity, Endian::Little, &mut out) {
+    let [x, y, z] = header.xyz;
+    let xyz = [column(x)?, column(y)?, column(z)?];
+    let intensity = header.intensity.map(column).transpose()?;
+    let mut out = Builder::new(header.points, intensity.is_some());
+    if !decode_columns(data, header.points, xyz, intensity, Endian::Little, &mut out) {
         return Err(Fault::byte(header.body_start, "truncated: data ends inside a point"));
     }
     Ok(out)
