@@ -8,6 +8,7 @@
 pub mod calib;
 pub mod cloud;
 pub mod icp;
+pub mod io;
 pub mod jrmpc;
 pub mod se3;
 pub mod synth;
