@@ -6,7 +6,7 @@ use gmmcalib::calib;
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::{to_row_major, xyz_rpy};
 use gmmcalib::synth::{self, RigSpec};
-use gmmcalib::wasm::{calibrate, synthetic_rig};
+use gmmcalib::wasm::{calibrate, parse_cloud, synthetic_rig};
 use js_sys::{Array, Error, Function, Reflect};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen_test::*;
@@ -18,10 +18,10 @@ fn js(body: &str, rig: &JsValue) -> JsValue {
 
 fn small_rig() -> JsValue {
     let options =
-        js("return { sensors: 2, frames: 3, pointsPerView: 600, seed: 4 };", &JsValue::NULL);
+        js("return { sensors: 2, frames: 3, pointsPerView: 1000, seed: 4 };", &JsValue::NULL);
     let rig = synthetic_rig(options).map_err(JsValue::from).expect("syntheticRig");
     js(
-        "return { views: rig.views, nominal: rig.nominal, roi: rig.roi, truth: rig.truth, components: 150, initialSigma: 'prior' };",
+        "return { views: rig.views, nominal: rig.nominal, roi: rig.roi, truth: rig.truth, components: 200, initialSigma: 'prior' };",
         &rig,
     )
 }
@@ -40,7 +40,7 @@ fn calibrate_returns_the_library_result_for_the_synthetic_truth() {
     let result = calibrate(rig.clone(), None).map_err(JsValue::from).expect("calibrate");
 
     let spec =
-        RigSpec { sensors: 2, frames: 3, points_per_view: 600, seed: 4, ..RigSpec::default() };
+        RigSpec { sensors: 2, frames: 3, points_per_view: 1000, seed: 4, ..RigSpec::default() };
     let truth = synth::generate(&spec);
     let lib_rig = calib::Rig {
         views: truth
@@ -57,7 +57,7 @@ fn calibrate_returns_the_library_result_for_the_synthetic_truth() {
         reference: None,
     };
     let settings = calib::Settings {
-        components: 150,
+        components: 200,
         initial_sigma: calib::InitialSigma::PriorSize,
         ..calib::Settings::default()
     };
@@ -80,7 +80,7 @@ fn calibrate_returns_the_library_result_for_the_synthetic_truth() {
     assert_eq!(out.get(22).as_string().unwrap(), "sensor_1");
     assert_eq!(number(23), expected.iterations as f64);
     assert_eq!(out.get(24), JsValue::TRUE);
-    assert_eq!(number(25), 450.0);
+    assert_eq!(number(25), 600.0);
 
     // A small rig (3 frames of 600 points, K = 150) under plain JRMPC: near the truth.
     let d = expected.sensors[1].extrinsic.inverse() * truth.truth[1].1;
@@ -165,4 +165,34 @@ fn calibrate_with_gicp() {
     assert_eq!(out.get(3).as_f64(), Some(3.0));
     let bad = js("rig.method = 'ndt'; return rig;", &small_rig());
     assert!(error_message(calibrate(bad, None)).contains("unknown method 'ndt'"));
+}
+
+#[wasm_bindgen_test]
+fn parse_cloud_reads_files_and_names_bad_ones() {
+    let cloud = gmmcalib::Cloud {
+        points: vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [0.0, 0.0, 0.0]],
+        intensity: Some(vec![7.0, 8.0, 9.0]),
+    };
+    let bytes = gmmcalib::io::write_pcd_binary(&cloud);
+    let parsed = parse_cloud(&bytes, "scan.pcd").map_err(JsValue::from).unwrap();
+    let read = Function::new_with_args(
+        "p",
+        "return [p.points instanceof Float32Array, Array.from(p.points).join(','), p.count, p.dropped,
+                 p.format, Array.from(p.intensity).join(',')];",
+    );
+    let out: Array = read.call1(&JsValue::NULL, &parsed).unwrap().into();
+    assert_eq!(out.get(0), JsValue::TRUE);
+    assert_eq!(out.get(1).as_string().unwrap(), "1,2,3,4,5,6");
+    assert_eq!(out.get(2).as_f64(), Some(2.0));
+    assert_eq!(out.get(3).as_f64(), Some(1.0), "the zero return is dropped");
+    assert_eq!(out.get(4).as_string().unwrap(), "PCD binary");
+    assert_eq!(out.get(5).as_string().unwrap(), "7,8");
+
+    let message = error_message(parse_cloud(&bytes[..bytes.len() - 5], "cut.pcd"));
+    assert!(message.contains("cut.pcd"), "{message}");
+    let message =
+        error_message(parse_cloud(b"ply\nformat ascii 1.0\nelement vertex 10\n", "bad.ply"));
+    assert!(message.contains("bad.ply"), "{message}");
+    let message = error_message(parse_cloud(b"1234", "scan.xyz"));
+    assert!(message.contains("scan.xyz"), "{message}");
 }
