@@ -360,7 +360,7 @@ pub fn calibrate(
         (vec![Vec::new(); sensors.len()], None)
     };
     let refinement = match settings.method {
-        Method::Gmm => Some((icp::Method::PointToPlane, &settings.refine.icp)),
+        Method::Gmm => Some((settings.refine.method, &settings.refine.icp)),
         Method::Icp(m) => Some((m, &settings.icp)),
         Method::Jrmpc => None,
     };

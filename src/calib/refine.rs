@@ -17,6 +17,8 @@ use super::average::average;
 /// The refinement's settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RefineSettings {
+    /// The ICP variant that refines.
+    pub method: icp::Method,
     /// Maximum correspondence distance (m) of each stage, in order.
     pub match_distances: Vec<f64>,
     /// The ICP settings of every stage (the match distance is taken from the stages).
@@ -30,6 +32,7 @@ pub struct RefineSettings {
 impl Default for RefineSettings {
     fn default() -> Self {
         Self {
+            method: icp::Method::PointToPlane,
             match_distances: vec![0.2, 0.1, 0.05],
             icp: IcpSettings {
                 // Tight: the refinement is the last word on the calibration.
