@@ -32,7 +32,8 @@ pub struct RefineSettings {
 impl Default for RefineSettings {
     fn default() -> Self {
         Self {
-            method: icp::Method::PointToPlane,
+            // GICP measured better than point-to-plane on the full-view rigs (README).
+            method: icp::Method::Gicp,
             match_distances: vec![0.2, 0.1, 0.05],
             icp: IcpSettings {
                 // Tight: the refinement is the last word on the calibration.
