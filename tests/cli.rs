@@ -264,4 +264,46 @@ fn bad_input_is_one_clear_line() {
 
     let e = error_of("reference", &["--reference", "sensor_9"], |_| {});
     assert!(e.contains("unknown reference sensor 'sensor_9'"), "{e}");
+
+    let e = error_of("notransform", &[], |d| {
+        fs::create_dir(d.join("data/sensor_3")).unwrap();
+        fs::copy(d.join("data/sensor_2/1.pcd"), d.join("data/sensor_3/1.pcd")).unwrap();
+    });
+    assert!(e.contains("no transform_sensor_3 for the data folder sensor_3"), "{e}");
+
+    let e = error_of("configmethod", &[], |d| append(d, "method: ndt\n"));
+    assert!(e.contains("unknown method 'ndt'"), "{e}");
+}
+
+fn append(dir: &Path, text: &str) {
+    let config = dir.join("config.yaml");
+    fs::write(&config, fs::read_to_string(&config).unwrap() + text).unwrap();
+}
+
+#[test]
+fn flags_override_the_config() {
+    let rig = synth::generate(&RigSpec {
+        sensors: 2,
+        frames: 2,
+        points_per_view: 300,
+        ..Default::default()
+    });
+    let tmp = TempDir::new("override");
+    write_rig(&tmp.0, &rig);
+    append(&tmp.0, "method: ndt\nreference: sensor_9\n");
+    let json_path = tmp.0.join("p2l.json");
+    let args =
+        ["--method", "p2l", "--reference", "sensor_2", "--json", json_path.to_str().unwrap()];
+    let out = gmmcalib(&tmp.0, &args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
+    assert_eq!(json["method"], "p2l");
+    assert_eq!(json["reference"], "sensor_2");
+    // ICP reconstructs no target: no fit to report.
+    assert!(
+        json["target"]["rms"].is_null() && json["target"]["means"].as_array().unwrap().is_empty()
+    );
+    let reference = &json["sensors"][1];
+    assert_eq!(reference["name"], "sensor_2");
+    assert!(matrix(&reference["correction"]).rotation.angle() < 1e-12);
 }

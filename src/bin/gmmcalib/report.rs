@@ -144,7 +144,7 @@ pub fn comparison(results: &[Calibration]) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "{:<6} {:<10} {:>27} {:>27} {:>27} {:>27} {:>6}",
+        "{:<6} {:<10} {:>26} {:>26} {:>26} {:>26} {:>6}",
         "method",
         "sensor",
         "extrinsic xyz (m)",
@@ -158,7 +158,7 @@ pub fn comparison(results: &[Calibration]) -> String {
             let (xyz, rpy) = xyz_rpy(&s.extrinsic);
             let _ = writeln!(
                 out,
-                "{:<6} {:<10} {:>27} {:>27} {:>27} {:>27} {:>6}",
+                "{:<6} {:<10} {:>26} {:>26} {:>26} {:>26} {:>6}",
                 c.method.name(),
                 s.name,
                 m3(xyz),
