@@ -1,0 +1,309 @@
+//! The `gmmcalib` binary end to end: a synthetic rig written in GMMCalib's layout (one folder per
+//! sensor, mixed PCD and PLY, a GMMCalib YAML config), calibrated through the command line and
+//! checked against the library and the truth; and its one-line errors on bad input.
+
+#![cfg(not(target_arch = "wasm32"))]
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use gmmcalib::Cloud;
+use gmmcalib::calib::{self, Method, Rig, Settings, View};
+use gmmcalib::io::{write_pcd_binary, write_ply_binary};
+use gmmcalib::jrmpc::Control;
+use gmmcalib::se3::{Pose, from_row_major, pose_from_xyz_rpy, xyz_rpy};
+use gmmcalib::synth::{self, RigSpec, SyntheticRig};
+use serde_json::Value;
+
+/// A fresh, empty folder under the system temp dir, removed on drop.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> Self {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos());
+        let dir = std::env::temp_dir()
+            .join(format!("gmmcalib-cli-{name}-{}-{nanos}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        Self(dir)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Writes the rig as GMMCalib lays it out: `data/sensor_N/<frame>.pcd` (`.ply` for sensor_3)
+/// and `config.yaml` with the nominal extrinsics and the ROI, in GMMCalib's nested-list form.
+fn write_rig(dir: &Path, rig: &SyntheticRig) {
+    for view in &rig.views {
+        let folder = dir.join("data").join(&view.sensor);
+        fs::create_dir_all(&folder).unwrap();
+        let cloud = Cloud::from_points(view.points.clone());
+        let (name, bytes) = if view.sensor == "sensor_3" {
+            (format!("{}.ply", view.frame), write_ply_binary(&cloud))
+        } else {
+            (format!("{}.pcd", view.frame), write_pcd_binary(&cloud))
+        };
+        fs::write(folder.join(name), bytes).unwrap();
+    }
+    // `{:?}` prints the shortest text that parses back to the same f64.
+    let list = |v: &[f64]| v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ");
+    let mut yaml = format!("number_of_sensors: {}\n", rig.nominal.len());
+    for (name, pose) in &rig.nominal {
+        let (xyz, rpy) = xyz_rpy(pose);
+        let values = [rpy[0], rpy[1], rpy[2], xyz[0], xyz[1], xyz[2]];
+        yaml +=
+            &format!("transform_{name}:\n  - [{}] #[roll, pitch, yaw, x, y z]\n", list(&values));
+    }
+    yaml += &format!("min_bound:\n  - [{}]\n", list(&rig.roi.min));
+    yaml += &format!("max_bound:\n  - [{}]\n", list(&rig.roi.max));
+    fs::write(dir.join("config.yaml"), yaml).unwrap();
+}
+
+/// The rig exactly as the CLI builds it: views sensor by sensor, the nominal from the config's
+/// numbers (which round-trip through the YAML text bit for bit).
+fn rig_as_read(rig: &SyntheticRig) -> Rig {
+    let mut views = Vec::new();
+    for (sensor, _) in &rig.nominal {
+        for v in rig.views.iter().filter(|v| &v.sensor == sensor) {
+            views.push(View {
+                sensor: v.sensor.clone(),
+                frame: v.frame.clone(),
+                points: v.points.clone(),
+            });
+        }
+    }
+    let nominal = rig
+        .nominal
+        .iter()
+        .map(|(name, pose)| {
+            let (xyz, rpy) = xyz_rpy(pose);
+            (name.clone(), pose_from_xyz_rpy(xyz, rpy))
+        })
+        .collect();
+    Rig { views, nominal, roi: rig.roi, reference: None }
+}
+
+fn gmmcalib(dir: &Path, extra: &[&str]) -> Output {
+    let (config, data) = (dir.join("config.yaml"), dir.join("data"));
+    Command::new(env!("CARGO_BIN_EXE_gmmcalib"))
+        .arg("calibrate")
+        .arg("--config")
+        .arg(&config)
+        .arg("--data")
+        .arg(&data)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+fn matrix(v: &Value) -> Pose {
+    let rows = v.as_array().unwrap();
+    let m: Vec<f64> = rows
+        .iter()
+        .flat_map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()))
+        .collect();
+    from_row_major(&m.try_into().unwrap())
+}
+
+fn raw_matrix(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|r| r.as_array().unwrap().clone())
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+#[test]
+fn calibrates_a_gmmcalib_folder_like_the_library() {
+    let spec = RigSpec {
+        sensors: 3,
+        frames: 4,
+        points_per_view: 1000,
+        partial: true,
+        ..Default::default()
+    };
+    let rig = synth::generate(&spec);
+    let tmp = TempDir::new("e2e");
+    write_rig(&tmp.0, &rig);
+    let json_path = tmp.0.join("out.json");
+    let out = gmmcalib(&tmp.0, &["--method", "jrmpc", "--json", json_path.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "exit {:?}: {stderr}", out.status);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("method jrmpc, reference sensor_1"), "{stdout}");
+    assert!(stdout.contains("sensor_3") && stdout.contains("target fit: rms"), "{stdout}");
+
+    let json: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
+    assert_eq!(json["method"], "jrmpc");
+    assert_eq!(json["reference"], "sensor_1");
+    let settings = Settings { method: Method::Jrmpc, ..Settings::default() };
+    let lib = calib::calibrate(&rig_as_read(&rig), &settings, |_| Control::Continue).unwrap();
+    assert_eq!(json["iterations"].as_u64(), Some(lib.iterations as u64));
+    assert_eq!(json["converged"].as_bool(), Some(lib.converged));
+    let sensors = json["sensors"].as_array().unwrap();
+    assert_eq!(sensors.len(), 3);
+    for (i, (s, l)) in sensors.iter().zip(&lib.sensors).enumerate() {
+        assert_eq!(s["name"].as_str(), Some(l.name.as_str()));
+        for (key, pose) in
+            [("extrinsic", &l.extrinsic), ("correction", &l.correction), ("relative", &l.relative)]
+        {
+            let want = gmmcalib::se3::to_row_major(pose);
+            let got = raw_matrix(&s[key]);
+            let worst = got.iter().zip(want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            assert!(worst < 1e-9, "{} {key} differs from the library by {worst}", l.name);
+        }
+        assert_eq!(s["spread"]["frames"].as_u64(), Some(4));
+        let (xyz, rpy) = xyz_rpy(&l.extrinsic);
+        for k in 0..3 {
+            assert!((s["xyz"][k].as_f64().unwrap() - xyz[k]).abs() < 1e-9);
+            assert!((s["rpy"][k].as_f64().unwrap() - rpy[k]).abs() < 1e-9);
+        }
+        // The reference keeps its nominal; the others land near the truth.
+        let extrinsic = matrix(&s["extrinsic"]);
+        let d = extrinsic.inverse() * rig.truth[i].1;
+        let (deg, m) = (d.rotation.angle().to_degrees(), d.translation.vector.norm());
+        assert!(deg < 1.0 && m < 0.1, "{}: {deg:.3} deg, {m:.3} m from the truth", l.name);
+        if i == 0 {
+            assert!(matrix(&s["correction"]).rotation.angle() < 1e-12);
+        }
+    }
+    assert_eq!(json["target"]["means"].as_array().unwrap().len(), lib.target.means.len());
+    assert!(json["target"]["rms"].as_f64().is_some() && json["target"]["edge"].as_f64().is_some());
+    assert!(json["skipped"].as_array().unwrap().is_empty());
+    assert!(json["kept_jrmpc"].as_array().is_some());
+}
+
+#[test]
+fn method_all_writes_one_result_per_method() {
+    let rig = synth::generate(&RigSpec {
+        sensors: 2,
+        frames: 2,
+        points_per_view: 600,
+        ..Default::default()
+    });
+    let tmp = TempDir::new("all");
+    write_rig(&tmp.0, &rig);
+    let json_path = tmp.0.join("all.json");
+    let out = gmmcalib(
+        &tmp.0,
+        &["--method", "all", "--iterations", "30", "--json", json_path.to_str().unwrap()],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
+    let results = json.as_array().expect("a JSON array");
+    let names: Vec<&str> = results.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    assert_eq!(names, ["gmm", "jrmpc", "p2p", "p2l", "gicp"]);
+    for r in results {
+        assert_eq!(r["sensors"].as_array().unwrap().len(), 2);
+        assert!(r["iterations"].as_u64().unwrap() <= 30);
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    for name in names {
+        assert!(stdout.lines().any(|l| l.starts_with(name) && l.contains("sensor_2")), "{stdout}");
+    }
+}
+
+/// Runs the CLI on a small valid folder after `spoil` breaks it; returns the one stderr line.
+fn error_of(name: &str, extra: &[&str], spoil: impl FnOnce(&Path)) -> String {
+    let rig = synth::generate(&RigSpec {
+        sensors: 2,
+        frames: 2,
+        points_per_view: 200,
+        ..Default::default()
+    });
+    let tmp = TempDir::new(name);
+    write_rig(&tmp.0, &rig);
+    spoil(&tmp.0);
+    let out = gmmcalib(&tmp.0, extra);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{name}: exit 0");
+    assert_eq!(out.status.code(), Some(1), "{name}: {stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{name}: {stderr}");
+    assert!(stderr.starts_with("gmmcalib: "), "{stderr}");
+    stderr
+}
+
+#[test]
+fn bad_input_is_one_clear_line() {
+    let e = error_of("nodata", &[], |d| fs::remove_dir_all(d.join("data")).unwrap());
+    assert!(e.contains("data") && e.contains("No such file"), "{e}");
+
+    let e = error_of("emptysensor", &[], |d| {
+        let folder = d.join("data/sensor_2");
+        fs::remove_dir_all(&folder).unwrap();
+        fs::create_dir(&folder).unwrap();
+    });
+    assert!(e.contains("sensor_2: no point-cloud frames"), "{e}");
+
+    let e = error_of("garbage", &[], |d| {
+        fs::write(d.join("data/sensor_2/2.pcd"), b"\x00\x01garbage\xff\xfe not a pcd").unwrap();
+    });
+    assert!(e.contains(&format!("sensor_2{}2.pcd", std::path::MAIN_SEPARATOR)), "{e}");
+
+    let e = error_of("badyaml", &[], |d| {
+        fs::write(d.join("config.yaml"), "min_bound: [1, 2\nmax_bound: {").unwrap();
+    });
+    assert!(e.contains("config.yaml: bad YAML"), "{e}");
+
+    let e = error_of("nokey", &[], |d| {
+        let text = fs::read_to_string(d.join("config.yaml")).unwrap();
+        let cut = text.find("max_bound").unwrap();
+        fs::write(d.join("config.yaml"), &text[..cut]).unwrap();
+    });
+    assert!(e.contains("missing key max_bound"), "{e}");
+
+    let e = error_of("method", &["--method", "ndt"], |_| {});
+    assert!(e.contains("unknown method 'ndt'"), "{e}");
+
+    let e = error_of("reference", &["--reference", "sensor_9"], |_| {});
+    assert!(e.contains("unknown reference sensor 'sensor_9'"), "{e}");
+
+    let e = error_of("notransform", &[], |d| {
+        fs::create_dir(d.join("data/sensor_3")).unwrap();
+        fs::copy(d.join("data/sensor_2/1.pcd"), d.join("data/sensor_3/1.pcd")).unwrap();
+    });
+    assert!(e.contains("no transform_sensor_3 for the data folder sensor_3"), "{e}");
+
+    let e = error_of("configmethod", &[], |d| append(d, "method: ndt\n"));
+    assert!(e.contains("unknown method 'ndt'"), "{e}");
+}
+
+fn append(dir: &Path, text: &str) {
+    let config = dir.join("config.yaml");
+    fs::write(&config, fs::read_to_string(&config).unwrap() + text).unwrap();
+}
+
+#[test]
+fn flags_override_the_config() {
+    let rig = synth::generate(&RigSpec {
+        sensors: 2,
+        frames: 2,
+        points_per_view: 300,
+        ..Default::default()
+    });
+    let tmp = TempDir::new("override");
+    write_rig(&tmp.0, &rig);
+    append(&tmp.0, "method: ndt\nreference: sensor_9\n");
+    let json_path = tmp.0.join("p2l.json");
+    let args =
+        ["--method", "p2l", "--reference", "sensor_2", "--json", json_path.to_str().unwrap()];
+    let out = gmmcalib(&tmp.0, &args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
+    assert_eq!(json["method"], "p2l");
+    assert_eq!(json["reference"], "sensor_2");
+    // ICP reconstructs no target: no fit to report.
+    assert!(
+        json["target"]["rms"].is_null() && json["target"]["means"].as_array().unwrap().is_empty()
+    );
+    let reference = &json["sensors"][1];
+    assert_eq!(reference["name"], "sensor_2");
+    assert!(matrix(&reference["correction"]).rotation.angle() < 1e-12);
+}
