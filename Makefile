@@ -27,7 +27,8 @@ lint:
 	cargo clippy --lib --target $(WASM_TARGET) -- -D warnings
 
 test-rust:
-	cargo test
+	# --show-output: the accuracy tests print their error distributions.
+	cargo test -- --show-output
 
 test-wasm: setup-rust
 	cargo test --target $(WASM_TARGET)
