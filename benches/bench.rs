@@ -41,17 +41,7 @@ fn run(job: &Job) {
         partial: true,
         ..RigSpec::default()
     };
-    let rig = synth::generate(&spec);
-    let rig = Rig {
-        views: rig
-            .views
-            .into_iter()
-            .map(|v| View { sensor: v.sensor, frame: v.frame, points: v.points })
-            .collect(),
-        nominal: rig.nominal,
-        roi: rig.roi,
-        reference: None,
-    };
+    let rig = rig_of(synth::generate(&spec));
     let mut settings = calib::Settings {
         method: calib::Method::Jrmpc,
         components: job.components,
@@ -73,6 +63,35 @@ fn run(job: &Job) {
     );
 }
 
+/// ICP baselines through the calibration, per frame pair, on the synthetic rig's partial views:
+/// the same jobs as the wasm bench.
+fn icp_per_pair(points_per_view: usize) {
+    let frames = if points_per_view > 10_000 { 1 } else { 5 };
+    let spec = RigSpec { frames, points_per_view, partial: true, seed: 2, ..RigSpec::default() };
+    let rig = rig_of(synth::generate(&spec));
+    for method in ["p2p", "p2l", "gicp"] {
+        let settings =
+            calib::Settings { method: method.parse().expect("method"), ..Default::default() };
+        let started = Instant::now();
+        calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibration");
+        let ms = started.elapsed().as_secs_f64() * 1e3 / frames as f64;
+        println!("{method:<5} per pair, {points_per_view:>5}-point views {ms:>9.1} ms");
+    }
+}
+
+fn rig_of(rig: synth::SyntheticRig) -> Rig {
+    Rig {
+        views: rig
+            .views
+            .into_iter()
+            .map(|v| View { sensor: v.sensor, frame: v.frame, points: v.points })
+            .collect(),
+        nominal: rig.nominal,
+        roi: rig.roi,
+        reference: None,
+    }
+}
+
 fn main() {
     let quick = std::env::args().any(|a| a == "--quick");
     println!(
@@ -82,5 +101,10 @@ fn main() {
     for job in JOBS.iter().take(if quick { 1 } else { JOBS.len() }) {
         run(job);
     }
-    icp::run();
+    for points in if quick { &[2000][..] } else { &[2000, 65_000][..] } {
+        icp_per_pair(*points);
+    }
+    if !quick {
+        icp::run();
+    }
 }

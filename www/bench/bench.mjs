@@ -1,29 +1,58 @@
-// The wasm twin of `cargo run --release --bin bench`: the same JRMPC jobs through the JS API,
-// under Node, one thread. Run `make wasm` first (or `make bench`). Pass --quick for the small job.
+// The wasm twin of `cargo run --release --bin bench`: the same jobs through the JS API, under
+// Node, one thread. Run `make wasm` first (or `make bench`). Pass --quick for the small jobs.
 import { readFile } from 'node:fs/promises';
 import { performance } from 'node:perf_hooks';
-import init, { calibrate, syntheticRig } from '../pkg/gmmcalib.js';
+import init, { calibrate, parseCloud, syntheticRig } from '../pkg/gmmcalib.js';
 
 await init({ module_or_path: await readFile(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
+const quick = process.argv.includes('--quick');
+console.log(`gmmcalib wasm bench (Node ${process.version})`);
 
+const rigInput = (rig, extra) => ({ views: rig.views, nominal: rig.nominal, roi: rig.roi, ...extra });
+const pad = (s, n) => String(s).padStart(n);
+
+// JRMPC, 100 iterations, as the reference runs it.
 const jobs = [
   { name: 'sample scale: 10 views x 1300 points, K=444', frames: 5, pointsPerView: 1300, components: 444 },
   { name: 'paper scale: 212 views x 1850 points, K=400', frames: 106, pointsPerView: 1850, components: 400 },
 ];
-
-console.log(`gmmcalib wasm bench (Node ${process.version})`);
-for (const job of process.argv.includes('--quick') ? jobs.slice(0, 1) : jobs) {
+for (const job of quick ? jobs.slice(0, 1) : jobs) {
   const rig = syntheticRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
   const points = rig.views.reduce((n, v) => n + v.points.length / 3, 0);
   const started = performance.now();
-  const result = calibrate({
-    views: rig.views, nominal: rig.nominal, roi: rig.roi,
-    method: 'jrmpc', components: job.components, tolerance: 0,
-  });
+  const result = calibrate(rigInput(rig, { method: 'jrmpc', components: job.components, tolerance: 0 }));
   const seconds = (performance.now() - started) / 1000;
   const terms = points * job.components * result.iterations;
-  console.log(
-    `jrmpc ${job.name.padEnd(46)} ${seconds.toFixed(2).padStart(8)} s  ${String(result.iterations).padStart(3)} iterations  ` +
-      `${(terms / seconds / 1e6).toFixed(1).padStart(7)} M terms/s  (${points} points)`,
-  );
+  console.log(`jrmpc ${job.name.padEnd(46)} ${pad(seconds.toFixed(2), 8)} s  ${pad(result.iterations, 3)} iterations  ` +
+    `${pad((terms / seconds / 1e6).toFixed(1), 7)} M terms/s  (${points} points)`);
 }
+
+// ICP baselines: per frame pair, on partial views of the synthetic rig.
+for (const pointsPerView of quick ? [2000] : [2000, 65000]) {
+  const frames = pointsPerView > 10000 ? 1 : 5;
+  const rig = syntheticRig({ frames, pointsPerView, partial: true, seed: 2 });
+  for (const method of ['p2p', 'p2l', 'gicp']) {
+    const started = performance.now();
+    calibrate(rigInput(rig, { method }));
+    const ms = (performance.now() - started) / frames;
+    console.log(`${method.padEnd(5)} per pair, ${pad(pointsPerView, 5)}-point views ${pad(ms.toFixed(1), 9)} ms`);
+  }
+}
+
+// Parsing: a 1M-point binary PCD (x y z intensity, float32).
+const n = 1_000_000;
+const header = `# .PCD v0.7\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH ${n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS ${n}\nDATA binary\n`;
+const head = new TextEncoder().encode(header);
+const data = new Float32Array(n * 4);
+for (let i = 0; i < n * 4; i++) data[i] = 1 + (i % 9973) * 0.001;
+const bytes = new Uint8Array(head.length + n * 16);
+bytes.set(head);
+bytes.set(new Uint8Array(data.buffer), head.length);
+let best = Infinity;
+for (let run = 0; run < 5; run++) {
+  const started = performance.now();
+  const parsed = parseCloud(bytes, 'bench.pcd');
+  best = Math.min(best, performance.now() - started);
+  if (parsed.count !== n) throw new Error(`parsed ${parsed.count} points`);
+}
+console.log(`parseCloud 1M-point binary PCD (${(bytes.length / 1e6).toFixed(0)} MB)  ${best.toFixed(1)} ms best of 5`);
