@@ -6,71 +6,25 @@
 //!    reference sensor's, by the chosen [`Method`] (frames that lack either sensor are skipped):
 //!    - `jrmpc`: register all views jointly to one floating mixture, starting from the target
 //!      prior at the ROI centroid; `C_ref_s(f) = T_ref,f^-1 T_s,f`;
-//!    - `gmm` (default): `jrmpc`, then point-to-plane ICP of each frame onto the reference's
+//!    - `gmm` (default): `jrmpc`, then GICP of each frame onto the reference's
 //!      same frame from the JRMPC correction (README, "Why refine");
 //!    - `p2p`, `p2l`, `gicp`: ICP of each frame onto the reference's, from the nominal;
 //! 4. average over frames (chordal mean rotation, mean translation) with per-axis spread;
 //! 5. fit the prior shape to the reconstructed means as a plausibility check.
 
 mod average;
+mod error;
 mod refine;
-
-use std::fmt;
-
-use std::str::FromStr;
+mod settings;
 
 use crate::cloud::{Aabb, Cloud};
-use crate::icp::{self, IcpSettings};
-use crate::jrmpc::{self, Control, JrmpcError, Prior};
+use crate::jrmpc::{self, Control};
 use crate::se3::Pose;
 use crate::target_fit::{ShapeFit, fit_prior};
 use average::average;
+pub use error::CalibError;
 pub use refine::RefineSettings;
-
-/// How the per-frame corrections are found.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// JRMPC, then per-frame point-to-plane refinement: the product's default.
-    Gmm,
-    /// Plain JRMPC, as GMMCalib computes it.
-    Jrmpc,
-    /// An ICP baseline from the nominal pre-alignment.
-    Icp(icp::Method),
-}
-
-impl Method {
-    pub const ALL: [Method; 5] = [
-        Method::Gmm,
-        Method::Jrmpc,
-        Method::Icp(icp::Method::PointToPoint),
-        Method::Icp(icp::Method::PointToPlane),
-        Method::Icp(icp::Method::Gicp),
-    ];
-
-    /// `gmm`, `jrmpc`, `p2p`, `p2l` or `gicp`.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Method::Gmm => "gmm",
-            Method::Jrmpc => "jrmpc",
-            Method::Icp(m) => m.name(),
-        }
-    }
-
-    fn uses_jrmpc(&self) -> bool {
-        matches!(self, Method::Gmm | Method::Jrmpc)
-    }
-}
-
-impl FromStr for Method {
-    type Err = CalibError;
-
-    fn from_str(s: &str) -> Result<Self, CalibError> {
-        Method::ALL
-            .into_iter()
-            .find(|m| m.name().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| CalibError::UnknownMethod(s.to_string()))
-    }
-}
+pub use settings::{InitialSigma, Method, Settings};
 
 /// One scan: points `x, y, z` in the sensor's own frame (m).
 #[derive(Clone, Debug)]
@@ -90,59 +44,6 @@ pub struct Rig {
     pub roi: Aabb,
     /// The sensor the others are calibrated to; default: the sensor of the first view.
     pub reference: Option<String>,
-}
-
-/// How wide the mixture starts.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum InitialSigma {
-    /// The references' rule (jrmpc.m, GMMCalib), the default: the diagonal of the bounding box
-    /// of all points and means. Every mean collapses onto the data's centroid in the first
-    /// iteration and the mixture then unfolds along the data's principal directions; with a
-    /// ground patch in the ROI (the usual case) that guides every view, but a ROI holding only
-    /// a cube (isotropic second moments) leaves the views free to drift (README, "Initial
-    /// width").
-    BoundingBox,
-    /// The size of the prior (cube edge, sphere diameter): the mixture keeps the prior's shape
-    /// and catches the target under a few degrees of mounting error. Right for a ROI that holds
-    /// only the target; user-given means fall back to the bounding-box rule.
-    PriorSize,
-    /// A fixed standard deviation (m).
-    Fixed(f64),
-}
-
-/// Calibration settings; every default number lives here or in `jrmpc::Settings`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Settings {
-    pub method: Method,
-    pub prior: Prior,
-    /// Number of mixture components K (GMMCalib: about 400).
-    pub components: usize,
-    /// Seeds the prior sampler.
-    pub seed: u64,
-    /// Views with fewer points than this inside the ROI are skipped.
-    pub min_view_points: usize,
-    pub initial_sigma: InitialSigma,
-    pub jrmpc: jrmpc::Settings,
-    /// For the ICP baselines.
-    pub icp: IcpSettings,
-    /// For `gmm`'s refinement.
-    pub refine: RefineSettings,
-}
-
-impl Default for Settings {
-    fn default() -> Self {
-        Self {
-            method: Method::Gmm,
-            prior: Prior::default(),
-            components: 400,
-            seed: 0,
-            min_view_points: 10,
-            initial_sigma: InitialSigma::BoundingBox,
-            jrmpc: jrmpc::Settings::default(),
-            icp: IcpSettings::default(),
-            refine: RefineSettings::default(),
-        }
-    }
 }
 
 /// Per-axis standard deviation of the per-frame corrections around their mean.
@@ -211,72 +112,6 @@ pub struct Progress<'a> {
     pub max_change: f64,
     /// Current `C_ref_s` per sensor, in the order of `Calibration::sensors`.
     pub corrections: &'a [Pose],
-}
-
-#[derive(Clone, Debug, PartialEq)]
-pub enum CalibError {
-    TooFewSensors(usize),
-    UnknownSensor(String),
-    UnknownReference(String),
-    NonFiniteNominal(String),
-    InvalidRoi,
-    NonFinitePoint {
-        sensor: String,
-        frame: String,
-        index: usize,
-    },
-    /// No usable view of this sensor shares a frame with the reference.
-    NoCommonFrames(String),
-    NoPointsInRoi(String),
-    InvalidSetting(&'static str),
-    UnknownMethod(String),
-    Registration(JrmpcError),
-    /// Every frame of this sensor failed to register.
-    FramesFailed {
-        sensor: String,
-        reason: String,
-    },
-}
-
-impl fmt::Display for CalibError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::TooFewSensors(n) => write!(f, "need views from at least 2 sensors, got {n}"),
-            Self::UnknownSensor(s) => {
-                write!(f, "unknown sensor '{s}': it has views but no nominal extrinsic")
-            }
-            Self::UnknownReference(s) => write!(f, "unknown reference sensor '{s}'"),
-            Self::NonFiniteNominal(s) => {
-                write!(f, "nominal extrinsic of sensor '{s}' is not finite")
-            }
-            Self::InvalidRoi => {
-                write!(f, "ROI is empty or not finite (need finite min <= max on every axis)")
-            }
-            Self::NonFinitePoint { sensor, frame, index } => {
-                write!(f, "view {sensor}/{frame}: point {index} is not finite")
-            }
-            Self::NoCommonFrames(s) => {
-                write!(f, "sensor '{s}' has no usable frame in common with the reference")
-            }
-            Self::NoPointsInRoi(s) => write!(f, "sensor '{s}' has no usable points in the ROI"),
-            Self::InvalidSetting(what) => write!(f, "invalid setting: {what}"),
-            Self::UnknownMethod(m) => {
-                write!(f, "unknown method '{m}' (expected gmm, jrmpc, p2p, p2l or gicp)")
-            }
-            Self::Registration(e) => write!(f, "registration failed: {e}"),
-            Self::FramesFailed { sensor, reason } => {
-                write!(f, "no frame of sensor '{sensor}' could be registered: {reason}")
-            }
-        }
-    }
-}
-
-impl std::error::Error for CalibError {}
-
-impl From<JrmpcError> for CalibError {
-    fn from(e: JrmpcError) -> Self {
-        Self::Registration(e)
-    }
 }
 
 /// Calibrates every sensor of `rig` to the reference sensor.

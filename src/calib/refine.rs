@@ -3,7 +3,7 @@
 //!
 //! Why refine: JRMPC's isotropic Gaussians blend the sensors' different samplings of the same
 //! surfaces, and each view is pulled point-to-point toward that blend, which leaves a bias
-//! along the surfaces (README, "Why refine"). Point-to-plane removes the in-plane force; JRMPC
+//! along the surfaces (README, "Why refine"). Point-to-plane and GICP remove most of the in-plane force; JRMPC
 //! supplies the basin of convergence. The match distance shrinks over stages, so the first
 //! stage can still catch what JRMPC left and the last one ignores what does not overlap.
 
@@ -24,7 +24,7 @@ pub struct RefineSettings {
     /// The ICP settings of every stage (the match distance is taken from the stages).
     pub icp: IcpSettings,
     /// A refinement that moves a frame's correction further than this from where it started
-    /// (rad, m) has slid off (on sparse views, poor normals can drag point-to-plane away); the
+    /// (rad, m) has slid off (on sparse views, poor normals can drag ICP away); the
     /// frame keeps its starting correction and is reported. JRMPC's errors stay well inside.
     pub max_departure: (f64, f64),
 }

@@ -1,0 +1,71 @@
+//! Why a calibration could not run.
+
+use std::fmt;
+
+use crate::jrmpc::JrmpcError;
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum CalibError {
+    TooFewSensors(usize),
+    UnknownSensor(String),
+    UnknownReference(String),
+    NonFiniteNominal(String),
+    InvalidRoi,
+    NonFinitePoint {
+        sensor: String,
+        frame: String,
+        index: usize,
+    },
+    /// No usable view of this sensor shares a frame with the reference.
+    NoCommonFrames(String),
+    NoPointsInRoi(String),
+    InvalidSetting(&'static str),
+    UnknownMethod(String),
+    Registration(JrmpcError),
+    /// Every frame of this sensor failed to register.
+    FramesFailed {
+        sensor: String,
+        reason: String,
+    },
+}
+
+impl fmt::Display for CalibError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::TooFewSensors(n) => write!(f, "need views from at least 2 sensors, got {n}"),
+            Self::UnknownSensor(s) => {
+                write!(f, "unknown sensor '{s}': it has views but no nominal extrinsic")
+            }
+            Self::UnknownReference(s) => write!(f, "unknown reference sensor '{s}'"),
+            Self::NonFiniteNominal(s) => {
+                write!(f, "nominal extrinsic of sensor '{s}' is not finite")
+            }
+            Self::InvalidRoi => {
+                write!(f, "ROI is empty or not finite (need finite min <= max on every axis)")
+            }
+            Self::NonFinitePoint { sensor, frame, index } => {
+                write!(f, "view {sensor}/{frame}: point {index} is not finite")
+            }
+            Self::NoCommonFrames(s) => {
+                write!(f, "sensor '{s}' has no usable frame in common with the reference")
+            }
+            Self::NoPointsInRoi(s) => write!(f, "sensor '{s}' has no usable points in the ROI"),
+            Self::InvalidSetting(what) => write!(f, "invalid setting: {what}"),
+            Self::UnknownMethod(m) => {
+                write!(f, "unknown method '{m}' (expected gmm, jrmpc, p2p, p2l or gicp)")
+            }
+            Self::Registration(e) => write!(f, "registration failed: {e}"),
+            Self::FramesFailed { sensor, reason } => {
+                write!(f, "no frame of sensor '{sensor}' could be registered: {reason}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for CalibError {}
+
+impl From<JrmpcError> for CalibError {
+    fn from(e: JrmpcError) -> Self {
+        Self::Registration(e)
+    }
+}
