@@ -1,7 +1,4 @@
-//! The JavaScript surface (wasm-bindgen). Converts JS values to the library's types and back;
-//! no algorithm lives here. Bulk data crosses as flat typed arrays (`x, y, z, x, y, z, ...`).
-//! Every failure becomes a JS `Error` with a message; nothing here may panic, since a panic
-//! aborts the whole wasm instance.
+//! `calibrate(input, onProgress?)`: a rig in, the calibration out (README, "Wasm API").
 
 use std::collections::BTreeMap;
 
@@ -9,17 +6,11 @@ use js_sys::{Float32Array, Function};
 use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
+use super::to_js;
 use crate::calib::{self, Calibration, InitialSigma, Rig, View};
 use crate::cloud::Aabb;
 use crate::jrmpc::{Control, Prior};
 use crate::se3::{Pose, pose_from_xyz_rpy, to_row_major, xyz_rpy};
-use crate::synth::{self, RigSpec};
-
-#[wasm_bindgen(start)]
-fn start() {
-    // Diagnostics only: errors are returned as values, so a panic here is a bug.
-    std::panic::set_hook(Box::new(|info| web_sys::console::error_1(&info.to_string().into())));
-}
 
 #[derive(Deserialize)]
 struct PoseInput {
@@ -144,12 +135,6 @@ struct ProgressOutput<'a> {
     /// Current correction per sensor (row-major 4x4), in result order.
     corrections: Vec<[f64; 16]>,
     sensors: &'a [String],
-}
-
-fn to_js<T: Serialize>(value: &T) -> Result<JsValue, JsError> {
-    value
-        .serialize(&serde_wasm_bindgen::Serializer::json_compatible())
-        .map_err(|e| JsError::new(&format!("internal: cannot convert result: {e}")))
 }
 
 fn pose_of(name: &str, p: &PoseInput) -> Result<Pose, JsError> {
@@ -318,122 +303,4 @@ fn output(c: &Calibration) -> CalibrateOutput {
             max_change: c.history.iter().map(|h| h.max_change).collect(),
         },
     }
-}
-
-#[derive(Deserialize, Default)]
-#[serde(default, rename_all = "camelCase")]
-struct SyntheticInput {
-    sensors: Option<usize>,
-    frames: Option<usize>,
-    points_per_view: Option<usize>,
-    noise: Option<f64>,
-    partial: Option<bool>,
-    seed: Option<u64>,
-}
-
-#[derive(Serialize)]
-struct PoseOutput {
-    xyz: [f64; 3],
-    rpy: [f64; 3],
-}
-
-#[derive(Serialize)]
-struct SyntheticViewOutput {
-    sensor: String,
-    frame: String,
-    #[serde(with = "serde_wasm_bindgen::preserve")]
-    points: Float32Array,
-}
-
-#[derive(Serialize)]
-struct RoiOutput {
-    min: [f64; 3],
-    max: [f64; 3],
-}
-
-#[derive(Serialize)]
-struct SyntheticOutput {
-    views: Vec<SyntheticViewOutput>,
-    nominal: BTreeMap<String, PoseOutput>,
-    truth: BTreeMap<String, PoseOutput>,
-    roi: RoiOutput,
-}
-
-/// A synthetic rig with known truth (a cube seen by several sensors whose nominal extrinsics
-/// are wrong), in the shape `calibrate` takes, plus `truth` (true `T_vehicle_sensor`).
-#[wasm_bindgen(js_name = syntheticRig)]
-pub fn synthetic_rig(options: JsValue) -> Result<JsValue, JsError> {
-    let o: SyntheticInput = if options.is_undefined() || options.is_null() {
-        SyntheticInput::default()
-    } else {
-        serde_wasm_bindgen::from_value(options)
-            .map_err(|e| JsError::new(&format!("invalid syntheticRig options: {e}")))?
-    };
-    let d = RigSpec::default();
-    let spec = RigSpec {
-        sensors: o.sensors.unwrap_or(d.sensors).clamp(2, 16),
-        frames: o.frames.unwrap_or(d.frames).clamp(1, 1000),
-        points_per_view: o.points_per_view.unwrap_or(d.points_per_view).clamp(10, 1_000_000),
-        noise: o.noise.filter(|n| n.is_finite() && *n >= 0.0).unwrap_or(d.noise),
-        partial: o.partial.unwrap_or(d.partial),
-        seed: o.seed.unwrap_or(d.seed),
-        ..d
-    };
-    let rig = synth::generate(&spec);
-    let pose_out = |p: &Pose| {
-        let (xyz, rpy) = xyz_rpy(p);
-        PoseOutput { xyz, rpy }
-    };
-    to_js(&SyntheticOutput {
-        views: rig
-            .views
-            .iter()
-            .map(|v| SyntheticViewOutput {
-                sensor: v.sensor.clone(),
-                frame: v.frame.clone(),
-                points: Float32Array::from(v.points.as_flattened()),
-            })
-            .collect(),
-        nominal: rig.nominal.iter().map(|(n, p)| (n.clone(), pose_out(p))).collect(),
-        truth: rig.truth.iter().map(|(n, p)| (n.clone(), pose_out(p))).collect(),
-        roi: RoiOutput { min: rig.roi.min, max: rig.roi.max },
-    })
-}
-
-#[derive(Serialize)]
-#[serde(rename_all = "camelCase")]
-struct ParsedOutput {
-    #[serde(with = "serde_wasm_bindgen::preserve")]
-    points: Float32Array,
-    #[serde(with = "serde_wasm_bindgen::preserve")]
-    intensity: JsValue,
-    count: usize,
-    dropped: usize,
-    format: String,
-    width: usize,
-    height: usize,
-    viewpoint_applied: bool,
-}
-
-/// Parses a PCD, PLY or KITTI `.bin` file (chosen by `fileName`'s extension). Invalid points
-/// (NaN, inf, exact zero) are dropped and counted. Throws an `Error` naming the file, the
-/// problem and the line or byte offset.
-#[wasm_bindgen(js_name = parseCloud)]
-pub fn parse_cloud(bytes: &[u8], file_name: &str) -> Result<JsValue, JsError> {
-    let parsed =
-        crate::io::parse_cloud(bytes, file_name).map_err(|e| JsError::new(&e.to_string()))?;
-    let cloud = &parsed.cloud;
-    to_js(&ParsedOutput {
-        points: Float32Array::from(cloud.points.as_flattened()),
-        intensity: cloud
-            .intensity
-            .as_ref()
-            .map_or(JsValue::UNDEFINED, |i| Float32Array::from(i.as_slice()).into()),
-        count: cloud.len(),
-        dropped: parsed.dropped,
-        format: parsed.format.to_string(),
-        width: parsed.width,
-        height: parsed.height,
-        viewpoint_applied: parsed.viewpoint_applied,
-    })
 }

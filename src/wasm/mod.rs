@@ -1,0 +1,28 @@
+//! The JavaScript surface (wasm-bindgen). Converts JS values to the library's types and back;
+//! no algorithm lives here. Bulk data crosses as flat typed arrays (`x, y, z, x, y, z, ...`).
+//! Every failure becomes a JS `Error` with a message; nothing here may panic, since a panic
+//! aborts the whole wasm instance. One file per exported job, as in `www/src/worker.js`.
+
+mod calibrate;
+mod files;
+mod synthetic;
+
+use serde::Serialize;
+use wasm_bindgen::prelude::*;
+
+pub use calibrate::calibrate;
+pub use files::parse_cloud;
+pub use synthetic::synthetic_rig;
+
+#[wasm_bindgen(start)]
+fn start() {
+    // Diagnostics only: errors are returned as values, so a panic here is a bug.
+    std::panic::set_hook(Box::new(|info| web_sys::console::error_1(&info.to_string().into())));
+}
+
+/// JSON-compatible conversion: plain objects (not Maps), `null` for missing values.
+fn to_js<T: Serialize>(value: &T) -> Result<JsValue, JsError> {
+    value
+        .serialize(&serde_wasm_bindgen::Serializer::json_compatible())
+        .map_err(|e| JsError::new(&format!("internal: cannot convert result: {e}")))
+}
