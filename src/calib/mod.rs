@@ -9,7 +9,8 @@
 //!    - `gmm` (default): `jrmpc`, then GICP of each frame onto the reference's
 //!      same frame from the JRMPC correction (README, "Why refine");
 //!    - `p2p`, `p2l`, `gicp`: ICP of each frame onto the reference's, from the nominal;
-//! 4. average over frames (chordal mean rotation, mean translation) with per-axis spread;
+//! 4. average over frames (chordal mean rotation, mean translation) with per-axis spread,
+//!    leaving out and reporting frames far from the others;
 //! 5. fit the prior shape to the reconstructed means as a plausibility check.
 
 mod average;
@@ -21,7 +22,7 @@ use crate::cloud::{Aabb, Cloud};
 use crate::jrmpc::{self, Control};
 use crate::se3::Pose;
 use crate::target_fit::{ShapeFit, fit_prior};
-use average::average;
+use average::{average, robust_average};
 pub use error::CalibError;
 pub use refine::RefineSettings;
 pub use settings::{InitialSigma, Method, Settings};
@@ -237,12 +238,26 @@ pub fn calibrate(
     let mut results = Vec::with_capacity(sensors.len());
     for (s, name) in sensors.iter().enumerate() {
         let corrections: Vec<Pose> = per_frame[s].iter().map(|(_, c)| *c).collect();
-        let Some((correction, spread)) = average(&corrections) else {
+        let Some((correction, spread, outliers)) = robust_average(&corrections) else {
             return Err(CalibError::FramesFailed {
                 sensor: name.clone(),
                 reason: "every frame failed".into(),
             });
         };
+        for i in outliers {
+            let ((_, view), pose) = &per_frame[s][i];
+            let d = correction.inverse() * pose;
+            let reason = format!(
+                "left out of the average: {:.3} deg / {:.1} mm from the other frames",
+                d.rotation.angle().to_degrees(),
+                d.translation.vector.norm() * 1e3
+            );
+            skipped.push(FrameNote {
+                sensor: name.clone(),
+                frame: usable[*view].1.clone(),
+                reason,
+            });
+        }
         let extrinsic = correction * nominal(name).unwrap_or_default();
         results.push(SensorResult {
             name: name.clone(),
