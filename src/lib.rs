@@ -11,6 +11,7 @@ pub mod icp;
 pub mod io;
 pub mod jrmpc;
 pub mod se3;
+pub mod sim;
 pub mod synth;
 pub mod target_fit;
 

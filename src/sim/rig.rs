@@ -1,0 +1,153 @@
+//! Presets of the digital twin (paper section V) and its ground truth: sensors with their true
+//! mounts, the scene, the ROI, simulation of organized scans, and the miscalibration sampler.
+
+use std::f64::consts::PI;
+
+use rand::{Rng, RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+
+use super::lidar::Lidar;
+use super::scene::{OrientedBox, Scene};
+use crate::cloud::{Aabb, Cloud};
+use crate::se3::{Pose, pose_from_xyz_rpy};
+
+/// Default miscalibration bound per rotation axis (rad): 3 deg, as in the paper.
+pub const MAX_MISCALIBRATION_ANGLE: f64 = 3.0 * PI / 180.0;
+/// Default miscalibration bound per translation axis (m).
+pub const MAX_MISCALIBRATION_TRANSLATION: f64 = 0.1;
+
+/// One simulated sensor.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SensorSpec {
+    pub name: String,
+    /// True `T_vehicle_sensor`.
+    pub mount: Pose,
+    pub lidar: Lidar,
+}
+
+/// A complete twin: sensors, scene (vehicle frame, ground at z = 0), and the ROI (vehicle
+/// frame, m) around the calibration cubes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Preset {
+    pub sensors: Vec<SensorSpec>,
+    pub scene: Scene,
+    pub roi: Aabb,
+    /// Index into `scene.boxes` of the validation cube, if any; every other box is a target.
+    pub validation_box: Option<usize>,
+}
+
+/// One simulated scan, labelled (sensor, frame) like real data. The cloud is organized
+/// (`width * height` points, row-major, one row per channel), in the sensor's own frame, with
+/// misses as exact zeros.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimView {
+    pub sensor: String,
+    pub frame: String,
+    pub cloud: Cloud,
+    pub width: usize,
+    pub height: usize,
+}
+
+/// Edge of the calibration and validation cubes (m).
+const CUBE_EDGE: f64 = 0.5;
+
+impl Preset {
+    /// The paper's simulated rig: two LiDARs front-left and front-right (EDGAR-like, x 2.3 m,
+    /// y +-0.6 m, z 1.6 m, rolled 20 deg towards the centre line), 50 channels over -20..+5 deg,
+    /// 2048 columns, 50 m range, 1 cm range noise.
+    pub fn paper() -> Self {
+        let d = PI / 180.0;
+        Self::with_lidar(Lidar::uniform(50, -20.0 * d, 5.0 * d, 2048, 50.0, 0.01))
+    }
+
+    /// The same scene and mounts seen by an Ouster OS1-128-like sensor: 128 channels over
+    /// -22.5..+22.5 deg, 2048 columns, 120 m range, 1 cm range noise.
+    pub fn os1_128() -> Self {
+        let d = PI / 180.0;
+        Self::with_lidar(Lidar::uniform(128, -22.5 * d, 22.5 * d, 2048, 120.0, 0.01))
+    }
+
+    /// Two mounts and the cube scene around one sensor model.
+    fn with_lidar(lidar: Lidar) -> Self {
+        let d = PI / 180.0;
+        // A positive roll tips the sensor's left (+y) side up and its right side down, so the
+        // left sensor (+y) rolls +20 deg and the right one -20 deg: both lean towards the centre.
+        let sensor = |name: &str, y: f64, roll: f64| SensorSpec {
+            name: name.to_string(),
+            mount: pose_from_xyz_rpy([2.3, y, 1.6], [roll, 0.0, 0.0]),
+            lidar: lidar.clone(),
+        };
+        let scene = Scene {
+            ground: true,
+            boxes: vec![
+                OrientedBox::cube_on_ground(12.3, -1.5, CUBE_EDGE, 0.0),
+                OrientedBox::cube_on_ground(12.3, 0.0, CUBE_EDGE, 20.0 * d),
+                OrientedBox::cube_on_ground(12.3, 1.5, CUBE_EDGE, 40.0 * d),
+                // Validation cube, 16 m ahead of the sensors; visible above the middle cube.
+                OrientedBox::cube_on_ground(18.3, 0.0, CUBE_EDGE, 30.0 * d),
+            ],
+        };
+        Self {
+            sensors: vec![
+                sensor("front_left", 0.6, 20.0 * d),
+                sensor("front_right", -0.6, -20.0 * d),
+            ],
+            scene,
+            roi: Aabb::new([11.0, -2.5, -0.5], [13.5, 2.5, 1.0]),
+            validation_box: Some(3),
+        }
+    }
+
+    /// The calibration targets: every box except the validation cube.
+    pub fn targets(&self) -> impl Iterator<Item = &OrientedBox> {
+        self.scene
+            .boxes
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| Some(*i) != self.validation_box)
+            .map(|(_, b)| b)
+    }
+
+    /// `frames` scans per sensor of the static scene from the static vehicle (vehicle frame =
+    /// world frame), each frame with fresh noise and dropout. Views are ordered frame by frame,
+    /// sensor by sensor within a frame; frames are named "1", "2", ... Seeded: same seed, same
+    /// views.
+    pub fn simulate(&self, frames: usize, seed: u64) -> Vec<SimView> {
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let mut views = Vec::with_capacity(frames * self.sensors.len());
+        for frame in 1..=frames {
+            for s in &self.sensors {
+                views.push(SimView {
+                    sensor: s.name.clone(),
+                    frame: frame.to_string(),
+                    cloud: s.lidar.scan(&self.scene, &s.mount, &mut rng),
+                    width: s.lidar.width(),
+                    height: s.lidar.height(),
+                });
+            }
+        }
+        views
+    }
+}
+
+/// A wrong nominal mount: roll, pitch, yaw uniform in `+-max_angle` (rad) and translation
+/// uniform in `+-max_translation` (m) per axis, applied in the VEHICLE frame:
+/// `nominal = delta * truth` (the convention of `synth`). Paper defaults:
+/// [`MAX_MISCALIBRATION_ANGLE`], [`MAX_MISCALIBRATION_TRANSLATION`].
+pub fn miscalibrate(
+    true_mount: &Pose,
+    max_angle: f64,
+    max_translation: f64,
+    rng: &mut impl Rng,
+) -> Pose {
+    let (a, t) = (max_angle, max_translation);
+    let rpy = [(); 3].map(|_| rng.random_range(-a..=a));
+    let xyz = [(); 3].map(|_| rng.random_range(-t..=t));
+    pose_from_xyz_rpy(xyz, rpy) * true_mount
+}
+
+/// The correction a calibration should find: `truth * nominal^-1`, which maps points
+/// pre-aligned with the nominal mount onto where the true mount puts them.
+pub fn expected_correction(truth: &Pose, nominal: &Pose) -> Pose {
+    truth * nominal.inverse()
+}
