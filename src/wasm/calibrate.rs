@@ -6,23 +6,11 @@ use js_sys::{Float32Array, Function};
 use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
-use super::to_js;
+use super::{Roi, XyzRpy, to_js};
 use crate::calib::{self, Calibration, InitialSigma, Rig, View};
 use crate::cloud::Aabb;
 use crate::jrmpc::{Control, Prior};
 use crate::se3::{Pose, pose_from_xyz_rpy, to_row_major, xyz_rpy};
-
-#[derive(Deserialize)]
-struct PoseInput {
-    xyz: [f64; 3],
-    rpy: [f64; 3],
-}
-
-#[derive(Deserialize)]
-struct RoiInput {
-    min: [f64; 3],
-    max: [f64; 3],
-}
 
 #[derive(Deserialize)]
 struct ViewInput {
@@ -43,8 +31,8 @@ enum TargetInput {
 #[serde(rename_all = "camelCase")]
 struct CalibrateInput {
     views: Vec<ViewInput>,
-    nominal: BTreeMap<String, PoseInput>,
-    roi: RoiInput,
+    nominal: BTreeMap<String, XyzRpy>,
+    roi: Roi,
     reference: Option<String>,
     method: Option<String>,
     target: Option<TargetInput>,
@@ -137,7 +125,7 @@ struct ProgressOutput<'a> {
     sensors: &'a [String],
 }
 
-fn pose_of(name: &str, p: &PoseInput) -> Result<Pose, JsError> {
+fn pose_of(name: &str, p: &XyzRpy) -> Result<Pose, JsError> {
     if p.xyz.iter().chain(&p.rpy).all(|v| v.is_finite()) {
         Ok(pose_from_xyz_rpy(p.xyz, p.rpy))
     } else {

@@ -7,12 +7,26 @@ mod calibrate;
 mod files;
 mod synthetic;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
 pub use calibrate::calibrate;
 pub use files::parse_cloud;
 pub use synthetic::synthetic_rig;
+
+/// A pose as JS sees it: translation (m) and roll, pitch, yaw (rad).
+#[derive(Serialize, Deserialize)]
+struct XyzRpy {
+    xyz: [f64; 3],
+    rpy: [f64; 3],
+}
+
+/// An axis-aligned box (m), bounds inclusive.
+#[derive(Serialize, Deserialize)]
+struct Roi {
+    min: [f64; 3],
+    max: [f64; 3],
+}
 
 #[wasm_bindgen(start)]
 fn start() {

@@ -6,7 +6,7 @@ use js_sys::Float32Array;
 use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
-use super::to_js;
+use super::{Roi, XyzRpy, to_js};
 use crate::se3::{Pose, xyz_rpy};
 use crate::synth::{self, RigSpec};
 
@@ -22,12 +22,6 @@ struct SyntheticInput {
 }
 
 #[derive(Serialize)]
-struct PoseOutput {
-    xyz: [f64; 3],
-    rpy: [f64; 3],
-}
-
-#[derive(Serialize)]
 struct SyntheticViewOutput {
     sensor: String,
     frame: String,
@@ -36,17 +30,11 @@ struct SyntheticViewOutput {
 }
 
 #[derive(Serialize)]
-struct RoiOutput {
-    min: [f64; 3],
-    max: [f64; 3],
-}
-
-#[derive(Serialize)]
 struct SyntheticOutput {
     views: Vec<SyntheticViewOutput>,
-    nominal: BTreeMap<String, PoseOutput>,
-    truth: BTreeMap<String, PoseOutput>,
-    roi: RoiOutput,
+    nominal: BTreeMap<String, XyzRpy>,
+    truth: BTreeMap<String, XyzRpy>,
+    roi: Roi,
 }
 
 /// A synthetic rig with known truth (a cube seen by several sensors whose nominal extrinsics
@@ -72,7 +60,7 @@ pub fn synthetic_rig(options: JsValue) -> Result<JsValue, JsError> {
     let rig = synth::generate(&spec);
     let pose_out = |p: &Pose| {
         let (xyz, rpy) = xyz_rpy(p);
-        PoseOutput { xyz, rpy }
+        XyzRpy { xyz, rpy }
     };
     to_js(&SyntheticOutput {
         views: rig
@@ -86,6 +74,6 @@ pub fn synthetic_rig(options: JsValue) -> Result<JsValue, JsError> {
             .collect(),
         nominal: rig.nominal.iter().map(|(n, p)| (n.clone(), pose_out(p))).collect(),
         truth: rig.truth.iter().map(|(n, p)| (n.clone(), pose_out(p))).collect(),
-        roi: RoiOutput { min: rig.roi.min, max: rig.roi.max },
+        roi: Roi { min: rig.roi.min, max: rig.roi.max },
     })
 }
