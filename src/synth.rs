@@ -9,6 +9,7 @@ use rand_pcg::Pcg64;
 
 use crate::cloud::Aabb;
 use crate::se3::{Pose, pose_from_xyz_rpy};
+use crate::sim::miscalibrate;
 
 /// What to generate. Angles in rad, lengths in m.
 #[derive(Clone, Debug)]
@@ -102,11 +103,8 @@ pub fn generate(spec: &RigSpec) -> SyntheticRig {
             if i == 0 {
                 return *t;
             }
-            let (a, d) = (spec.max_rotation_error, spec.max_translation_error);
-            let rpy = [(); 3].map(|_| rng.random_range(-a..=a));
-            let xyz = [(); 3].map(|_| rng.random_range(-d..=d));
             // The nominal is the truth with an error applied in the vehicle frame.
-            pose_from_xyz_rpy(xyz, rpy) * t
+            miscalibrate(t, spec.max_rotation_error, spec.max_translation_error, &mut rng)
         })
         .collect();
 

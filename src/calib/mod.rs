@@ -338,17 +338,24 @@ fn register_jointly(
     Ok(registration)
 }
 
+/// Sensor names in order of first appearance among the views: the order of
+/// `Calibration::sensors` and `Progress::corrections`.
+pub fn sensor_names(rig: &Rig) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for view in &rig.views {
+        if !names.contains(&view.sensor) {
+            names.push(view.sensor.clone());
+        }
+    }
+    names
+}
+
 /// Sensor names in order of first appearance among the views, after checking the nominals.
 fn sensor_order(rig: &Rig) -> Result<Vec<String>, CalibError> {
     if !rig.roi.is_valid() {
         return Err(CalibError::InvalidRoi);
     }
-    let mut sensors: Vec<String> = Vec::new();
-    for view in &rig.views {
-        if !sensors.contains(&view.sensor) {
-            sensors.push(view.sensor.clone());
-        }
-    }
+    let sensors = sensor_names(rig);
     for name in &sensors {
         let (_, pose) = rig
             .nominal

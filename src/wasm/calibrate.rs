@@ -191,7 +191,7 @@ pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValu
         }
     };
 
-    let sensor_names = sensor_names(&rig);
+    let sensor_names = calib::sensor_names(&rig);
     let mut callback_error = None;
     let result = calib::calibrate(&rig, &settings, |p| {
         let Some(f) = &on_progress else { return Control::Continue };
@@ -220,16 +220,6 @@ pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValu
     }
     let calibration = result.map_err(|e| JsError::new(&e.to_string()))?;
     to_js(&output(&calibration))
-}
-
-fn sensor_names(rig: &Rig) -> Vec<String> {
-    let mut names: Vec<String> = Vec::new();
-    for v in &rig.views {
-        if !names.contains(&v.sensor) {
-            names.push(v.sensor.clone());
-        }
-    }
-    names
 }
 
 fn f32_array(values: impl Iterator<Item = f64>) -> Float32Array {
