@@ -4,9 +4,10 @@
 
 use gmmcalib::calib;
 use gmmcalib::jrmpc::Control;
-use gmmcalib::se3::{to_row_major, xyz_rpy};
+use gmmcalib::se3::{pose_from_xyz_rpy, to_row_major, xyz_rpy};
+use gmmcalib::sim::Preset;
 use gmmcalib::synth::{self, RigSpec};
-use gmmcalib::wasm::{calibrate, parse_cloud, synthetic_rig};
+use gmmcalib::wasm::{calibrate, parse_cloud, simulate_rig, synthetic_rig};
 use js_sys::{Array, Error, Function, Reflect};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen_test::*;
@@ -195,4 +196,76 @@ fn parse_cloud_reads_files_and_names_bad_ones() {
     assert!(message.contains("bad.ply"), "{message}");
     let message = error_message(parse_cloud(b"1234", "scan.xyz"));
     assert!(message.contains("scan.xyz"), "{message}");
+}
+
+/// The twin for the demo: scans in the sensor frame that the true mount puts where the preset's
+/// scene is, the reference sensor's nominal right and every other one wrong within the bounds;
+/// seeded; bad options named.
+#[wasm_bindgen_test]
+fn simulate_rig_returns_a_miscalibrated_twin_with_its_truth() {
+    let options = js(
+        "return { preset: 'paper', frames: 1, seed: 7, maxAngleDeg: 2, maxTranslation: 0.05 };",
+        &JsValue::NULL,
+    );
+    let rig = simulate_rig(options.clone()).map_err(JsValue::from).expect("simulateRig");
+    let read = Function::new_with_args(
+        "rig",
+        "const v = rig.views.find((v) => v.sensor === 'front_right');
+         const n = rig.nominal, t = rig.truth;
+         return [rig.views.length, rig.reference, v.points instanceof Float32Array, v.points.length % 3,
+                 v.points.length / 3 + v.dropped, JSON.stringify(n.front_left) === JSON.stringify(t.front_left),
+                 ...n.front_right.xyz, ...n.front_right.rpy,
+                 Array.from(v.points.subarray(0, 30)).join(','), rig.roi.min.join(',') + ';' + rig.roi.max.join(','),
+                 ...t.front_right.xyz, ...t.front_right.rpy];",
+    );
+    let out: Array = read.call1(&JsValue::NULL, &rig).unwrap().into();
+    let preset = Preset::paper();
+    let lidar = &preset.sensors[1].lidar;
+    assert_eq!(out.get(0).as_f64(), Some(2.0), "one frame, two sensors");
+    assert_eq!(out.get(1).as_string().unwrap(), "front_left");
+    assert_eq!(out.get(2), JsValue::TRUE);
+    assert_eq!(out.get(3).as_f64(), Some(0.0));
+    assert_eq!(
+        out.get(4).as_f64(),
+        Some((lidar.width() * lidar.height()) as f64),
+        "points + misses"
+    );
+    assert_eq!(out.get(5), JsValue::TRUE, "the reference keeps its true mount");
+    // The nominal is `delta * truth` with delta within the bounds per axis, and not identity.
+    let nominal = pose_from_xyz_rpy(
+        [6, 7, 8].map(|i| out.get(i).as_f64().unwrap()),
+        [9, 10, 11].map(|i| out.get(i).as_f64().unwrap()),
+    );
+    let (dxyz, drpy) = xyz_rpy(&(nominal * preset.sensors[1].mount.inverse()));
+    assert!(dxyz.iter().all(|v| v.abs() <= 0.05 + 1e-9), "translation off by {dxyz:?}");
+    assert!(drpy.iter().all(|v| v.abs() <= 2f64.to_radians() + 1e-9), "rotation off by {drpy:?}");
+    assert!(drpy.iter().any(|v| v.abs() > 1e-3) && dxyz.iter().any(|v| v.abs() > 1e-3));
+    let roi = &preset.roi;
+    assert_eq!(
+        out.get(13).as_string().unwrap(),
+        format!(
+            "{};{}",
+            roi.min.map(|v| v.to_string()).join(","),
+            roi.max.map(|v| v.to_string()).join(",")
+        )
+    );
+    let (xyz, rpy) = xyz_rpy(&preset.sensors[1].mount);
+    for k in 0..3 {
+        assert!((out.get(14 + k).as_f64().unwrap() - xyz[k as usize]).abs() < 1e-12);
+        assert!((out.get(17 + k).as_f64().unwrap() - rpy[k as usize]).abs() < 1e-12);
+    }
+    // Seeded: the same options give the same scans.
+    let again = simulate_rig(options).map_err(JsValue::from).unwrap();
+    let again: Array = read.call1(&JsValue::NULL, &again).unwrap().into();
+    assert_eq!(out.get(12), again.get(12));
+
+    for (options, expected) in [
+        ("return { preset: 'vlp16' };", "unknown preset 'vlp16'"),
+        ("return { frames: 0 };", "frames must be 1 to"),
+        ("return { maxAngleDeg: -1 };", "maxAngleDeg must be"),
+        ("return { frames: 'two' };", "invalid simulateRig options"),
+    ] {
+        let message = error_message(simulate_rig(js(options, &JsValue::NULL)));
+        assert!(message.contains(expected), "{options}: got '{message}', want '{expected}'");
+    }
 }

@@ -5,6 +5,7 @@
 
 mod calibrate;
 mod files;
+mod simulate;
 mod synthetic;
 
 use serde::{Deserialize, Serialize};
@@ -12,6 +13,7 @@ use wasm_bindgen::prelude::*;
 
 pub use calibrate::calibrate;
 pub use files::parse_cloud;
+pub use simulate::simulate_rig;
 pub use synthetic::synthetic_rig;
 
 /// A pose as JS sees it: translation (m) and roll, pitch, yaw (rad).
