@@ -10,6 +10,7 @@ pub mod cloud;
 pub mod icp;
 pub mod io;
 pub mod jrmpc;
+pub mod report;
 pub mod se3;
 pub mod sim;
 pub mod synth;

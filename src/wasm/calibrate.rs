@@ -2,7 +2,7 @@
 
 use std::collections::BTreeMap;
 
-use js_sys::{Float32Array, Function};
+use js_sys::{Float32Array, Function, Reflect};
 use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
@@ -10,7 +10,8 @@ use super::{Roi, XyzRpy, to_js};
 use crate::calib::{self, Calibration, InitialSigma, Rig, View};
 use crate::cloud::Aabb;
 use crate::jrmpc::{Control, Prior};
-use crate::se3::{Pose, pose_from_xyz_rpy, to_row_major, xyz_rpy};
+use crate::report::Report;
+use crate::se3::{Pose, pose_from_xyz_rpy, to_row_major};
 
 #[derive(Deserialize)]
 struct ViewInput {
@@ -49,68 +50,6 @@ struct CalibrateInput {
 enum InitialSigmaInput {
     Fixed(f64),
     Rule(String),
-}
-
-#[derive(Serialize)]
-struct SpreadOutput {
-    xyz: [f64; 3],
-    rpy: [f64; 3],
-    frames: usize,
-}
-
-#[derive(Serialize)]
-#[serde(rename_all = "camelCase")]
-struct SensorOutput {
-    name: String,
-    correction: [f64; 16],
-    extrinsic: [f64; 16],
-    relative: [f64; 16],
-    /// Translation (m) of the corrected extrinsic `T_vehicle_sensor`.
-    xyz: [f64; 3],
-    /// Roll, pitch, yaw (rad) of the corrected extrinsic.
-    rpy: [f64; 3],
-    spread: SpreadOutput,
-}
-
-#[derive(Serialize)]
-struct TargetOutput {
-    #[serde(with = "serde_wasm_bindgen::preserve")]
-    means: Float32Array,
-    #[serde(with = "serde_wasm_bindgen::preserve")]
-    sigmas: Float32Array,
-    #[serde(with = "serde_wasm_bindgen::preserve")]
-    priors: Float32Array,
-    rms: Option<f64>,
-    edge: Option<f64>,
-}
-
-#[derive(Serialize)]
-struct SkippedOutput {
-    sensor: String,
-    frame: String,
-    reason: String,
-}
-
-#[derive(Serialize)]
-#[serde(rename_all = "camelCase")]
-struct HistoryOutput {
-    mean_sigma: Vec<f64>,
-    max_change: Vec<f64>,
-}
-
-#[derive(Serialize)]
-#[serde(rename_all = "camelCase")]
-struct CalibrateOutput {
-    method: &'static str,
-    reference: String,
-    iterations: usize,
-    converged: bool,
-    cancelled: bool,
-    sensors: Vec<SensorOutput>,
-    target: TargetOutput,
-    skipped: Vec<SkippedOutput>,
-    kept_jrmpc: Vec<SkippedOutput>,
-    history: HistoryOutput,
 }
 
 #[derive(Serialize)]
@@ -219,66 +158,23 @@ pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValu
         return Err(JsError::new(&format!("onProgress threw: {}", message.unwrap_or_default())));
     }
     let calibration = result.map_err(|e| JsError::new(&e.to_string()))?;
-    to_js(&output(&calibration))
+    output(&calibration)
 }
 
-fn f32_array(values: impl Iterator<Item = f64>) -> Float32Array {
-    let v: Vec<f32> = values.map(|x| x as f32).collect();
-    Float32Array::from(v.as_slice())
-}
-
-fn notes(notes: &[calib::FrameNote]) -> Vec<SkippedOutput> {
-    notes
-        .iter()
-        .map(|s| SkippedOutput {
-            sensor: s.sensor.clone(),
-            frame: s.frame.clone(),
-            reason: s.reason.clone(),
-        })
-        .collect()
-}
-
-fn output(c: &Calibration) -> CalibrateOutput {
-    let sensors = c
-        .sensors
-        .iter()
-        .map(|s| {
-            let (xyz, rpy) = xyz_rpy(&s.extrinsic);
-            SensorOutput {
-                name: s.name.clone(),
-                correction: to_row_major(&s.correction),
-                extrinsic: to_row_major(&s.extrinsic),
-                relative: to_row_major(&s.relative),
-                xyz,
-                rpy,
-                spread: SpreadOutput {
-                    xyz: s.spread.xyz,
-                    rpy: s.spread.rpy,
-                    frames: s.spread.frames,
-                },
-            }
-        })
-        .collect();
-    let t = &c.target;
-    CalibrateOutput {
-        method: c.method.name(),
-        reference: c.reference.clone(),
-        iterations: c.iterations,
-        converged: c.converged,
-        cancelled: c.cancelled,
-        sensors,
-        target: TargetOutput {
-            means: f32_array(t.means.iter().flatten().copied()),
-            sigmas: f32_array(t.sigmas.iter().copied()),
-            priors: f32_array(t.priors.iter().copied()),
-            rms: t.fit.map(|f| f.rms),
-            edge: t.fit.map(|f| f.size),
-        },
-        skipped: notes(&c.skipped),
-        kept_jrmpc: notes(&c.kept_jrmpc),
-        history: HistoryOutput {
-            mean_sigma: c.history.iter().map(|h| h.mean_sigma).collect(),
-            max_change: c.history.iter().map(|h| h.max_change).collect(),
-        },
+/// The library's [`Report`], with the target's bulk arrays as `Float32Array`s for transfer.
+fn output(c: &Calibration) -> Result<JsValue, JsError> {
+    let report = Report::from(c);
+    let value = to_js(&report)?;
+    let t = &report.target;
+    let target = Reflect::get(&value, &"target".into()).map_err(|_| internal())?;
+    for (key, values) in [("means", &t.means), ("sigmas", &t.sigmas), ("priors", &t.priors)] {
+        let v: Vec<f32> = values.iter().map(|&x| x as f32).collect();
+        Reflect::set(&target, &key.into(), &Float32Array::from(v.as_slice()))
+            .map_err(|_| internal())?;
     }
+    Ok(value)
+}
+
+fn internal() -> JsError {
+    JsError::new("internal: cannot set the target arrays of the result")
 }

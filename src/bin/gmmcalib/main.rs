@@ -31,6 +31,7 @@ mod cli {
 
     use gmmcalib::calib::{self, Calibration, Method, Rig, Settings};
     use gmmcalib::jrmpc::{Control, Prior};
+    use gmmcalib::report::Report;
 
     use crate::args::{self, CalibrateArgs, Command};
     use crate::{config, dataset, report};
@@ -94,7 +95,7 @@ mod cli {
             print!("{}", report::comparison(&results));
         }
         if let Some(path) = &a.json {
-            let reports: Vec<report::Report> = results.iter().map(report::Report::from).collect();
+            let reports: Vec<Report> = results.iter().map(Report::from).collect();
             let json = match reports.as_slice() {
                 [one] if methods.len() == 1 => serde_json::to_string_pretty(one),
                 all => serde_json::to_string_pretty(all),

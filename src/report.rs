@@ -1,0 +1,131 @@
+//! One result shape for programs: what `gmmcalib calibrate --json` writes and what the wasm
+//! `calibrate` returns (README, "Wasm API"). camelCase keys; matrices as 16 numbers, row-major;
+//! m and rad.
+
+use serde::Serialize;
+
+use crate::calib::{Calibration, FrameNote, SensorResult};
+use crate::se3::{to_row_major, xyz_rpy};
+
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Report {
+    pub method: &'static str,
+    pub reference: String,
+    pub iterations: usize,
+    pub converged: bool,
+    pub cancelled: bool,
+    pub sensors: Vec<SensorReport>,
+    pub target: TargetReport,
+    /// Views left out.
+    pub skipped: Vec<NoteReport>,
+    /// `gmm` frames whose refinement was rejected; they keep the JRMPC correction.
+    pub kept_jrmpc: Vec<NoteReport>,
+    pub history: HistoryReport,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SensorReport {
+    pub name: String,
+    /// `C_ref_s`, row-major.
+    pub correction: [f64; 16],
+    /// Corrected `T_vehicle_sensor`, row-major.
+    pub extrinsic: [f64; 16],
+    /// `T_ref_s`, row-major.
+    pub relative: [f64; 16],
+    /// Translation (m) of the corrected extrinsic.
+    pub xyz: [f64; 3],
+    /// Roll, pitch, yaw (rad) of the corrected extrinsic.
+    pub rpy: [f64; 3],
+    pub spread: SpreadReport,
+}
+
+/// Per-axis spread of the per-frame corrections (m, rad) over `frames` frames.
+#[derive(Clone, Debug, Serialize)]
+pub struct SpreadReport {
+    pub xyz: [f64; 3],
+    pub rpy: [f64; 3],
+    pub frames: usize,
+}
+
+/// The reconstructed target, in the mixture's own (floating) frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct TargetReport {
+    /// Component means, flat: x, y, z, x, y, z, ... (m).
+    pub means: Vec<f64>,
+    /// Component standard deviations (m).
+    pub sigmas: Vec<f64>,
+    pub priors: Vec<f64>,
+    /// RMS distance (m) of the means from the fitted prior shape; null without a fit.
+    pub rms: Option<f64>,
+    /// Fitted target size (m): cube edge or sphere diameter; null without a fit.
+    pub edge: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct NoteReport {
+    pub sensor: String,
+    pub frame: String,
+    pub reason: String,
+}
+
+/// Per EM iteration: mean sigma (m) and the largest transform change (rad or m).
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct HistoryReport {
+    pub mean_sigma: Vec<f64>,
+    pub max_change: Vec<f64>,
+}
+
+impl From<&Calibration> for Report {
+    fn from(c: &Calibration) -> Self {
+        let t = &c.target;
+        Report {
+            method: c.method.name(),
+            reference: c.reference.clone(),
+            iterations: c.iterations,
+            converged: c.converged,
+            cancelled: c.cancelled,
+            sensors: c.sensors.iter().map(SensorReport::from).collect(),
+            target: TargetReport {
+                means: t.means.iter().flatten().copied().collect(),
+                sigmas: t.sigmas.clone(),
+                priors: t.priors.clone(),
+                rms: t.fit.map(|f| f.rms),
+                edge: t.fit.map(|f| f.size),
+            },
+            skipped: notes(&c.skipped),
+            kept_jrmpc: notes(&c.kept_jrmpc),
+            history: HistoryReport {
+                mean_sigma: c.history.iter().map(|h| h.mean_sigma).collect(),
+                max_change: c.history.iter().map(|h| h.max_change).collect(),
+            },
+        }
+    }
+}
+
+impl From<&SensorResult> for SensorReport {
+    fn from(s: &SensorResult) -> Self {
+        let (xyz, rpy) = xyz_rpy(&s.extrinsic);
+        SensorReport {
+            name: s.name.clone(),
+            correction: to_row_major(&s.correction),
+            extrinsic: to_row_major(&s.extrinsic),
+            relative: to_row_major(&s.relative),
+            xyz,
+            rpy,
+            spread: SpreadReport { xyz: s.spread.xyz, rpy: s.spread.rpy, frames: s.spread.frames },
+        }
+    }
+}
+
+fn notes(notes: &[FrameNote]) -> Vec<NoteReport> {
+    notes
+        .iter()
+        .map(|n| NoteReport {
+            sensor: n.sensor.clone(),
+            frame: n.frame.clone(),
+            reason: n.reason.clone(),
+        })
+        .collect()
+}
