@@ -60,6 +60,8 @@ pub struct TargetReport {
     pub rms: Option<f64>,
     /// Fitted target size (m): cube edge or sphere diameter; null without a fit.
     pub edge: Option<f64>,
+    /// Centre (m) of the fitted shape; null without a fit.
+    pub centre: Option<[f64; 3]>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -93,6 +95,7 @@ impl From<&Calibration> for Report {
                 priors: t.priors.clone(),
                 rms: t.fit.map(|f| f.rms),
                 edge: t.fit.map(|f| f.size),
+                centre: t.fit.map(|f| f.centre),
             },
             skipped: notes(&c.skipped),
             kept_jrmpc: notes(&c.kept_jrmpc),

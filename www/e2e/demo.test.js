@@ -1,8 +1,14 @@
-// The page in real Chromium: generate a synthetic rig, calibrate in the worker, read the result.
+// The demo end to end in real Chromium: simulate the paper rig in the worker, calibrate, check
+// the result against the simulated truth, keep a screenshot; a shared link reproduces the demo.
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { mkdirSync } from 'node:fs';
-import { serveDist, launch, openPage } from './harness.js';
+import { serveDist, launch, openPage, waitForStatus } from './harness.js';
+import { errorOf, simulateRig } from './rigfiles.js';
+
+// Loose bound on the demo's correction error while accuracy work continues (issue 6); the
+// paper rig measured 0.03-0.05 deg / 4-10 mm natively (seeds 0-2, 4 frames).
+const DEMO_ERROR_BOUND = { deg: 0.3, mm: 20 };
 
 let server;
 let browser;
@@ -15,35 +21,50 @@ after(async () => {
   server?.close();
 });
 
-test('demo: calibrates a synthetic rig in the worker and shows the result', async () => {
+test('demo: simulate, calibrate, and land within the bound of the truth', async () => {
   const { page, problems } = await openPage(browser, server.url);
   await page.getByTestId('demo').click();
-  await page.waitForFunction(() => document.querySelector('[data-testid=result-json]').textContent.length > 0, null, { timeout: 120_000 });
+  await waitForStatus(page, /Calibrate next/);
+  assert.match(page.url(), /demo=paper/);
+  mkdirSync('e2e/artifacts', { recursive: true });
+  await page.waitForTimeout(300); // one animation frame for the on-demand render
+  await page.screenshot({ path: 'e2e/artifacts/demo-before.png' });
+  await page.getByTestId('calibrate').click();
+  await waitForStatus(page, /^Done/, 180_000);
   const result = JSON.parse(await page.getByTestId('result-json').textContent());
-  assert.equal(result.reference, 'sensor_1');
-  assert.equal(result.sensors.length, 2);
-  assert.equal(result.sensors[1].extrinsic.length, 4);
-  // The page computes the error against the simulated truth; read it from the table.
-  const errorText = await page.locator('#result-table tr:nth-child(3) td:last-child').textContent();
-  const [deg, mm] = errorText.match(/[\d.]+/g).map(Number);
-  assert.ok(deg < 0.5 && mm < 20, `error vs truth ${errorText}`);
+  assert.equal(result.method, 'gmm');
+  assert.equal(result.reference, 'front_left');
+  assert.deepEqual(result.sensors.map((s) => s.name), ['front_left', 'front_right']);
+  assert.equal(result.sensors[1].extrinsic.length, 16);
+  assert.ok(Array.isArray(result.target.means) && result.history.meanSigma.length === result.iterations);
+
+  // Truth from the twin directly (Node), not from the page.
+  const { truth } = simulateRig({ preset: 'paper', frames: 1, seed: 1 });
+  for (const s of result.sensors) {
+    const e = errorOf(s.extrinsic, truth[s.name]);
+    console.log(`demo ${s.name}: ${e.deg.toFixed(3)} deg / ${e.mm.toFixed(1)} mm from the truth`);
+    assert.ok(e.deg < DEMO_ERROR_BOUND.deg && e.mm < DEMO_ERROR_BOUND.mm, `${s.name}: ${e.deg} deg / ${e.mm} mm`);
+    // The page shows the same error.
+    const shown = await page.locator(`.truth[data-sensor="${s.name}"] b`).textContent();
+    assert.equal(shown, `${e.deg.toFixed(3)} deg / ${e.mm.toFixed(1)} mm`);
+  }
   assert.equal(await page.getByTestId('error').isHidden(), true);
-  mkdirSync('test-results', { recursive: true });
-  await page.screenshot({ path: 'test-results/demo.png', fullPage: true });
+  // Every export is offered, with its frame direction stated.
+  const exports = await page.locator('#exports details').evaluateAll((d) => d.map((e) => e.dataset.export));
+  assert.deepEqual(exports, ['json', 'yaml', 'urdf', 'ros2', 'ply']);
+  const ros = await page.locator('[data-export=ros2] pre').textContent();
+  assert.match(ros, /--frame-id vehicle --child-frame-id front_right/);
+
+  await page.waitForTimeout(300);
+  await page.screenshot({ path: 'e2e/artifacts/demo.png' });
   assert.deepEqual(problems, []);
 });
 
-test('cancel stops a run and the page stays usable', async () => {
-  const { page, problems } = await openPage(browser, server.url);
-  await page.locator('#frames').fill('40');
-  await page.getByTestId('demo').click();
-  await page.waitForFunction(() => /Iteration/.test(document.querySelector('[data-testid=status]').textContent), null, { timeout: 60_000 });
-  await page.getByTestId('cancel').click();
-  await page.waitForFunction(() => document.querySelector('[data-testid=status]').textContent === 'Cancelled.');
-  assert.equal(await page.getByTestId('demo').isEnabled(), true);
-  // A new run after the cancel works (a fresh worker).
-  await page.locator('#frames').fill('2');
-  await page.getByTestId('demo').click();
-  await page.waitForFunction(() => /^Done/.test(document.querySelector('[data-testid=status]').textContent), null, { timeout: 120_000 });
+test('a shared link loads the same demo', async () => {
+  const { page, problems } = await openPage(browser, `${server.url}#demo=paper&frames=1&seed=5&method=jrmpc`);
+  await waitForStatus(page, /Calibrate next/);
+  assert.match(await page.getByTestId('status').textContent(), /seed 5, 1 frames/);
+  assert.equal(await page.locator('#method').inputValue(), 'jrmpc');
+  assert.equal(await page.locator('#files tr').count(), 1 + 2);
   assert.deepEqual(problems, []);
 });

@@ -50,3 +50,21 @@ export async function openPage(browser, url) {
   await page.goto(url);
   return { page, problems };
 }
+
+// Waits until the status line matches `pattern`; fails early, naming the error, when the page
+// shows one.
+export async function waitForStatus(page, pattern, timeout = 60_000) {
+  await page.waitForFunction(
+    ([source, flags]) => {
+      const error = document.querySelector('[data-testid=error]');
+      if (error && !error.hidden && error.textContent) return true;
+      return new RegExp(source, flags).test(document.querySelector('[data-testid=status]').textContent);
+    },
+    [pattern.source, pattern.flags],
+    { timeout },
+  );
+  const status = await page.getByTestId('status').textContent();
+  if (!pattern.test(status)) {
+    throw new Error(`status '${status}', error '${await page.getByTestId('error').textContent()}'`);
+  }
+}

@@ -1,86 +1,345 @@
-// Wires the page: inputs -> worker requests -> result table and JSON. Every error goes to one
-// place (showError); the worker is replaced after a crash or a cancel, nothing else is lost.
+// Wires the page: inputs and panels -> state -> worker requests -> view, results, exports.
+// Every error goes to one place (showError). The state lives here, not in the worker, so a
+// crashed or cancelled worker is replaced without losing the loaded files.
 import { WorkerClient } from './rpc.js';
-import { matrixFromXyzRpy, poseDifference, degrees, rows } from './transforms.js';
+import { Viewer } from './viewer.js';
+import { Display, livePoses, sensorColour } from './display.js';
+import { assign, fromDrop, fromInput, isCloud, isConfig, natural } from './files.js';
+import { parseConfig } from './config.js';
+import { renderFiles } from './filelist.js';
+import { renderRig } from './rig.js';
+import { drawConvergence, renderResults } from './results.js';
+import { exportsOf, renderExports, resultJson } from './exports.js';
+import { targetBounds, targetObject } from './target.js';
+import { matrixFromXyzRpy } from './transforms.js';
+import { DEFAULTS, readHash, writeHash } from './url.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
+const mainViewer = new Viewer($('view'));
+const display = new Display(mainViewer);
+const targetViewer = new Viewer($('target-view'), { grid: false });
+const METHODS = ['gmm', 'jrmpc', 'p2p', 'p2l', 'gicp'];
+
+const state = {
+  settings: readHash(),
+  views: [], // {id, path, sensor, frame, points, intensity?, count, dropped, format}
+  bad: [], // {path, error}
+  rig: { sensors: [], nominal: {}, roi: null, reference: '' },
+  truth: null, // sensor -> {xyz, rpy}, for a demo
+  results: null, // reports of the last run, one per method
+  show: 'before',
+  colour: 'sensor',
+  allFrames: false,
+  running: false,
+};
+let nextViewId = 1;
 
 function showError(error) {
   $('error').hidden = !error;
   $('error').textContent = error ? String(error.message ?? error) : '';
 }
+const setStatus = (text) => ($('status').textContent = text);
+
+// --- view -------------------------------------------------------------------------------------
+
+const nominalPoses = () =>
+  Object.fromEntries(state.rig.sensors.map((s) => [s, matrixFromXyzRpy(state.rig.nominal[s].xyz, state.rig.nominal[s].rpy)]));
+
+function shownPoses() {
+  const poses = nominalPoses();
+  if (state.show === 'after' && state.results) for (const s of state.results[0].sensors) poses[s.name] = s.extrinsic;
+  return poses;
+}
+
+const redraw = (poses = shownPoses()) => display.update(state, poses);
+
+function renderLegend() {
+  $('legend').replaceChildren(...state.rig.sensors.map((s, i) => {
+    const span = document.createElement('span');
+    span.textContent = `● ${s}`;
+    span.style.color = `#${sensorColour(i).toString(16).padStart(6, '0')}`;
+    return span;
+  }));
+}
+
+// --- loading ----------------------------------------------------------------------------------
+
+function forgetResults() {
+  state.results = null;
+  state.show = 'before';
+  document.querySelector('input[name=show][value=before]').checked = true;
+  $('show-after').disabled = true;
+  $('result-json').textContent = '';
+  $('results').innerHTML = '<p class="hint">No result yet.</p>';
+  $('exports').replaceChildren();
+  targetViewer.clear();
+  drawConvergence($('convergence'), { meanSigma: [], maxChange: [] });
+}
+
+// Sensors from the views (natural order); nominal, ROI and reference kept or defaulted.
+function rebuildRig(config = {}) {
+  const rig = state.rig;
+  rig.sensors = [...new Set(state.views.map((v) => v.sensor))].sort(natural);
+  for (const [name, pose] of Object.entries(config.nominal ?? {})) rig.nominal[name] = { xyz: [...pose.xyz], rpy: [...pose.rpy] };
+  for (const s of rig.sensors) rig.nominal[s] ??= { xyz: [0, 0, 0], rpy: [0, 0, 0] };
+  if (config.roi) rig.roi = { min: [...config.roi.min], max: [...config.roi.max] };
+  rig.roi ??= { min: [-5, -5, -2], max: [5, 5, 3] };
+  if (config.reference) rig.reference = String(config.reference);
+  if (!rig.sensors.includes(rig.reference)) rig.reference = rig.sensors[0] ?? '';
+  for (const [key, value] of Object.entries(config)) if (key in DEFAULTS) state.settings[key] = value;
+  syncSettingsInputs();
+}
+
+function renderPanels() {
+  renderFiles($('files'), { views: state.views, bad: state.bad, sensors: state.rig.sensors }, reassign);
+  if (state.rig.sensors.length) renderRig($('rig'), state.rig, rigChanged);
+  renderLegend();
+  $('calibrate').disabled = state.running || state.rig.sensors.length < 2;
+}
+
+function reassign(view, sensor, frame = view.frame) {
+  Object.assign(view, { sensor, frame });
+  state.views.sort((a, b) => natural(a.sensor, b.sensor) || natural(a.frame, b.frame));
+  rebuildRig();
+  forgetResults();
+  renderPanels();
+  redraw();
+}
+
+function rigChanged(what) {
+  if (what !== 'reference') forgetResults();
+  redraw();
+}
+
+async function loadFiles(entries) {
+  showError(null);
+  if (!entries.length) return;
+  if (state.truth) clearAll(); // user files replace a demo
+  let config = {};
+  const clouds = entries.filter((e) => isCloud(e.path)).sort((a, b) => natural(a.path, b.path));
+  for (const e of entries.filter((e) => isConfig(e.path))) {
+    try {
+      config = { ...config, ...parseConfig(await e.file.text(), e.path) };
+    } catch (error) {
+      state.bad.push({ path: e.path, error: error.message });
+    }
+  }
+  for (const e of entries) if (!isCloud(e.path) && !isConfig(e.path)) state.bad.push({ path: e.path, error: 'ignored: not a .pcd, .ply, .bin or .yaml file' });
+  let done = 0;
+  for (const { path, file } of clouds) {
+    setStatus(`Reading ${path} (${++done}/${clouds.length})…`);
+    try {
+      const bytes = await file.arrayBuffer();
+      const parsed = await client.request('parse', { bytes, name: path }, { transfer: [bytes] });
+      state.views = state.views.filter((v) => v.path !== path);
+      state.views.push({ id: `view:${nextViewId++}`, path, ...assign(path), ...parsed });
+    } catch (error) {
+      state.bad.push({ path, error: error.message });
+    }
+  }
+  state.views.sort((a, b) => natural(a.sensor, b.sensor) || natural(a.frame, b.frame));
+  state.settings.demo = '';
+  writeHash(state.settings);
+  rebuildRig(config);
+  forgetResults();
+  renderPanels();
+  redraw();
+  viewerLookAt();
+  const sensors = state.rig.sensors.length;
+  setStatus(`${state.views.length} scans of ${sensors} sensor${sensors === 1 ? '' : 's'} loaded${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
+  if (state.bad.length) showError(state.bad.map((b) => `${b.path}: ${b.error}`).join('\n'));
+}
+
+function clearAll() {
+  Object.assign(state, { views: [], bad: [], truth: null, rig: { sensors: [], nominal: {}, roi: null, reference: '' } });
+  display.clear();
+  forgetResults();
+  $('rig').innerHTML = '<p class="hint">Load scans first.</p>';
+  renderPanels();
+}
+
+async function loadDemo() {
+  showError(null);
+  const s = state.settings;
+  s.demo ||= 'paper';
+  s.seed = Number($('demo-seed').value);
+  s.frames = Number($('demo-frames').value);
+  writeHash(s);
+  setStatus(`Simulating ${s.frames} frames of the ${s.demo} rig…`);
+  $('demo').disabled = true;
+  try {
+    const options = { preset: s.demo, frames: s.frames, seed: s.seed, maxAngleDeg: s.maxAngleDeg, maxTranslation: s.maxTranslation };
+    const rig = await client.request('simulate', { options });
+    clearAll();
+    state.views = rig.views.map((v) => ({ id: `view:${nextViewId++}`, path: `${v.sensor}_${v.frame}`, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: v.dropped, format: 'simulated' }));
+    state.truth = rig.truth;
+    rebuildRig({ nominal: rig.nominal, roi: rig.roi, reference: rig.reference });
+    renderPanels();
+    redraw();
+    viewerLookAt();
+    setStatus(`Demo: ${s.demo} rig, seed ${s.seed}, ${s.frames} frames; every non-reference sensor miscalibrated. Calibrate next.`);
+  } catch (error) {
+    setStatus('Demo failed.');
+    showError(error);
+  } finally {
+    $('demo').disabled = state.running;
+  }
+}
+
+// --- run --------------------------------------------------------------------------------------
+
+function calibrateInput(method) {
+  const s = state.settings;
+  const views = state.views.map((v) => ({ sensor: v.sensor, frame: v.frame, points: v.points.slice() }));
+  const input = {
+    views,
+    nominal: Object.fromEntries(state.rig.sensors.map((n) => [n, state.rig.nominal[n]])),
+    roi: state.rig.roi,
+    reference: state.rig.reference,
+    method,
+    target: { kind: 'cube', edge: s.edge },
+    components: s.components,
+    iterations: s.iterations,
+    initialSigma: s.initialSigma,
+  };
+  return { input, transfer: views.map((v) => v.points.buffer) };
+}
 
 function setRunning(running) {
-  $('demo').disabled = running;
+  state.running = running;
   $('cancel').disabled = !running;
+  $('demo').disabled = running;
+  $('calibrate').disabled = running || state.rig.sensors.length < 2;
 }
 
-// The result in the CLI's --json shape: 4x4 matrices as rows, typed arrays as plain arrays.
-function resultJson(result) {
-  const triples = (a) => Array.from({ length: a.length / 3 }, (_, i) => Array.from(a.slice(i * 3, i * 3 + 3)));
-  return {
-    method: result.method,
-    reference: result.reference,
-    iterations: result.iterations,
-    converged: result.converged,
-    sensors: result.sensors.map((s) => ({
-      ...s,
-      correction: rows(s.correction),
-      extrinsic: rows(s.extrinsic),
-      relative: rows(s.relative),
-    })),
-    target: {
-      means: triples(result.target.means),
-      sigmas: Array.from(result.target.sigmas),
-      rms: result.target.rms,
-      edge: result.target.edge,
-    },
-    skipped: result.skipped,
-  };
-}
-
-function showResult(result, truth) {
-  const fmt = (v, digits) => v.map((x) => x.toFixed(digits)).join(', ');
-  const header = '<tr><th>sensor</th><th>xyz (m)</th><th>rpy (deg)</th><th>error vs truth</th></tr>';
-  const body = result.sensors.map((s) => {
-    const t = truth[s.name];
-    const { angle, distance } = poseDifference(s.extrinsic, matrixFromXyzRpy(t.xyz, t.rpy));
-    return `<tr><td>${s.name}</td><td>${fmt(s.xyz, 4)}</td><td>${fmt(s.rpy.map(degrees), 3)}</td>` +
-      `<td>${degrees(angle).toFixed(3)}° / ${(distance * 1000).toFixed(1)} mm</td></tr>`;
-  });
-  $('result-table').innerHTML = header + body.join('');
-  $('result-json').textContent = JSON.stringify(resultJson(result), null, 2);
-}
-
-async function runDemo() {
+async function runCalibration() {
   showError(null);
+  forgetResults();
   setRunning(true);
-  const options = { sensors: +$('sensors').value, frames: +$('frames').value, seed: +$('seed').value };
+  const methods = state.settings.method === 'all' ? METHODS : [state.settings.method];
+  const results = [];
+  const nominal = nominalPoses();
   try {
-    $('status').textContent = 'Generating scans…';
-    const rig = await client.request('synthetic', { options });
-    // The synthetic ROI holds only the cube: start the mixture at the cube's size.
-    const input = { views: rig.views, nominal: rig.nominal, roi: rig.roi, initialSigma: 'prior' };
-    const started = performance.now();
-    const result = await client.request('calibrate', { input }, {
-      onProgress: (p) => {
-        const elapsed = (performance.now() - started) / 1000;
-        const eta = (elapsed / p.iteration) * (p.maxIterations - p.iteration);
-        $('progress').value = p.iteration / p.maxIterations;
-        $('status').textContent = `Iteration ${p.iteration}/${p.maxIterations}, σ ${(p.meanSigma * 100).toFixed(2)} cm, about ${eta.toFixed(1)} s left`;
-      },
-    });
+    for (const method of methods) {
+      const label = methods.length > 1 ? `${method} (${results.length + 1}/${methods.length}): ` : '';
+      const started = performance.now();
+      setStatus(`${label}starting…`);
+      const { input, transfer } = calibrateInput(method);
+      const result = await client.request('calibrate', { input }, {
+        transfer,
+        onProgress: (p) => {
+          const elapsed = (performance.now() - started) / 1000;
+          const eta = (elapsed / p.iteration) * (p.maxIterations - p.iteration);
+          $('progress').value = (results.length + p.iteration / p.maxIterations) / methods.length;
+          setStatus(`${label}iteration ${p.iteration}/${p.maxIterations}, σ ${(p.meanSigma * 100).toFixed(2)} cm, about ${eta.toFixed(1)} s left`);
+          redraw(livePoses(p, nominal));
+        },
+      });
+      results.push(result);
+    }
     $('progress').value = 1;
-    $('status').textContent = `Done: ${result.iterations} iterations${result.converged ? ' (converged)' : ''}.`;
-    showResult(result, rig.truth);
+    showResults(results);
+    const r = results[0];
+    setStatus(`Done: ${methods.length > 1 ? `${methods.length} methods` : `${r.iterations} iterations${r.converged ? ' (converged)' : ''}`}.`);
   } catch (error) {
-    $('status').textContent = error.cancelled ? 'Cancelled.' : 'Failed.';
+    $('progress').value = 0;
+    setStatus(error.cancelled ? 'Cancelled.' : 'Failed.');
     if (!error.cancelled) showError(error);
+    redraw();
   } finally {
     setRunning(false);
   }
 }
 
-$('demo').addEventListener('click', runDemo);
+function showResults(results) {
+  state.results = results;
+  state.show = 'after';
+  $('show-after').disabled = false;
+  $('show-after').checked = true;
+  redraw();
+  renderResults($('results'), results, state.truth);
+  drawConvergence($('convergence'), results[0].history);
+  renderExports($('exports'), exportsOf(results[0], { roi: state.rig.roi }));
+  $('result-json').textContent = resultJson(results.length > 1 ? results : results[0]);
+  const gmm = results.find((r) => r.target.priors.length);
+  targetViewer.clear();
+  const bounds = gmm && targetBounds(gmm.target);
+  if (bounds) {
+    targetViewer.setObject('target', targetObject(gmm.target, { kind: 'cube' }));
+    targetViewer.lookAt(bounds);
+  }
+}
+
+// --- controls ---------------------------------------------------------------------------------
+
+const SETTING_INPUTS = ['method', 'edge', 'components', 'iterations', 'initialSigma'];
+
+function syncSettingsInputs() {
+  for (const key of SETTING_INPUTS) $(key).value = state.settings[key];
+  $('demo-seed').value = state.settings.seed;
+  $('demo-frames').value = state.settings.frames;
+}
+
+for (const key of SETTING_INPUTS) {
+  $(key).addEventListener('change', () => {
+    const el = $(key);
+    const value = el.type === 'number' ? Number(el.value) : el.value;
+    if (el.type === 'number' && !(Number.isFinite(value) && value > 0)) {
+      el.value = state.settings[key];
+      return;
+    }
+    state.settings[key] = value;
+    writeHash(state.settings);
+  });
+}
+
+function viewerLookAt() {
+  if (state.rig.roi) mainViewer.lookAt(state.rig.roi);
+}
+
+$('file-input').addEventListener('change', async (e) => {
+  await loadFiles(fromInput(e.target.files));
+  e.target.value = '';
+});
+$('folder-input').addEventListener('change', async (e) => {
+  await loadFiles(fromInput(e.target.files));
+  e.target.value = '';
+});
+$('clear').addEventListener('click', () => {
+  clearAll();
+  setStatus('Cleared.');
+});
+$('demo').addEventListener('click', loadDemo);
+$('calibrate').addEventListener('click', runCalibration);
 $('cancel').addEventListener('click', () => client.cancel());
+for (const radio of document.querySelectorAll('input[name=show]')) {
+  radio.addEventListener('change', () => {
+    state.show = radio.value;
+    redraw();
+  });
+}
+$('colour').addEventListener('change', () => {
+  state.colour = $('colour').value;
+  redraw();
+});
+$('all-frames').addEventListener('change', () => {
+  state.allFrames = $('all-frames').checked;
+  redraw();
+});
+document.addEventListener('dragover', (e) => {
+  e.preventDefault();
+  document.body.classList.add('dragging');
+});
+document.addEventListener('dragleave', (e) => {
+  if (!e.relatedTarget) document.body.classList.remove('dragging');
+});
+document.addEventListener('drop', async (e) => {
+  e.preventDefault();
+  document.body.classList.remove('dragging');
+  await loadFiles(await fromDrop(e.dataTransfer));
+});
+
+syncSettingsInputs();
+drawConvergence($('convergence'), { meanSigma: [], maxChange: [] });
+if (state.settings.demo) loadDemo();

@@ -1,11 +1,11 @@
 // All heavy work happens here, off the main thread: the wasm module is loaded once and each
-// request {type, id, ...} is answered with {type: 'result' | 'error', id, ...}.
-import init, { calibrate, syntheticRig } from '../pkg/gmmcalib.js';
+// request {type, id, ...} is answered with {type: 'result' | 'error', id, ...}. Typed arrays in
+// results are transferred, not copied.
+import init, { calibrate, parseCloud, simulateRig } from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
 
 const ready = init({ module_or_path: wasmUrl });
 
-// Typed arrays inside a result, so they can be transferred instead of copied.
 function buffersOf(value, found = []) {
   if (ArrayBuffer.isView(value)) found.push(value.buffer);
   else if (value && typeof value === 'object') for (const v of Object.values(value)) buffersOf(v, found);
@@ -13,7 +13,8 @@ function buffersOf(value, found = []) {
 }
 
 const handlers = {
-  synthetic: ({ options }) => syntheticRig(options),
+  parse: ({ bytes, name }) => parseCloud(new Uint8Array(bytes), name),
+  simulate: ({ options }) => simulateRig(options),
   calibrate: ({ input }, id) =>
     calibrate(input, (progress) => {
       self.postMessage({ type: 'progress', id, progress });
@@ -28,7 +29,7 @@ self.onmessage = async ({ data }) => {
     const handler = handlers[type];
     if (!handler) throw new Error(`unknown request type '${type}'`);
     const result = handler(data, id);
-    self.postMessage({ type: 'result', id, result }, buffersOf(result));
+    self.postMessage({ type: 'result', id, result }, [...new Set(buffersOf(result))]);
   } catch (error) {
     self.postMessage({ type: 'error', id, message: error?.message ?? String(error) });
   }

@@ -1,0 +1,108 @@
+// Exports of one calibration result (the report shape): text generators, and the panel that
+// offers each with copy and download. Every extrinsic is T_parent_child: `vehicle` (the frame
+// the nominal extrinsics and ROI are given in) is the parent, each sensor the child.
+import { xyzOf, rpyOf } from './transforms.js';
+
+const num = (x) => String(+x.toPrecision(10));
+const list = (v) => v.map(num).join(' ');
+
+// The result as JSON, typed arrays as plain arrays.
+export const resultJson = (result) =>
+  JSON.stringify(result, (_, v) => (ArrayBuffer.isView(v) ? Array.from(v) : v), 2);
+
+export function gmmcalibYaml(result, roi) {
+  const lines = [`number_of_sensors: ${result.sensors.length}`];
+  for (const s of result.sensors) {
+    const [xyz, rpy] = [xyzOf(s.extrinsic), rpyOf(s.extrinsic)];
+    lines.push(`transform_${s.name}:  # ${s.name} -> vehicle, [roll, pitch, yaw (rad), x, y, z (m)]`);
+    lines.push(`  - [${[...rpy, ...xyz].map(num).join(', ')}]`);
+  }
+  lines.push('min_bound:', `  - [${roi.min.map(num).join(', ')}]`, 'max_bound:', `  - [${roi.max.map(num).join(', ')}]`);
+  return `${lines.join('\n')}\n`;
+}
+
+export function urdf(result, parent) {
+  return result.sensors
+    .map((s) => [
+      `<joint name="${parent}_to_${s.name}" type="fixed">`,
+      `  <parent link="${parent}"/>`,
+      `  <child link="${s.name}"/>`,
+      `  <origin xyz="${list(xyzOf(s.extrinsic))}" rpy="${list(rpyOf(s.extrinsic))}"/>`,
+      '</joint>',
+    ].join('\n'))
+    .join('\n');
+}
+
+export function ros2(result, parent) {
+  return result.sensors
+    .map((s) => {
+      const [[x, y, z], [roll, pitch, yaw]] = [xyzOf(s.extrinsic), rpyOf(s.extrinsic)];
+      return `ros2 run tf2_ros static_transform_publisher --x ${num(x)} --y ${num(y)} --z ${num(z)} ` +
+        `--roll ${num(roll)} --pitch ${num(pitch)} --yaw ${num(yaw)} --frame-id ${parent} --child-frame-id ${s.name}`;
+    })
+    .join('\n');
+}
+
+// The reconstructed target as ASCII PLY: components holding data, with sigma and prior.
+export function targetPly({ means, sigmas, priors }) {
+  const used = [];
+  for (let k = 0; k < sigmas.length; k++) if (priors[k] > 0) used.push(k);
+  const header = ['ply', 'format ascii 1.0', 'comment gmmcalib reconstructed target (mixture frame, m)',
+    `element vertex ${used.length}`, 'property float x', 'property float y', 'property float z',
+    'property float sigma', 'property float prior', 'end_header'];
+  const body = used.map((k) => [means[3 * k], means[3 * k + 1], means[3 * k + 2], sigmas[k], priors[k]].map(num).join(' '));
+  return `${[...header, ...body].join('\n')}\n`;
+}
+
+// {key, title, direction, file, text} for each export of `result`.
+export function exportsOf(result, { roi, parent = 'vehicle' }) {
+  const direction = `parent ${parent}, child each sensor: maps sensor points into ${parent} (T_${parent}_sensor)`;
+  const out = [
+    { key: 'json', title: 'JSON (everything)', direction: 'as the CLI\'s --json; matrices row-major T_vehicle_sensor / C_ref_s / T_ref_s', file: 'gmmcalib-result.json', text: resultJson(result) },
+    { key: 'yaml', title: 'GMMCalib YAML', direction: `transform_<sensor>: sensor -> ${parent}`, file: 'config-calibrated.yaml', text: gmmcalibYaml(result, roi) },
+    { key: 'urdf', title: 'URDF origins', direction, file: 'extrinsics.urdf.xml', text: urdf(result, parent) },
+    { key: 'ros2', title: 'ROS 2 static_transform_publisher', direction: `--frame-id ${parent} (parent), --child-frame-id the sensor`, file: 'static_transforms.sh', text: ros2(result, parent) },
+  ];
+  if (result.target.priors.length) {
+    out.push({ key: 'ply', title: 'Reconstructed target (PLY)', direction: 'points in the mixture frame', file: 'target.ply', text: targetPly(result.target) });
+  }
+  return out;
+}
+
+// The export panel: one block per export with copy and download.
+export function renderExports(container, items) {
+  container.replaceChildren();
+  for (const item of items) {
+    const block = document.createElement('details');
+    block.className = 'export';
+    block.dataset.export = item.key;
+    const summary = document.createElement('summary');
+    summary.textContent = item.title;
+    const note = document.createElement('p');
+    note.className = 'direction';
+    note.textContent = item.direction;
+    const copy = button('Copy', async () => {
+      await navigator.clipboard.writeText(item.text);
+      copy.textContent = 'Copied';
+      setTimeout(() => (copy.textContent = 'Copy'), 1500);
+    });
+    const download = button('Download', () => {
+      const url = URL.createObjectURL(new Blob([item.text], { type: 'text/plain' }));
+      const a = Object.assign(document.createElement('a'), { href: url, download: item.file });
+      a.click();
+      setTimeout(() => URL.revokeObjectURL(url), 0);
+    });
+    const pre = document.createElement('pre');
+    pre.textContent = item.text.length > 20000 ? `${item.text.slice(0, 20000)}\n… (${item.text.length} characters; download for all)` : item.text;
+    block.append(summary, note, copy, download, pre);
+    container.append(block);
+  }
+}
+
+function button(label, onClick) {
+  const b = document.createElement('button');
+  b.type = 'button';
+  b.textContent = label;
+  b.addEventListener('click', onClick);
+  return b;
+}

@@ -1,0 +1,37 @@
+// The loaded files: per file its sensor (editable: reassign by hand), frame, format, point
+// count and dropped invalid points; per bad file its error.
+
+export function renderFiles(container, { views, bad, sensors }, onReassign) {
+  const table = document.createElement('table');
+  table.className = 'files';
+  table.innerHTML = '<tr><th>file</th><th>sensor</th><th>frame</th><th>format</th><th>points</th><th>dropped</th></tr>';
+  const list = document.createElement('datalist');
+  list.id = 'sensor-names';
+  list.append(...sensors.map((s) => Object.assign(document.createElement('option'), { value: s })));
+  for (const view of views) {
+    const tr = document.createElement('tr');
+    const sensor = Object.assign(document.createElement('input'), { value: view.sensor, size: 10 });
+    sensor.setAttribute('list', 'sensor-names');
+    sensor.setAttribute('aria-label', `sensor of ${view.path}`);
+    sensor.addEventListener('change', () => sensor.value.trim() && onReassign(view, sensor.value.trim()));
+    const frame = Object.assign(document.createElement('input'), { value: view.frame, size: 4 });
+    frame.setAttribute('aria-label', `frame of ${view.path}`);
+    frame.addEventListener('change', () => frame.value.trim() && onReassign(view, view.sensor, frame.value.trim()));
+    const cells = [view.path, sensor, frame, view.format, view.count.toLocaleString('en'), view.dropped.toLocaleString('en')];
+    for (const c of cells) {
+      const td = document.createElement('td');
+      td.append(c);
+      tr.append(td);
+    }
+    table.append(tr);
+  }
+  for (const b of bad) {
+    const tr = document.createElement('tr');
+    tr.className = 'bad';
+    tr.innerHTML = '<td></td><td colspan="5"></td>';
+    tr.children[0].textContent = b.path;
+    tr.children[1].textContent = b.error;
+    table.append(tr);
+  }
+  container.replaceChildren(list, table);
+}

@@ -1,0 +1,100 @@
+// The results panel: per sensor the correction and calibrated extrinsic (4x4, xyz, rpy in deg
+// and rad, quaternion), the spread over frames and, for a demo, the error against the truth;
+// the target's plausibility; a convergence plot; with several methods, one comparison table.
+import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from './transforms.js';
+
+const f = (v, d) => v.map((x) => x.toFixed(d)).join(', ');
+const esc = (s) => String(s).replace(/[&<>"]/g, (c) => `&#${c.charCodeAt(0)};`);
+
+// Error of a sensor's calibrated extrinsic against the truth: deg and mm.
+export function errorVsTruth(sensor, truth) {
+  const t = truth?.[sensor.name];
+  if (!t) return null;
+  const { angle, distance } = poseDifference(sensor.extrinsic, matrixFromXyzRpy(t.xyz, t.rpy));
+  return { deg: degrees(angle), mm: distance * 1000 };
+}
+
+function matrixHtml(m) {
+  const rows = [0, 1, 2, 3].map((r) => `<tr>${[0, 1, 2, 3].map((c) => `<td>${m[r * 4 + c].toFixed(6)}</td>`).join('')}</tr>`);
+  return `<table class="matrix">${rows.join('')}</table>`;
+}
+
+function poseHtml(title, m) {
+  const rpy = rpyOf(m);
+  return `<div class="pose"><h4>${title}</h4>${matrixHtml(m)}
+    <p>xyz ${f(xyzOf(m), 4)} m</p>
+    <p>rpy ${f(rpy.map(degrees), 4)} deg = ${f(rpy, 6)} rad</p>
+    <p>quaternion xyzw ${f(quaternionOf(m), 6)}</p></div>`;
+}
+
+function sensorHtml(s, reference, truth) {
+  const error = errorVsTruth(s, truth);
+  const spread = `spread over ${s.spread.frames} frames: xyz ${f(s.spread.xyz.map((v) => v * 1000), 1)} mm, rpy ${f(s.spread.rpy.map(degrees), 3)} deg`;
+  const errorText = error ? `<p class="truth" data-sensor="${esc(s.name)}">error vs truth: <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></p>` : '';
+  return `<section class="sensor"><h3>${esc(s.name)}${s.name === reference ? ' (reference)' : ''}</h3>
+    ${errorText}<p>${spread}</p>
+    <div class="poses">${poseHtml(`correction C_${esc(reference)}_${esc(s.name)}`, s.correction)}${poseHtml(`extrinsic T_vehicle_${esc(s.name)}`, s.extrinsic)}</div></section>`;
+}
+
+function notesHtml(title, notes) {
+  if (!notes.length) return '';
+  return `<p>${title}:</p><ul>${notes.map((n) => `<li>${esc(n.sensor)}/${esc(n.frame)}: ${esc(n.reason)}</li>`).join('')}</ul>`;
+}
+
+function comparisonHtml(results, truth) {
+  const head = `<tr><th>method</th><th>sensor</th><th>xyz (m)</th><th>rpy (deg)</th><th>spread xyz (mm)</th><th>spread rpy (deg)</th>${truth ? '<th>error vs truth</th>' : ''}</tr>`;
+  const body = results.flatMap((r) => r.sensors.map((s) => {
+    const e = errorVsTruth(s, truth);
+    return `<tr><td>${r.method}</td><td>${esc(s.name)}</td><td>${f(s.xyz, 4)}</td><td>${f(s.rpy.map(degrees), 3)}</td>` +
+      `<td>${f(s.spread.xyz.map((v) => v * 1000), 1)}</td><td>${f(s.spread.rpy.map(degrees), 3)}</td>` +
+      `${e ? `<td>${e.deg.toFixed(3)} deg / ${e.mm.toFixed(1)} mm</td>` : ''}</tr>`;
+  }));
+  return `<table class="compare">${head}${body.join('')}</table>`;
+}
+
+// `results`: one report per method run; the first is shown in detail.
+export function renderResults(container, results, truth) {
+  const r = results[0];
+  const t = r.target;
+  const fit = t.rms != null ? `target fit: RMS ${(t.rms * 1000).toFixed(1)} mm, edge ${t.edge.toFixed(3)} m` : 'no target reconstructed (ICP method)';
+  container.innerHTML = `
+    ${results.length > 1 ? `<h3>All methods</h3>${comparisonHtml(results, truth)}<h3>Details: ${r.method}</h3>` : ''}
+    <p>method ${r.method}, reference ${esc(r.reference)}, ${r.iterations} iterations${r.converged ? ', converged' : ''}${r.cancelled ? ', cancelled' : ''}; ${fit}</p>
+    ${r.sensors.map((s) => sensorHtml(s, r.reference, truth)).join('')}
+    ${notesHtml('views left out', r.skipped)}${notesHtml('refinement rejected, kept the JRMPC correction', r.keptJrmpc)}`;
+}
+
+// Convergence: mean sigma (m, left axis, log) and max transform change (right axis, log).
+export function drawConvergence(canvas, history) {
+  const ctx = canvas.getContext('2d');
+  const { width: w, height: h } = canvas;
+  ctx.clearRect(0, 0, w, h);
+  const n = history.meanSigma.length;
+  ctx.fillStyle = '#9aa4b1';
+  ctx.font = '11px system-ui, sans-serif';
+  if (n < 2) {
+    ctx.fillText('no EM iterations to plot', 8, 16);
+    return;
+  }
+  const series = [
+    { values: history.meanSigma, color: '#7fd1ff', label: 'mean σ (m)' },
+    { values: history.maxChange, color: '#ffb054', label: 'max change (rad | m)' },
+  ];
+  const pad = { l: 8, r: 8, t: 18, b: 14 };
+  series.forEach(({ values, color, label }, i) => {
+    const logs = values.map((v) => Math.log10(Math.max(v, 1e-12)));
+    const [lo, hi] = [Math.min(...logs), Math.max(...logs) + 1e-9];
+    ctx.strokeStyle = color;
+    ctx.beginPath();
+    logs.forEach((v, k) => {
+      const x = pad.l + (k / (n - 1)) * (w - pad.l - pad.r);
+      const y = pad.t + (1 - (v - lo) / (hi - lo)) * (h - pad.t - pad.b);
+      k ? ctx.lineTo(x, y) : ctx.moveTo(x, y);
+    });
+    ctx.stroke();
+    ctx.fillStyle = color;
+    ctx.fillText(`${label}: ${values[0].toExponential(1)} → ${values[n - 1].toExponential(1)} (log)`, pad.l + i * (w / 2), 12);
+  });
+  ctx.fillStyle = '#9aa4b1';
+  ctx.fillText(`iteration 1 … ${n}`, pad.l, h - 2);
+}

@@ -1,0 +1,53 @@
+// The rig panel: per sensor the nominal extrinsic (x, y, z in m; roll, pitch, yaw in deg) and
+// the reference choice; the ROI bounds. Edits go straight into `rig` ({sensors, nominal, roi,
+// reference}); `onChange(what)` tells the page to update the view.
+import { degrees, radians } from './transforms.js';
+
+function numberInput(value, step, onInput, label) {
+  const input = Object.assign(document.createElement('input'), { type: 'number', step, value: +value.toFixed(6) });
+  input.setAttribute('aria-label', label);
+  input.addEventListener('change', () => {
+    const v = Number(input.value);
+    if (input.value !== '' && Number.isFinite(v)) onInput(v);
+    else input.value = +value.toFixed(6);
+  });
+  return input;
+}
+
+function cell(...children) {
+  const td = document.createElement('td');
+  td.append(...children);
+  return td;
+}
+
+export function renderRig(container, rig, onChange) {
+  const table = document.createElement('table');
+  table.className = 'rig';
+  table.innerHTML = '<tr><th>ref</th><th>sensor</th><th>x</th><th>y</th><th>z (m)</th><th>roll</th><th>pitch</th><th>yaw (deg)</th></tr>';
+  for (const name of rig.sensors) {
+    const pose = (rig.nominal[name] ??= { xyz: [0, 0, 0], rpy: [0, 0, 0] });
+    const tr = document.createElement('tr');
+    const radio = Object.assign(document.createElement('input'), { type: 'radio', name: 'reference', checked: rig.reference === name });
+    radio.setAttribute('aria-label', `reference ${name}`);
+    radio.addEventListener('change', () => {
+      rig.reference = name;
+      onChange('reference');
+    });
+    tr.append(cell(radio), cell(name));
+    for (let k = 0; k < 3; k++) tr.append(cell(numberInput(pose.xyz[k], 0.01, (v) => { pose.xyz[k] = v; onChange('nominal'); }, `${name} ${'xyz'[k]}`)));
+    for (let k = 0; k < 3; k++) {
+      tr.append(cell(numberInput(degrees(pose.rpy[k]), 0.1, (v) => { pose.rpy[k] = radians(v); onChange('nominal'); }, `${name} ${['roll', 'pitch', 'yaw'][k]}`)));
+    }
+    table.append(tr);
+  }
+  const roi = document.createElement('table');
+  roi.className = 'rig';
+  roi.innerHTML = '<tr><th>ROI (m)</th><th>x</th><th>y</th><th>z</th></tr>';
+  for (const bound of ['min', 'max']) {
+    const tr = document.createElement('tr');
+    tr.append(cell(bound));
+    for (let k = 0; k < 3; k++) tr.append(cell(numberInput(rig.roi[bound][k], 0.1, (v) => { rig.roi[bound][k] = v; onChange('roi'); }, `ROI ${bound} ${'xyz'[k]}`)));
+    roi.append(tr);
+  }
+  container.replaceChildren(table, roi);
+}

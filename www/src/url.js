@@ -1,0 +1,35 @@
+// Settings and demo parameters in the URL hash (`#method=gmm&seed=3&demo=paper`), so a copied
+// link reproduces the same demo run. Only values that differ from the defaults are written.
+
+export const DEFAULTS = Object.freeze({
+  method: 'gmm', // gmm | jrmpc | p2p | p2l | gicp | all
+  components: 400,
+  iterations: 100,
+  edge: 0.5, // cube edge of the target prior (m)
+  initialSigma: 'bbox', // bbox | prior
+  demo: '', // preset of a demo to load on open: '' | paper | os1-128
+  frames: 4,
+  seed: 1,
+  maxAngleDeg: 3,
+  maxTranslation: 0.1,
+});
+
+const NUMBERS = new Set(['components', 'iterations', 'edge', 'frames', 'seed', 'maxAngleDeg', 'maxTranslation']);
+
+export function readHash(hash = location.hash) {
+  const settings = { ...DEFAULTS };
+  for (const [key, value] of new URLSearchParams(hash.replace(/^#/, ''))) {
+    if (!(key in DEFAULTS)) continue;
+    const v = NUMBERS.has(key) ? Number(value) : value;
+    if (NUMBERS.has(key) && !Number.isFinite(v)) continue;
+    settings[key] = v;
+  }
+  return settings;
+}
+
+export function writeHash(settings) {
+  const params = new URLSearchParams();
+  for (const key of Object.keys(DEFAULTS)) if (settings[key] !== DEFAULTS[key]) params.set(key, settings[key]);
+  const hash = params.toString();
+  history.replaceState(null, '', hash ? `#${hash}` : location.pathname + location.search);
+}
