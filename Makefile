@@ -33,8 +33,9 @@ test-rust:
 test-wasm: setup-rust
 	cargo test --target $(WASM_TARGET)
 
+# One test file at a time: each starts its own Chromium, and the machine has two cores.
 test-browser: build setup-browser
-	cd www && node --test e2e/
+	cd www && node --test --test-concurrency=1 e2e/
 
 bench: wasm
 	cargo run --release --bin bench

@@ -9,6 +9,10 @@ import { errorOf, simulateRig } from './rigfiles.js';
 // Loose bound on the demo's correction error while accuracy work continues (issue 6); the
 // paper rig measured 0.03-0.05 deg / 4-10 mm natively (seeds 0-2, 4 frames).
 const DEMO_ERROR_BOUND = { deg: 0.3, mm: 20 };
+// Longest main-thread task allowed during a run. The goal is 100 ms; on this shared 2-core
+// machine with software WebGL, redraws measured 60-200 ms under a load of 8. Work done on the
+// main thread by mistake (parsing, registration) would take seconds.
+const LONGEST_TASK_MS = 500;
 
 let server;
 let browser;
@@ -29,8 +33,16 @@ test('demo: simulate, calibrate, and land within the bound of the truth', async 
   mkdirSync('e2e/artifacts', { recursive: true });
   await page.waitForTimeout(300); // one animation frame for the on-demand render
   await page.screenshot({ path: 'e2e/artifacts/demo-before.png' });
+  // Long main-thread tasks during the run (the page must stay responsive).
+  await page.evaluate(() => {
+    window.longTasks = [];
+    new PerformanceObserver((list) => window.longTasks.push(...list.getEntries().map((e) => e.duration))).observe({ type: 'longtask' });
+  });
   await page.getByTestId('calibrate').click();
   await waitForStatus(page, /^Done/, 180_000);
+  const longTasks = await page.evaluate(() => window.longTasks);
+  console.log(`main-thread tasks over 50 ms during the run: ${longTasks.map((d) => d.toFixed(0)).join(', ') || 'none'}`);
+  assert.ok(longTasks.every((d) => d < LONGEST_TASK_MS), `main-thread tasks of ${longTasks.join(', ')} ms`);
   const result = JSON.parse(await page.getByTestId('result-json').textContent());
   assert.equal(result.method, 'gmm');
   assert.equal(result.reference, 'front_left');

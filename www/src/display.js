@@ -3,6 +3,9 @@
 // Clouds are uploaded once per view and colour mode; a pose change only moves objects.
 import { multiply } from './transforms.js';
 
+// Points drawn while a run animates: software WebGL (no GPU) takes about 1 ms per 1000 points
+// a frame, and the page must stay responsive.
+const PREVIEW_POINTS = 30_000;
 const PALETTE = [0xff6b6b, 0x4dabf7, 0x69db7c, 0xffd43b, 0xda77f2, 0xff922b, 0x38d9a9, 0xf783ac];
 
 export const sensorColour = (i) => PALETTE[i % PALETTE.length];
@@ -38,6 +41,7 @@ export class Display {
   #viewer;
   #uploaded = new Map(); // view id -> colour mode it was uploaded with
   #axes = new Set();
+  #roiKey = '';
 
   constructor(viewer) {
     this.#viewer = viewer;
@@ -47,10 +51,12 @@ export class Display {
     this.#viewer.clear();
     this.#uploaded.clear();
     this.#axes.clear();
+    this.#roiKey = '';
   }
 
-  // `poses`: sensor -> row-major T_vehicle_sensor to draw with.
-  update({ views, rig, colour, allFrames }, poses) {
+  // `poses`: sensor -> row-major T_vehicle_sensor to draw with. `preview`: draw at most about
+  // PREVIEW_POINTS points, for redraws on every iteration of a run.
+  update({ views, rig, colour, allFrames }, poses, { preview = false } = {}) {
     const firstFrame = new Map();
     for (const v of views) if (!firstFrame.has(v.sensor)) firstFrame.set(v.sensor, v.frame);
     const live = new Set(views.map((v) => v.id));
@@ -60,6 +66,9 @@ export class Display {
         this.#uploaded.delete(id);
       }
     }
+    const shown = views.filter((v) => allFrames || firstFrame.get(v.sensor) === v.frame);
+    const total = shown.reduce((sum, v) => sum + v.points.length / 3, 0);
+    const stride = preview ? Math.max(1, Math.ceil(total / PREVIEW_POINTS)) : 1;
     for (const view of views) {
       const index = rig.sensors.indexOf(view.sensor);
       const pose = poses[view.sensor];
@@ -68,7 +77,8 @@ export class Display {
         this.#uploaded.set(view.id, `${colour}/${view.sensor}`);
       }
       this.#viewer.setPose(view.id, pose);
-      this.#viewer.setVisible(view.id, allFrames || firstFrame.get(view.sensor) === view.frame);
+      this.#viewer.setStride(view.id, stride);
+      this.#viewer.setVisible(view.id, shown.includes(view));
     }
     for (const id of this.#axes) if (!rig.sensors.includes(id.slice(5))) this.#viewer.remove(id);
     for (const name of rig.sensors) {
@@ -77,7 +87,9 @@ export class Display {
       this.#axes.add(id);
       this.#viewer.setPose(id, poses[name]);
     }
-    if (rig.roi) this.#viewer.setBox('roi', rig.roi);
+    const roiKey = JSON.stringify(rig.roi);
+    if (rig.roi && roiKey !== this.#roiKey) this.#viewer.setBox('roi', rig.roi);
+    this.#roiKey = roiKey;
   }
 }
 

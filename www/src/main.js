@@ -52,7 +52,7 @@ function shownPoses() {
   return poses;
 }
 
-const redraw = (poses = shownPoses()) => display.update(state, poses);
+const redraw = (poses = shownPoses(), options) => display.update(state, poses, options);
 
 function renderLegend() {
   $('legend').replaceChildren(...state.rig.sensors.map((s, i) => {
@@ -233,7 +233,7 @@ async function runCalibration() {
           const eta = (elapsed / p.iteration) * (p.maxIterations - p.iteration);
           $('progress').value = (results.length + p.iteration / p.maxIterations) / methods.length;
           setStatus(`${label}iteration ${p.iteration}/${p.maxIterations}, σ ${(p.meanSigma * 100).toFixed(2)} cm, about ${eta.toFixed(1)} s left`);
-          redraw(livePoses(p, nominal));
+          redraw(livePoses(p, nominal), { preview: true });
         },
       });
       results.push(result);

@@ -1,7 +1,7 @@
 // Promise-per-request client for the calibration worker. Messages are {type, id, ...}; the
 // worker answers each request with 'result' or 'error' and may send 'progress' before that.
 // cancel() terminates the worker (a running wasm call cannot be interrupted otherwise) and a
-// fresh one starts on the next request; so does a crashed worker.
+// fresh one starts on the next request; so does a crashed worker, or one whose wasm trapped.
 
 export class WorkerClient {
   #worker = null;
@@ -25,6 +25,10 @@ export class WorkerClient {
     if (!request) return;
     if (message.type === 'progress') {
       request.onProgress?.(message.progress);
+      return;
+    }
+    if (message.fatal) {
+      this.#fail(new Error(message.message));
       return;
     }
     this.#pending.delete(message.id);

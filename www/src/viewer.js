@@ -94,6 +94,26 @@ export class Viewer {
     this.render();
   }
 
+  // Draws every `step`-th point of a cloud only (1: all); cheap previews while poses animate.
+  // The preview is a copy (drawArrays): an index buffer costs more than it saves in software GL.
+  setStride(id, step) {
+    const geometry = this.#objects.get(id)?.geometry;
+    if (!geometry || (geometry.userData.step ?? 1) === step) return;
+    const full = (geometry.userData.full ??= Object.fromEntries(['position', 'color'].filter((k) => geometry.getAttribute(k)).map((k) => [k, geometry.getAttribute(k)])));
+    for (const [key, attribute] of Object.entries(full)) {
+      if (step === 1) {
+        geometry.setAttribute(key, attribute);
+        continue;
+      }
+      const n = Math.ceil(attribute.count / step);
+      const out = new Float32Array(n * 3);
+      for (let i = 0; i < n; i++) out.set(attribute.array.subarray(i * step * 3, i * step * 3 + 3), i * 3);
+      geometry.setAttribute(key, new THREE.BufferAttribute(out, 3));
+    }
+    geometry.userData.step = step;
+    this.render();
+  }
+
   setVisible(id, visible) {
     const object = this.#objects.get(id);
     if (object && object.visible !== visible) {

@@ -31,6 +31,10 @@ self.onmessage = async ({ data }) => {
     const result = handler(data, id);
     self.postMessage({ type: 'result', id, result }, [...new Set(buffersOf(result))]);
   } catch (error) {
-    self.postMessage({ type: 'error', id, message: error?.message ?? String(error) });
+    // A trap inside wasm (a panic, out of memory) leaves the instance unusable: ask for a new
+    // worker. Ordinary errors (bad input) are values and keep this one.
+    const fatal = error instanceof WebAssembly.RuntimeError;
+    const message = error?.message ?? String(error);
+    self.postMessage({ type: 'error', id, fatal, message: fatal ? `the calculation crashed (${message}); restarted` : message });
   }
 };

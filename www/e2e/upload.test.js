@@ -1,0 +1,88 @@
+// Loading files: a GMMCalib folder (3 sensors, PCD and PLY, config.yaml) through the file
+// input, calibrated against its truth; a malformed file is named and the rest still calibrates.
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { serveDist, launch, openPage, waitForStatus } from './harness.js';
+import { calibrate } from '../pkg/gmmcalib.js';
+import { errorOf, gmmcalibFolder, syntheticRig } from './rigfiles.js';
+
+// A coarse sanity bound against the truth: this small synthetic rig (3 frames of 1000 points)
+// calibrates to 0.15 and 0.99 deg (accuracy is issue 6's subject). The strong check is that the
+// page computes exactly what the wasm package computes in Node from the same data.
+const UPLOAD_ERROR_BOUND = { deg: 1.5, mm: 100 };
+
+let server;
+let browser;
+before(async () => {
+  server = await serveDist();
+  browser = await launch();
+});
+after(async () => {
+  await browser?.close();
+  server?.close();
+});
+
+test('upload a GMMCalib folder through file-input and calibrate it', async () => {
+  const rig = syntheticRig({ sensors: 3, frames: 3, pointsPerView: 1000, seed: 2 });
+  const files = gmmcalibFolder(rig, 'rig', 'initial_sigma: prior\ncomponents: 200\n');
+  const { page, problems } = await openPage(browser, server.url);
+  await page.getByTestId('file-input').setInputFiles(files);
+  await waitForStatus(page, /9 scans of 3 sensors loaded/);
+  // Assigned by folder, nominal and ROI from the config, our keys applied.
+  const rows = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => {
+    const [file, sensor, frame, format] = tr.querySelectorAll('td');
+    return [file.textContent, sensor.firstChild.value, frame.firstChild.value, format.textContent];
+  }));
+  assert.deepEqual(rows.slice(0, 4), [
+    ['rig/sensor_1/1.pcd', 'sensor_1', '1', 'PCD ascii'],
+    ['rig/sensor_1/2.pcd', 'sensor_1', '2', 'PCD ascii'],
+    ['rig/sensor_1/3.pcd', 'sensor_1', '3', 'PCD ascii'],
+    ['rig/sensor_2/1.pcd', 'sensor_2', '1', 'PCD ascii'],
+  ]);
+  assert.match(rows[8][3], /PLY binary/);
+  assert.equal(await page.getByLabel('sensor_3 x').inputValue(), String(+rig.nominal.sensor_3.xyz[0].toFixed(6)));
+  assert.equal(await page.getByLabel('ROI max y').inputValue(), '3.2');
+  assert.equal(await page.locator('#initialSigma').inputValue(), 'prior');
+
+  await page.getByTestId('calibrate').click();
+  await waitForStatus(page, /^Done/, 120_000);
+  const result = JSON.parse(await page.getByTestId('result-json').textContent());
+  assert.deepEqual(result.sensors.map((s) => s.name), ['sensor_1', 'sensor_2', 'sensor_3']);
+  assert.equal(result.reference, 'sensor_1');
+  for (const s of result.sensors.slice(1)) {
+    const e = errorOf(s.extrinsic, rig.truth[s.name]);
+    console.log(`upload ${s.name}: ${e.deg.toFixed(3)} deg / ${e.mm.toFixed(1)} mm from the truth`);
+    assert.ok(e.deg < UPLOAD_ERROR_BOUND.deg && e.mm < UPLOAD_ERROR_BOUND.mm, `${s.name}: ${e.deg} deg / ${e.mm} mm`);
+    assert.equal(s.spread.frames, 3);
+  }
+  assert.equal(result.target.means.length, 3 * 200);
+  // The same rig straight into the wasm package (views in the page's order: by sensor, frame).
+  const views = [...rig.views].sort((a, b) => a.sensor.localeCompare(b.sensor) || a.frame.localeCompare(b.frame));
+  const direct = calibrate({ views, nominal: rig.nominal, roi: rig.roi, reference: 'sensor_1', target: { kind: 'cube', edge: 0.5 }, components: 200, iterations: 100, initialSigma: 'prior' });
+  result.sensors.forEach((s, i) => {
+    const worst = Math.max(...s.extrinsic.map((v, k) => Math.abs(v - direct.sensors[i].extrinsic[k])));
+    assert.ok(worst < 1e-12, `${s.name}: the page's extrinsic differs from the direct call by ${worst}`);
+  });
+  const yaml = await page.locator('[data-export=yaml] pre').textContent();
+  assert.match(yaml, /^number_of_sensors: 3\ntransform_sensor_1:/);
+  assert.deepEqual(problems, []);
+});
+
+test('a malformed file shows a named error; the good files still calibrate', async () => {
+  const rig = syntheticRig({ sensors: 2, frames: 2, pointsPerView: 800, seed: 3 });
+  const files = gmmcalibFolder(rig, 'rig', 'initial_sigma: prior\ncomponents: 150\n');
+  files.push({ name: 'rig/sensor_2/3.pcd', mimeType: 'application/octet-stream', buffer: Buffer.from('VERSION 0.7\nFIELDS x y z\nDATA ascii\n1 2 3\n') });
+  const { page, problems } = await openPage(browser, server.url);
+  await page.getByTestId('file-input').setInputFiles(files);
+  await waitForStatus(page, /4 scans of 2 sensors loaded, 1 file\(s\) with problems/);
+  const error = await page.getByTestId('error').textContent();
+  assert.match(error, /^rig\/sensor_2\/3\.pcd: .*3\.pcd/);
+  assert.equal(await page.getByTestId('error').isVisible(), true);
+  await page.getByTestId('calibrate').click();
+  await waitForStatus(page, /^Done/, 120_000);
+  assert.equal(await page.getByTestId('error').isHidden(), true);
+  const result = JSON.parse(await page.getByTestId('result-json').textContent());
+  assert.equal(result.sensors.length, 2);
+  assert.equal(result.sensors[1].spread.frames, 2, 'frame 3 of sensor_2 was never loaded');
+  assert.deepEqual(problems, []);
+});
