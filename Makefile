@@ -33,9 +33,10 @@ test-rust:
 test-wasm: setup-rust
 	cargo test --target $(WASM_TARGET)
 
-# One test file at a time: each starts its own Chromium, and the machine has two cores.
+# The page's plain modules under Node (test/), then the page in Chromium (e2e/), one file at a
+# time: each starts its own Chromium, and the machine has two cores.
 test-browser: build setup-browser
-	cd www && node --test --test-concurrency=1 e2e/
+	cd www && node --test --test-concurrency=1 test/ e2e/
 
 bench: wasm
 	cargo run --release --bin bench

@@ -10,7 +10,7 @@ const PALETTE = [0xff6b6b, 0x4dabf7, 0x69db7c, 0xffd43b, 0xda77f2, 0xff922b, 0x3
 
 export const sensorColour = (i) => PALETTE[i % PALETTE.length];
 
-// Per-point colours: by height (vehicle z under `pose`, -0.5..3 m) or by intensity.
+// Per-point colours: by height (vehicle z under `pose`, over the ROI's z range) or by intensity.
 function ramp(values, lo, hi) {
   const out = new Float32Array(values.length * 3);
   for (let i = 0; i < values.length; i++) {
@@ -22,7 +22,7 @@ function ramp(values, lo, hi) {
   return out;
 }
 
-function colours(view, mode, sensorIndex, pose) {
+function colours(view, mode, sensorIndex, pose, roi) {
   if (mode === 'intensity' && view.intensity) {
     let hi = 0;
     for (const v of view.intensity) hi = Math.max(hi, v);
@@ -32,7 +32,7 @@ function colours(view, mode, sensorIndex, pose) {
     const p = view.points;
     const z = new Float32Array(p.length / 3);
     for (let i = 0; i < z.length; i++) z[i] = pose[8] * p[3 * i] + pose[9] * p[3 * i + 1] + pose[10] * p[3 * i + 2] + pose[11];
-    return ramp(z, -0.5, 3);
+    return ramp(z, roi?.min[2] ?? -0.5, roi?.max[2] ?? 3);
   }
   return sensorColour(sensorIndex);
 }
@@ -73,7 +73,7 @@ export class Display {
       const index = rig.sensors.indexOf(view.sensor);
       const pose = poses[view.sensor];
       if (this.#uploaded.get(view.id) !== `${colour}/${view.sensor}`) {
-        this.#viewer.setCloud(view.id, view.points, colours(view, colour, index, pose));
+        this.#viewer.setCloud(view.id, view.points, colours(view, colour, index, pose, rig.roi));
         this.#uploaded.set(view.id, `${colour}/${view.sensor}`);
       }
       this.#viewer.setPose(view.id, pose);

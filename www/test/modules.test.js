@@ -1,0 +1,76 @@
+// The page's plain modules under Node: file assignment, config parsing, pose maths, exports
+// (round trip through GMMCalib YAML), URL settings.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { assign, natural } from '../src/files.js';
+import { parseConfig } from '../src/config.js';
+import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
+import { gmmcalibYaml, resultJson, ros2, targetPly, urdf } from '../src/exports.js';
+import { DEFAULTS, readHash } from '../src/url.js';
+
+const close = (a, b, tol = 1e-12) => a.every((v, i) => Math.abs(v - b[i]) < tol);
+
+test('files are assigned by sensor_N folder, else by the last underscore of the name', () => {
+  assert.deepEqual(assign('data/sensor_2/7.pcd'), { sensor: 'sensor_2', frame: '7' });
+  assert.deepEqual(assign('sensor_2_7.pcd'), { sensor: 'sensor_2', frame: '7' });
+  assert.deepEqual(assign('left_003.ply'), { sensor: 'left', frame: '003' });
+  assert.deepEqual(assign('scans/left_003.ply'), { sensor: 'left', frame: '003' });
+  assert.deepEqual(assign('scan.bin'), { sensor: 'scan', frame: '1' });
+  assert.deepEqual(['sensor_10', 'sensor_2', 'sensor_1'].sort(natural), ['sensor_1', 'sensor_2', 'sensor_10']);
+});
+
+test('GMMCalib config: nested and plain lists, our keys, errors naming file and key', () => {
+  const config = parseConfig(
+    'number_of_sensors: 2\ntransform_sensor_1:\n  - [0.1, 0.2, 0.3, 1, 2, 3]\ntransform_sensor_2: [0, 0, 0, 4, 5, 6]\n' +
+      'min_bound:\n  - [-1, -2, -3]\nmax_bound: [1, 2, 3]\ninitial_sigma: prior\ntarget_edge: 0.4\nother: ignored\n',
+    'config.yaml',
+  );
+  assert.deepEqual(config.nominal.sensor_1, { xyz: [1, 2, 3], rpy: [0.1, 0.2, 0.3] });
+  assert.deepEqual(config.nominal.sensor_2.xyz, [4, 5, 6]);
+  assert.deepEqual(config.roi, { min: [-1, -2, -3], max: [1, 2, 3] });
+  assert.equal(config.initialSigma, 'prior');
+  assert.equal(config.edge, 0.4);
+  assert.throws(() => parseConfig('transform_a: [1, 2]\n', 'c.yaml'), /c\.yaml: transform_a: expected 6 numbers/);
+  assert.throws(() => parseConfig('a: [1, 2\n', 'c.yaml'), /c\.yaml: bad YAML/);
+  assert.throws(() => parseConfig('- 1\n', 'c.yaml'), /c\.yaml: expected a mapping/);
+  assert.throws(() => parseConfig('min_bound: [1, 2, 3]\n', 'c.yaml'), /max_bound: expected 3 numbers/);
+});
+
+test('pose maths: rpy and quaternion of a matrix, inverse', () => {
+  const xyz = [1, -2, 0.5];
+  const rpy = [0.3, -0.2, 2.5];
+  const m = matrixFromXyzRpy(xyz, rpy);
+  assert.ok(close(rpyOf(m), rpy) && close(xyzOf(m), xyz));
+  assert.ok(close(multiply(m, inverse(m)), matrixFromXyzRpy([0, 0, 0], [0, 0, 0])));
+  // 90 deg about z: q = (0, 0, sin 45, cos 45).
+  assert.ok(close(quaternionOf(matrixFromXyzRpy([0, 0, 0], [0, 0, Math.PI / 2])), [0, 0, Math.SQRT1_2, Math.SQRT1_2]));
+  assert.ok(close(quaternionOf(matrixFromXyzRpy([0, 0, 0], [Math.PI, 0, 0])), [1, 0, 0, 0]));
+});
+
+test('exports: YAML round trip, URDF and ROS 2 lines, PLY, JSON with plain arrays', () => {
+  const extrinsic = matrixFromXyzRpy([2.3, -0.6, 1.6], [-0.35, 0.01, -0.02]);
+  const result = {
+    sensors: [{ name: 'a', extrinsic: matrixFromXyzRpy([0, 0, 1], [0, 0, 0]) }, { name: 'b', extrinsic }],
+    target: { means: new Float32Array([1, 2, 3, 4, 5, 6]), sigmas: new Float32Array([0.1, 0.2]), priors: new Float32Array([0.5, 0]) },
+  };
+  const roi = { min: [1, -2, -0.5], max: [3, 2, 1] };
+  const back = parseConfig(gmmcalibYaml(result, roi), 'out.yaml');
+  const b = back.nominal.b;
+  assert.ok(close(matrixFromXyzRpy(b.xyz, b.rpy), extrinsic, 1e-9));
+  assert.deepEqual(back.roi, roi);
+  assert.match(urdf(result, 'base_link'), /<parent link="base_link"\/>\n {2}<child link="b"\/>\n {2}<origin xyz="2\.3 -0\.6 1\.6" rpy="-0\.35 0\.01 -0\.02"\/>/);
+  assert.match(ros2(result, 'base_link').split('\n')[1], /^ros2 run tf2_ros static_transform_publisher --x 2\.3 --y -0\.6 --z 1\.6 --roll -0\.35 --pitch 0\.01 --yaw -0\.02 --frame-id base_link --child-frame-id b$/);
+  const ply = targetPly(result.target);
+  assert.match(ply, /element vertex 1\n/);
+  assert.match(ply, /end_header\n1 2 3 0\.1000000015 0\.5\n$/);
+  assert.deepEqual(JSON.parse(resultJson(result)).target.means, [1, 2, 3, 4, 5, 6]);
+});
+
+test('URL hash: known keys only, numbers checked, defaults otherwise', () => {
+  const s = readHash('#method=jrmpc&seed=7&frames=x&evil=1&demo=paper');
+  assert.equal(s.method, 'jrmpc');
+  assert.equal(s.seed, 7);
+  assert.equal(s.frames, DEFAULTS.frames);
+  assert.equal(s.demo, 'paper');
+  assert.ok(!('evil' in s));
+});
