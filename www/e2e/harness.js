@@ -1,5 +1,6 @@
 // Shared by the browser tests: serve www/dist on a free loopback port and drive Debian's
-// Chromium with playwright-core. Records console errors and failed requests per page.
+// Chromium with playwright-core. Records console errors, failed requests and requests to other
+// origins per page.
 import { createServer } from 'node:http';
 import { readFile } from 'node:fs/promises';
 import { extname, join, normalize } from 'node:path';
@@ -47,6 +48,9 @@ export async function openPage(browser, url) {
   page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
   page.on('requestfailed', (r) => problems.push(`request failed: ${r.url()}`));
   page.on('response', (r) => r.status() >= 400 && problems.push(`HTTP ${r.status()}: ${r.url()}`));
+  // Privacy: nothing but the page's own origin (and local data: / blob: URLs) is ever asked for.
+  const origin = new URL(url).origin;
+  page.on('request', (r) => !/^(data|blob):/.test(r.url()) && new URL(r.url()).origin !== origin && problems.push(`request to another origin: ${r.url()}`));
   await page.goto(url);
   return { page, problems };
 }
