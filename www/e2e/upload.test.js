@@ -2,6 +2,9 @@
 // input, calibrated against its truth; a malformed file is named and the rest still calibrates.
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
+import { mkdirSync, mkdtempSync, rmSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { dirname, join } from 'node:path';
 import { serveDist, launch, openPage, waitForStatus } from './harness.js';
 import { calibrate } from '../pkg/gmmcalib.js';
 import { errorOf, gmmcalibFolder, syntheticRig } from './rigfiles.js';
@@ -40,8 +43,8 @@ test('upload a GMMCalib folder through file-input and calibrate it', async () =>
     ['rig/sensor_2/1.pcd', 'sensor_2', '1', 'PCD ascii'],
   ]);
   assert.match(rows[8][3], /PLY binary/);
-  assert.equal(await page.getByLabel('sensor_3 x').inputValue(), String(+rig.nominal.sensor_3.xyz[0].toFixed(6)));
-  assert.equal(await page.getByLabel('ROI max y').inputValue(), '3.2');
+  assert.equal(await page.getByLabel('sensor_3 x', { exact: true }).inputValue(), String(+rig.nominal.sensor_3.xyz[0].toFixed(6)));
+  assert.equal(await page.getByLabel('ROI max y', { exact: true }).inputValue(), '3.2');
   assert.equal(await page.locator('#initialSigma').inputValue(), 'prior');
 
   await page.getByTestId('calibrate').click();
@@ -85,4 +88,24 @@ test('a malformed file shows a named error; the good files still calibrate', asy
   assert.equal(result.sensors.length, 2);
   assert.equal(result.sensors[1].spread.frames, 2, 'frame 3 of sensor_2 was never loaded');
   assert.deepEqual(problems, []);
+});
+
+test('a folder picked from disk keeps its sensor_N layout', async () => {
+  const rig = syntheticRig({ sensors: 2, frames: 2, pointsPerView: 300, seed: 4 });
+  const dir = mkdtempSync(join(tmpdir(), 'gmmcalib-e2e-'));
+  try {
+    for (const f of gmmcalibFolder(rig, 'rig')) {
+      mkdirSync(dirname(join(dir, f.name)), { recursive: true });
+      writeFileSync(join(dir, f.name), f.buffer);
+    }
+    const { page, problems } = await openPage(browser, server.url);
+    await page.locator('#folder-input').setInputFiles(join(dir, 'rig'));
+    await waitForStatus(page, /4 scans of 2 sensors loaded\.$/);
+    const sensors = await page.locator('#files tr td:nth-child(2) input').evaluateAll((inputs) => inputs.map((i) => i.value));
+    assert.deepEqual(sensors, ['sensor_1', 'sensor_1', 'sensor_2', 'sensor_2']);
+    assert.equal(await page.getByLabel('sensor_2 y', { exact: true }).inputValue(), String(+rig.nominal.sensor_2.xyz[1].toFixed(6)));
+    assert.deepEqual(problems, []);
+  } finally {
+    rmSync(dir, { recursive: true, force: true });
+  }
 });
