@@ -1,6 +1,7 @@
 // Which files were given and what they are: paths from a drop (folders walked), the picker or
-// a folder picker; point-cloud files assigned to (sensor, frame), and the GMMCalib config.
-// No parsing of clouds here (the worker does that).
+// a folder picker; point-cloud files assigned to (sensor, frame) and parsed by `parse` (the
+// worker), the GMMCalib config read; every bad file kept with its error.
+import { parseConfig } from './config.js';
 
 const CLOUD = /\.(pcd|ply|bin)$/i;
 const CONFIG = /(^|\/)[^/]*\.ya?ml$/i;
@@ -53,3 +54,29 @@ export function assign(path) {
 
 // Natural order: sensor_2 before sensor_10.
 export const natural = (a, b) => a.localeCompare(b, undefined, { numeric: true });
+
+// Reads `entries` ([{path, file}]): {scans: [{path, sensor, frame, ...parsed}], bad: [{path,
+// error}], config}. `parse(bytes, path)` parses one cloud; `onFile(path, i, n)` reports progress.
+export async function readEntries(entries, parse, onFile) {
+  const bad = [];
+  let config = {};
+  for (const e of entries.filter((e) => isConfig(e.path))) {
+    try {
+      config = { ...config, ...parseConfig(await e.file.text(), e.path) };
+    } catch (error) {
+      bad.push({ path: e.path, error: error.message });
+    }
+  }
+  for (const e of entries) if (!isCloud(e.path) && !isConfig(e.path)) bad.push({ path: e.path, error: 'ignored: not a .pcd, .ply, .bin or .yaml file' });
+  const clouds = entries.filter((e) => isCloud(e.path)).sort((a, b) => natural(a.path, b.path));
+  const scans = [];
+  for (const [i, { path, file }] of clouds.entries()) {
+    onFile(path, i + 1, clouds.length);
+    try {
+      scans.push({ path, ...assign(path), ...(await parse(await file.arrayBuffer(), path)) });
+    } catch (error) {
+      bad.push({ path, error: error.message });
+    }
+  }
+  return { scans, bad, config };
+}

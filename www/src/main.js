@@ -4,8 +4,7 @@
 import { WorkerClient } from './rpc.js';
 import { Viewer } from './viewer.js';
 import { Display, livePoses, sensorColour } from './display.js';
-import { assign, fromDrop, fromInput, isCloud, isConfig, natural } from './files.js';
-import { parseConfig } from './config.js';
+import { fromDrop, fromInput, natural, readEntries } from './files.js';
 import { renderFiles } from './filelist.js';
 import { renderRig } from './rig.js';
 import { drawConvergence, renderResults } from './results.js';
@@ -116,28 +115,11 @@ async function loadFiles(entries) {
   showError(null);
   if (!entries.length) return;
   if (state.truth) clearAll(); // user files replace a demo
-  let config = {};
-  const clouds = entries.filter((e) => isCloud(e.path)).sort((a, b) => natural(a.path, b.path));
-  for (const e of entries.filter((e) => isConfig(e.path))) {
-    try {
-      config = { ...config, ...parseConfig(await e.file.text(), e.path) };
-    } catch (error) {
-      state.bad.push({ path: e.path, error: error.message });
-    }
-  }
-  for (const e of entries) if (!isCloud(e.path) && !isConfig(e.path)) state.bad.push({ path: e.path, error: 'ignored: not a .pcd, .ply, .bin or .yaml file' });
-  let done = 0;
-  for (const { path, file } of clouds) {
-    setStatus(`Reading ${path} (${++done}/${clouds.length})…`);
-    try {
-      const bytes = await file.arrayBuffer();
-      const parsed = await client.request('parse', { bytes, name: path }, { transfer: [bytes] });
-      state.views = state.views.filter((v) => v.path !== path);
-      state.views.push({ id: `view:${nextViewId++}`, path, ...assign(path), ...parsed });
-    } catch (error) {
-      state.bad.push({ path, error: error.message });
-    }
-  }
+  const parse = (bytes, name) => client.request('parse', { bytes, name }, { transfer: [bytes] });
+  const { scans, bad, config } = await readEntries(entries, parse, (path, i, n) => setStatus(`Reading ${path} (${i}/${n})…`));
+  const paths = new Set(scans.map((s) => s.path));
+  state.views = [...state.views.filter((v) => !paths.has(v.path)), ...scans.map((s) => ({ id: `view:${nextViewId++}`, ...s }))];
+  state.bad.push(...bad);
   state.views.sort((a, b) => natural(a.sensor, b.sensor) || natural(a.frame, b.frame));
   state.settings.demo = '';
   writeHash(state.settings);
