@@ -7,7 +7,7 @@ import { tmpdir } from 'node:os';
 import { dirname, join } from 'node:path';
 import { serveDist, launch, openPage, waitForStatus } from './harness.js';
 import { calibrate } from '../pkg/gmmcalib.js';
-import { errorOf, gmmcalibFolder, syntheticRig } from './rigfiles.js';
+import { errorOf, gmmcalibFolder, pcdAscii, syntheticRig } from './rigfiles.js';
 
 // A coarse sanity bound against the truth: this small synthetic rig (3 frames of 1000 points)
 // calibrates to 0.15 and 0.99 deg (accuracy is issue 6's subject). The strong check is that the
@@ -108,4 +108,22 @@ test('a folder picked from disk keeps its sensor_N layout', async () => {
   } finally {
     rmSync(dir, { recursive: true, force: true });
   }
+});
+
+test('loose files dropped on the view are grouped by <sensor>_<frame> and can be reassigned', async () => {
+  const rig = syntheticRig({ sensors: 2, frames: 2, pointsPerView: 300, seed: 6 });
+  const names = { sensor_1: 'left', sensor_2: 'right' };
+  const files = rig.views.map((v) => ({ name: `${names[v.sensor]}_00${v.frame}.pcd`, mimeType: 'application/octet-stream', buffer: pcdAscii(v.points) }));
+  const { page, problems } = await openPage(browser, server.url);
+  await page.locator('#view').drop({ files });
+  await waitForStatus(page, /4 scans of 2 sensors loaded\.$/);
+  const rows = () => page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => [...tr.querySelectorAll('input')].map((i) => i.value).join('/')));
+  assert.deepEqual(await rows(), ['left/001', 'left/002', 'right/001', 'right/002']);
+  // By hand: right_002.pcd becomes a third sensor's scan.
+  await page.getByLabel('sensor of right_002.pcd').fill('rear');
+  await page.getByLabel('sensor of right_002.pcd').dispatchEvent('change');
+  assert.deepEqual(await rows(), ['left/001', 'left/002', 'rear/002', 'right/001']);
+  assert.equal(await page.getByRole('radio', { name: 'reference left' }).isChecked(), true);
+  assert.equal(await page.getByLabel('rear x', { exact: true }).count(), 1);
+  assert.deepEqual(problems, []);
 });
