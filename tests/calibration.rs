@@ -47,6 +47,24 @@ fn full_views_three_sensors() {
     assert_all_within("full views, 3 sensors, gmm", &errors, 0.3, 0.02);
 }
 
+/// A ROI that holds only a cube shows no ground: `gmm` says so per sensor and goes on.
+#[test]
+fn no_ground_is_reported_not_fatal() {
+    let spec = RigSpec { seed: 1, ..RigSpec::default() };
+    let settings =
+        Settings { initial_sigma: calib::InitialSigma::PriorSize, ..Settings::default() };
+    let (result, _) = run(&spec, &settings);
+    assert_eq!(result.levelling.len(), 2);
+    for l in &result.levelling {
+        assert_eq!(l.ground, None);
+        assert_eq!(l.applied, gmmcalib::se3::Pose::identity());
+        assert!(l.note.as_deref().is_some_and(|n| n.contains("no ground plane")), "{l:?}");
+    }
+    // The paper's methods run as published: no levelling unless asked.
+    let plain = Settings { method: calib::Method::Jrmpc, ..settings };
+    assert!(!plain.levels_ground());
+}
+
 /// Realistic partial views (only the faces each sensor sees, 80% ground), plain JRMPC.
 /// The reference implementation measured on rigs like this: median 0.35 deg / 5 cm with 3 of
 /// 10 seeds beyond 1 deg or 10 cm; the floor here is a median of 1 deg / 10 cm.

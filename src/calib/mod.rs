@@ -15,6 +15,7 @@
 
 mod average;
 mod error;
+mod level;
 mod refine;
 mod settings;
 
@@ -24,6 +25,7 @@ use crate::se3::Pose;
 use crate::target_fit::{ShapeFit, fit_prior};
 use average::{average, robust_average};
 pub use error::CalibError;
+pub use level::{GroundSettings, Levelling, Plane};
 pub use refine::RefineSettings;
 pub use settings::{InitialSigma, Method, Settings};
 
@@ -102,6 +104,8 @@ pub struct Calibration {
     pub skipped: Vec<FrameNote>,
     /// `gmm` frames whose refinement was rejected; they keep the JRMPC correction.
     pub kept_jrmpc: Vec<FrameNote>,
+    /// Per sensor, the ground found and the levelling applied; empty when levelling is off.
+    pub levelling: Vec<Levelling>,
     pub history: Vec<jrmpc::IterationStats>,
 }
 
@@ -130,11 +134,7 @@ pub fn calibrate(
         return Err(CalibError::InvalidSetting("components must be at least 1"));
     }
     let nominal = |s: &str| rig.nominal.iter().find(|(n, _)| n == s).map(|(_, p)| *p);
-
-    // 1-2. Pre-align and crop.
-    let mut usable = Vec::new(); // (sensor index, frame, cropped cloud)
-    let mut skipped = Vec::new();
-    let mut kept_jrmpc = Vec::new();
+    let r = sensors.iter().position(|n| n == &reference).unwrap_or(0);
     for view in &rig.views {
         if let Some(index) = view.points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(CalibError::NonFinitePoint {
@@ -143,8 +143,33 @@ pub fn calibrate(
                 index,
             });
         }
-        let pose =
-            nominal(&view.sensor).ok_or_else(|| CalibError::UnknownSensor(view.sensor.clone()))?;
+    }
+
+    // 1. Pre-align, levelled onto the reference's ground when asked.
+    let levelling = if settings.levels_ground() {
+        level_grounds(rig, &sensors, r, settings)
+    } else {
+        Vec::new()
+    };
+    let applied: Vec<Pose> = (0..sensors.len())
+        .map(|s| levelling.get(s).map_or_else(Pose::identity, |l| l.applied))
+        .collect();
+    // The caller sees corrections of the nominal pre-alignment, levelling included.
+    let mut progress = |p: &Progress| {
+        let corrections: Vec<Pose> =
+            p.corrections.iter().zip(&applied).map(|(c, l)| c * l).collect();
+        progress(&Progress { corrections: &corrections, ..*p })
+    };
+
+    // 2. Crop.
+    let mut usable = Vec::new(); // (sensor index, frame, cropped cloud)
+    let mut skipped = Vec::new();
+    let mut kept_jrmpc = Vec::new();
+    for view in &rig.views {
+        let s = sensors.iter().position(|n| n == &view.sensor).unwrap_or(0);
+        let pose = applied[s]
+            * nominal(&view.sensor)
+                .ok_or_else(|| CalibError::UnknownSensor(view.sensor.clone()))?;
         let cloud = Cloud::from_points(view.points.clone()).transformed(&pose).cropped(&rig.roi);
         let distinct = cloud.points.iter().any(|p| p != &cloud.points[0]);
         let needed = settings.min_view_points.max(3);
@@ -161,7 +186,6 @@ pub fn calibrate(
             });
             continue;
         }
-        let s = sensors.iter().position(|n| n == &view.sensor).unwrap_or(0);
         usable.push((s, view.frame.clone(), cloud));
     }
     for (s, name) in sensors.iter().enumerate() {
@@ -169,7 +193,6 @@ pub fn calibrate(
             return Err(CalibError::NoPointsInRoi(name.clone()));
         }
     }
-    let r = sensors.iter().position(|n| n == &reference).unwrap_or(0);
     let pairs = frame_pairs(&usable, sensors.len(), r);
     for (s, name) in sensors.iter().enumerate() {
         if pairs[s].is_empty() {
@@ -195,29 +218,27 @@ pub fn calibrate(
     } else {
         (vec![Vec::new(); sensors.len()], None)
     };
-    let refinement = match settings.method {
-        Method::Gmm => Some((settings.refine.method, &settings.refine.icp)),
-        Method::Icp(m) => Some((m, &settings.icp)),
+    let reference_ground =
+        levelling.get(r).and_then(|l| l.ground).map(|plane| (plane, settings.ground.normal_band));
+    let plan = match settings.method {
+        Method::Gmm => Some(refine::Plan {
+            method: settings.refine.method,
+            settings: &settings.refine.icp,
+            match_distances: &settings.refine.match_distances,
+            max_departure: Some(settings.refine.max_departure),
+            ground: reference_ground,
+        }),
+        Method::Icp(method) => Some(refine::Plan {
+            method,
+            settings: &settings.icp,
+            match_distances: std::slice::from_ref(&settings.icp.max_correspondence_distance),
+            max_departure: None,
+            ground: None,
+        }),
         Method::Jrmpc => None,
     };
-    if let Some((icp_method, icp_settings)) = refinement {
-        let (schedule, guard) = match settings.method {
-            Method::Gmm => {
-                (settings.refine.match_distances.as_slice(), Some(settings.refine.max_departure))
-            }
-            _ => (std::slice::from_ref(&icp_settings.max_correspondence_distance), None),
-        };
-        let report = refine::per_frame(
-            &clouds,
-            &pairs,
-            r,
-            &mut per_frame,
-            icp_method,
-            icp_settings,
-            schedule,
-            guard,
-            &mut progress,
-        )?;
+    if let Some(plan) = plan {
+        let report = refine::per_frame(&clouds, &pairs, r, &mut per_frame, &plan, &mut progress)?;
         for failure in report {
             let (sensor, frame, _) = &usable[failure.view];
             let note = FrameNote {
@@ -237,7 +258,7 @@ pub fn calibrate(
     let reference_nominal = nominal(&reference).unwrap_or_default();
     let mut results = Vec::with_capacity(sensors.len());
     for (s, name) in sensors.iter().enumerate() {
-        let corrections: Vec<Pose> = per_frame[s].iter().map(|(_, c)| *c).collect();
+        let corrections: Vec<Pose> = per_frame[s].iter().map(|(_, c)| c * applied[s]).collect();
         let Some((correction, spread, outliers)) = robust_average(&corrections) else {
             return Err(CalibError::FramesFailed {
                 sensor: name.clone(),
@@ -245,18 +266,14 @@ pub fn calibrate(
             });
         };
         for i in outliers {
-            let ((_, view), pose) = &per_frame[s][i];
-            let d = correction.inverse() * pose;
+            let (_, view) = per_frame[s][i].0;
+            let d = correction.inverse() * corrections[i];
             let reason = format!(
                 "left out of the average: {:.3} deg / {:.1} mm from the other frames",
                 d.rotation.angle().to_degrees(),
                 d.translation.vector.norm() * 1e3
             );
-            skipped.push(FrameNote {
-                sensor: name.clone(),
-                frame: usable[*view].1.clone(),
-                reason,
-            });
+            skipped.push(FrameNote { sensor: name.clone(), frame: usable[view].1.clone(), reason });
         }
         let extrinsic = correction * nominal(name).unwrap_or_default();
         results.push(SensorResult {
@@ -295,8 +312,49 @@ pub fn calibrate(
         cancelled,
         skipped,
         kept_jrmpc,
+        levelling,
         history,
     })
+}
+
+/// Step 1's levelling: every sensor's ground in a box around the ROI (all its frames,
+/// pre-aligned with its nominal), and the motion putting it on the reference's ground.
+fn level_grounds(rig: &Rig, sensors: &[String], r: usize, settings: &Settings) -> Vec<Levelling> {
+    let bounds = level::search_box(&rig.roi, settings.ground.margin);
+    let grounds: Vec<Option<(Plane, usize)>> = sensors
+        .iter()
+        .enumerate()
+        .map(|(s, name)| {
+            let pose = rig.nominal.iter().find(|(n, _)| n == name).map(|(_, p)| *p)?;
+            let points: Vec<_> = rig
+                .views
+                .iter()
+                .filter(|v| &v.sensor == name)
+                .flat_map(|v| level::points_in(&v.points, &pose, &bounds))
+                .collect();
+            level::fit_ground(&points, &settings.ground, settings.seed.wrapping_add(s as u64))
+        })
+        .collect();
+    let pivot = nalgebra::Vector3::from_fn(|i, _| 0.5 * (rig.roi.min[i] + rig.roi.max[i]));
+    sensors
+        .iter()
+        .enumerate()
+        .map(|(s, name)| {
+            let (ground, inliers) = grounds[s].map_or((None, 0), |(p, n)| (Some(p), n));
+            let (applied, note) = match (ground, grounds[r]) {
+                (Some(_), _) if s == r => (Pose::identity(), None),
+                (Some(own), Some((reference, _))) => {
+                    (level::levelling(&own, &reference, &pivot), None)
+                }
+                (None, _) => (Pose::identity(), Some("no ground plane found near the ROI".into())),
+                (Some(_), None) => (
+                    Pose::identity(),
+                    Some(format!("the reference sensor {} shows no ground plane", sensors[r])),
+                ),
+            };
+            Levelling { sensor: name.clone(), ground, inliers, applied, note }
+        })
+        .collect()
 }
 
 /// Step 3 for the GMM methods: all views to one mixture started from the prior at the ROI

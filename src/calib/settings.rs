@@ -4,6 +4,7 @@
 use std::str::FromStr;
 
 use super::CalibError;
+use super::level::GroundSettings;
 use super::refine::RefineSettings;
 use crate::icp::{self, IcpSettings};
 use crate::jrmpc::{self, Prior};
@@ -88,6 +89,17 @@ pub struct Settings {
     pub icp: IcpSettings,
     /// For `gmm`'s refinement.
     pub refine: RefineSettings,
+    /// Level each sensor's ground onto the reference's before cropping (README, "Where the
+    /// bias comes from"); `None`: only for `gmm` (the paper's methods run as published).
+    pub level_ground: Option<bool>,
+    pub ground: GroundSettings,
+}
+
+impl Settings {
+    /// Whether ground levelling runs.
+    pub fn levels_ground(&self) -> bool {
+        self.level_ground.unwrap_or(self.method == Method::Gmm)
+    }
 }
 
 impl Default for Settings {
@@ -102,6 +114,8 @@ impl Default for Settings {
             jrmpc: jrmpc::Settings::default(),
             icp: IcpSettings::default(),
             refine: RefineSettings::default(),
+            level_ground: None,
+            ground: GroundSettings::default(),
         }
     }
 }

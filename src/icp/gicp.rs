@@ -4,7 +4,8 @@
 
 use nalgebra::{Matrix3, Matrix3x6, Matrix6, Point3, Vector3, Vector6};
 
-use super::solver::{Factor, Pair};
+use super::normals::PLANE_NORMAL;
+use super::solver::{Factor, Pair, cauchy_weight};
 use crate::se3::Pose;
 
 /// Target and source points with their (plane-regularised) covariances, m^2.
@@ -13,8 +14,11 @@ pub(crate) struct Gicp<'a> {
     pub target_covariances: &'a [Matrix3<f64>],
     pub source: &'a [Vector3<f64>],
     pub source_covariances: &'a [Matrix3<f64>],
-    /// Per pair, the Mahalanobis weight of the last linearisation; `error` reuses it, as
-    /// small_gicp does, so each pair's combined covariance is inverted once per iteration.
+    /// Cauchy scale (m) on the distance across the surfaces, or plain least squares.
+    pub robust_scale: Option<f64>,
+    /// Per pair, the Mahalanobis weight of the last linearisation (times the robust weight);
+    /// `error` reuses it, as small_gicp does, so each pair's combined covariance is inverted
+    /// once per iteration.
     weights: Vec<Matrix3<f64>>,
 }
 
@@ -24,8 +28,10 @@ impl<'a> Gicp<'a> {
         target_covariances: &'a [Matrix3<f64>],
         source: &'a [Vector3<f64>],
         source_covariances: &'a [Matrix3<f64>],
+        robust_scale: Option<f64>,
     ) -> Self {
-        Self { target, target_covariances, source, source_covariances, weights: Vec::new() }
+        let weights = Vec::new();
+        Self { target, target_covariances, source, source_covariances, robust_scale, weights }
     }
 
     fn residual(&self, pair: Pair, t: &Pose) -> Vector3<f64> {
@@ -44,8 +50,12 @@ impl Factor for Gicp<'_> {
                 + rot * self.source_covariances[pair.source] * rot.transpose();
             // A combined covariance that cannot be inverted gives the pair no weight.
             let w = combined.try_inverse().unwrap_or_else(Matrix3::zeros);
-            self.weights.push(w);
             let r = self.residual(pair, t);
+            // Two parallel plane covariances add to PLANE_NORMAL twice across the surface, so
+            // this is about the distance across it, in metres, whatever the in-plane offset.
+            let across = (2.0 * PLANE_NORMAL * r.dot(&(w * r))).max(0.0).sqrt();
+            let w = w * cauchy_weight(across, self.robust_scale);
+            self.weights.push(w);
             // dr/d(omega, v) = -[-R [p]x, R] = [R [p]x, -R].
             let mut j = Matrix3x6::zeros();
             j.fixed_view_mut::<3, 3>(0, 0)
@@ -82,7 +92,8 @@ mod tests {
         let target_covariances = [Matrix3::new(1.0, 0.2, 0.0, 0.2, 0.8, 0.1, 0.0, 0.1, 0.01)];
         let source = [Vector3::new(0.5, -1.0, 2.0)];
         let source_covariances = [Matrix3::from_diagonal(&Vector3::new(1.0, 1e-3, 1.0))];
-        let mut factor = Gicp::new(&target, &target_covariances, &source, &source_covariances);
+        let mut factor =
+            Gicp::new(&target, &target_covariances, &source, &source_covariances, None);
         let pairs = [Pair { source: 0, target: 0 }];
         let t = crate::se3::pose_from_xyz_rpy([0.1, 0.2, -0.3], [0.3, -0.2, 0.5]);
         let (h, b, e) = factor.linearize(&pairs, &t);

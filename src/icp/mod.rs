@@ -85,6 +85,11 @@ pub struct IcpSettings {
     /// Voxel edge (m) to downsample both clouds with before registering; `None` (default)
     /// keeps every point.
     pub voxel: Option<f64>,
+    /// Cauchy kernel scale (m) for point-to-plane and GICP residuals: a match `r` away counts
+    /// with weight `1 / (1 + (r / scale)^2)`, so the few matches across different surfaces
+    /// (an edge, the other side of a thin object) cannot drag the pose. `None` (default):
+    /// plain least squares.
+    pub robust_scale: Option<f64>,
 }
 
 impl Default for IcpSettings {
@@ -96,6 +101,7 @@ impl Default for IcpSettings {
             rotation_tolerance: 0.1f64.to_radians(),
             neighbours: 20,
             voxel: None,
+            robust_scale: None,
         }
     }
 }
@@ -115,6 +121,8 @@ impl IcpSettings {
             "neighbours must be at least 3"
         } else if self.voxel.is_some_and(|v| !positive(v)) {
             "voxel must be a positive number of metres when set"
+        } else if self.robust_scale.is_some_and(|v| !positive(v)) {
+            "robust_scale must be a positive number of metres when set"
         } else {
             return Ok(());
         };
@@ -255,6 +263,7 @@ mod tests {
             IcpSettings { rotation_tolerance: f64::INFINITY, ..d.clone() },
             IcpSettings { neighbours: 2, ..d.clone() },
             IcpSettings { voxel: Some(0.0), ..d.clone() },
+            IcpSettings { robust_scale: Some(-0.02), ..d.clone() },
         ];
         for (i, s) in bad.iter().enumerate() {
             assert!(matches!(s.validate(), Err(IcpError::InvalidSettings(_))), "case {i}");

@@ -38,6 +38,13 @@ pub fn plane_covariances(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Ma
     })
 }
 
+/// The plane-regularised covariance of a surface with unit `normal`: `PLANE_IN_PLANE` along
+/// the surface, `PLANE_NORMAL` across it.
+pub fn plane_covariance(normal: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::identity() * PLANE_IN_PLANE
+        - normal * normal.transpose() * (PLANE_IN_PLANE - PLANE_NORMAL)
+}
+
 /// `shape(eigen-decomposition of the neighbourhood covariance)` for every point, or
 /// `shapeless` where the neighbourhood has no shape.
 fn shapes<T: Clone>(
@@ -125,6 +132,15 @@ mod tests {
             assert!(((normal.transpose() * c * normal)[0] - PLANE_NORMAL).abs() < 1e-6);
             assert!(((in_plane.transpose() * c * in_plane)[0] - PLANE_IN_PLANE).abs() < 1e-6);
             assert!((c - c.transpose()).abs().max() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn plane_covariance_from_a_normal() {
+        let (points, normal) = tilted_plane();
+        let tree = KdTree::new(&points);
+        for c in plane_covariances(&points, &tree, 20) {
+            assert!((c - plane_covariance(&normal)).abs().max() < 1e-6);
         }
     }
 

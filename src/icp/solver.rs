@@ -31,6 +31,11 @@ pub(crate) trait Factor {
     fn error(&self, pairs: &[Pair], t: &Pose) -> f64;
 }
 
+/// The Cauchy (Lorentzian) IRLS weight of a residual `r` for kernel `scale`; 1 without one.
+pub(crate) fn cauchy_weight(r: f64, scale: Option<f64>) -> f64 {
+    scale.map_or(1.0, |c| 1.0 / (1.0 + (r / c).powi(2)))
+}
+
 /// `T * exp(delta)` with the retraction the factors' Jacobians assume.
 pub(crate) fn retract(t: &Pose, delta: &Vector6<f64>) -> Pose {
     let omega = Vector3::new(delta[0], delta[1], delta[2]);

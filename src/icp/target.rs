@@ -5,7 +5,7 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 use super::gicp::Gicp;
 use super::kdtree::KdTree;
-use super::normals::{normals, plane_covariances};
+use super::normals::{normals, plane_covariance, plane_covariances};
 use super::plane::PointToPlane;
 use super::point::PointToPoint;
 use super::solver::{self, LevenbergMarquardt};
@@ -76,6 +76,31 @@ impl Target {
         &self.covariances
     }
 
+    /// Replaces the estimated surface of every target point for which `plane_at` knows
+    /// better, e.g. ground points whose rings lie too far apart for a neighbourhood to show
+    /// the plane: `plane_at(p) = Some((n, d))` is the plane `n . x + d = 0` (unit `n`). Sets
+    /// the normal (point-to-plane) or plane covariance (GICP). Returns how many points changed.
+    pub fn set_planes(
+        &mut self,
+        plane_at: impl Fn(&[f32; 3]) -> Option<(Vector3<f64>, f64)>,
+    ) -> usize {
+        if self.method == Method::PointToPoint {
+            return 0;
+        }
+        let mut changed = 0;
+        for i in 0..self.points.len() {
+            let Some((n, _)) = plane_at(&self.points[i]) else {
+                continue;
+            };
+            match self.method {
+                Method::PointToPlane => self.normals[i] = n,
+                _ => self.covariances[i] = plane_covariance(&n),
+            }
+            changed += 1;
+        }
+        changed
+    }
+
     /// Registers `source` onto this target starting from `init` (`T_target_source`). Uses
     /// every setting but `neighbours` and `voxel` from `settings`, and those for the source.
     pub fn align(
@@ -109,7 +134,8 @@ impl Target {
                 solver::run(tree, target, &source, &mut step, init, settings)
             }
             Method::PointToPlane => {
-                let factor = PointToPlane { target, normals: &self.normals, source: &source };
+                let factor =
+                    PointToPlane::new(target, &self.normals, &source, settings.robust_scale);
                 solver::run(
                     tree,
                     target,
@@ -120,7 +146,13 @@ impl Target {
                 )
             }
             Method::Gicp => {
-                let factor = Gicp::new(target, &self.covariances, &source, &source_covariances);
+                let factor = Gicp::new(
+                    target,
+                    &self.covariances,
+                    &source,
+                    &source_covariances,
+                    settings.robust_scale,
+                );
                 solver::run(
                     tree,
                     target,
