@@ -21,7 +21,24 @@ pub struct Report {
     pub skipped: Vec<NoteReport>,
     /// `gmm` frames whose refinement was rejected; they keep the JRMPC correction.
     pub kept_jrmpc: Vec<NoteReport>,
+    /// Per sensor, the ground found and the levelling applied before cropping (`gmm`; empty
+    /// when levelling is off).
+    pub levelling: Vec<LevellingReport>,
     pub history: HistoryReport,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct LevellingReport {
+    pub sensor: String,
+    /// The ground plane `[nx, ny, nz, d]` (`n . p + d = 0`, m) in the nominal vehicle frame;
+    /// null when none was found.
+    pub ground: Option<[f64; 4]>,
+    /// Ground points found (all frames).
+    pub inliers: usize,
+    /// The levelling applied to the pre-aligned points, row-major.
+    pub applied: [f64; 16],
+    /// Why no levelling was applied, if none was.
+    pub note: Option<String>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -99,6 +116,17 @@ impl From<&Calibration> for Report {
             },
             skipped: notes(&c.skipped),
             kept_jrmpc: notes(&c.kept_jrmpc),
+            levelling: c
+                .levelling
+                .iter()
+                .map(|l| LevellingReport {
+                    sensor: l.sensor.clone(),
+                    ground: l.ground.map(|g| [g.normal.x, g.normal.y, g.normal.z, g.offset]),
+                    inliers: l.inliers,
+                    applied: to_row_major(&l.applied),
+                    note: l.note.clone(),
+                })
+                .collect(),
             history: HistoryReport {
                 mean_sigma: c.history.iter().map(|h| h.mean_sigma).collect(),
                 max_change: c.history.iter().map(|h| h.max_change).collect(),

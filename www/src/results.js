@@ -41,6 +41,19 @@ function notesHtml(title, notes) {
   return `<p>${title}:</p><ul>${notes.map((n) => `<li>${esc(n.sensor)}/${esc(n.frame)}: ${esc(n.reason)}</li>`).join('')}</ul>`;
 }
 
+// Ground levelling (gmm): per sensor, the ground found and the tilt applied, or why not.
+function levellingHtml(levelling = []) {
+  if (!levelling.length) return '';
+  const row = (l) => {
+    if (l.note) return `<li>${esc(l.sensor)}: ${esc(l.note)}</li>`;
+    // The applied rotation's angle from its row-major matrix: cos = (trace - 1) / 2.
+    const m = l.applied;
+    const tilt = degrees(Math.acos(Math.min(1, Math.max(-1, (m[0] + m[5] + m[10] - 1) / 2))));
+    return `<li>${esc(l.sensor)}: ground from ${l.inliers} points, levelled by ${tilt.toFixed(3)} deg</li>`;
+  };
+  return `<p>ground levelling:</p><ul>${levelling.map(row).join('')}</ul>`;
+}
+
 function comparisonHtml(results, truth) {
   const head = `<tr><th>method</th><th>sensor</th><th>xyz (m)</th><th>rpy (deg)</th><th>spread xyz (mm)</th><th>spread rpy (deg)</th>${truth ? '<th>error vs truth</th>' : ''}</tr>`;
   const body = results.flatMap((r) => r.sensors.map((s) => {
@@ -61,6 +74,7 @@ export function renderResults(container, results, truth) {
     ${results.length > 1 ? `<h3>All methods</h3>${comparisonHtml(results, truth)}<h3>Details: ${r.method}</h3>` : ''}
     <p>method ${r.method}, reference ${esc(r.reference)}, ${r.iterations} iterations${r.converged ? ', converged' : ''}${r.cancelled ? ', cancelled' : ''}; ${fit}</p>
     ${r.sensors.map((s) => sensorHtml(s, r.reference, truth)).join('')}
+    ${levellingHtml(r.levelling)}
     ${notesHtml('views left out', r.skipped)}${notesHtml('refinement rejected, kept the JRMPC correction', r.keptJrmpc)}`;
 }
 
