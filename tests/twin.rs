@@ -192,6 +192,10 @@ fn study() {
     if let Ok(k) = std::env::var("TWIN_NEIGHBOURS") {
         settings.refine.icp.neighbours = k.parse().unwrap();
     }
+    if let Ok(d) = std::env::var("TWIN_DEPARTURE_DEG") {
+        let deg: f64 = d.parse().unwrap();
+        settings.refine.max_departure = (deg.to_radians(), deg / 10.0);
+    }
     if let Ok(k) = std::env::var("TWIN_COMPONENTS") {
         settings.components = k.parse().unwrap();
     }
