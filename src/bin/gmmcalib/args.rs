@@ -253,7 +253,10 @@ mod tests {
         else {
             panic!("expected experiment");
         };
-        assert_eq!((e.trials, e.methods.as_str(), e.twin.preset.as_str()), (3, "p2p,gicp", "os1-128"));
+        assert_eq!(
+            (e.trials, e.methods.as_str(), e.twin.preset.as_str()),
+            (3, "p2p,gicp", "os1-128")
+        );
         assert!((e.twin.max_angle_deg - 3.0).abs() < 1e-12);
     }
 

@@ -129,9 +129,11 @@ fn run_trials(a: &ExperimentArgs, methods: &[Method]) -> Result<Vec<Trial>, Stri
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let threads = a.threads.unwrap_or(cores).clamp(1, a.trials);
     let bar = ProgressBar::new(a.trials as u64).with_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} trials, {elapsed} elapsed, ETA {eta}")
-            .map_err(|e| e.to_string())?
-            .progress_chars("=> "),
+        ProgressStyle::with_template(
+            "{msg} [{bar:30}] {pos}/{len} trials, {elapsed} elapsed, ETA {eta}",
+        )
+        .map_err(|e| e.to_string())?
+        .progress_chars("=> "),
     );
     bar.set_message("experiment");
     let next = AtomicUsize::new(0);
@@ -206,7 +208,8 @@ fn score(twin: &Twin, s: usize, estimate: &gmmcalib::Pose) -> Scored {
         global.add_scan(points, estimate, truth);
         frames.push(FrameScore {
             frame: view.frame.clone(),
-            validation: cube.and_then(|c| eval::distance_error(points, estimate, truth, eval::on_box(c))),
+            validation: cube
+                .and_then(|c| eval::distance_error(points, estimate, truth, eval::on_box(c))),
             scan: eval::distance_error(points, estimate, truth, |_| true),
         });
     }
@@ -215,7 +218,11 @@ fn score(twin: &Twin, s: usize, estimate: &gmmcalib::Pose) -> Scored {
 
 /// Runs of method `m` that produced an estimate.
 pub fn scored<'a>(trials: &'a [Trial], m: usize) -> impl Iterator<Item = &'a Scored> + 'a {
-    trials.iter().flat_map(|t| &t.runs).filter(move |r| r.method == m).filter_map(|r| r.outcome.as_ref().ok())
+    trials
+        .iter()
+        .flat_map(|t| &t.runs)
+        .filter(move |r| r.method == m)
+        .filter_map(|r| r.outcome.as_ref().ok())
 }
 
 /// Per-frame values of one axis (0..3: x, y, z; 3: L2) of the validation or whole-scan error.
@@ -245,8 +252,10 @@ pub fn global(trials: &[Trial], m: usize) -> GlobalError {
 
 fn miscalibrated(trials: &[Trial], m: usize) -> usize {
     let runs = trials.iter().flat_map(|t| &t.runs).filter(|r| r.method == m);
-    runs.filter(|r| r.outcome.as_ref().map_or(true, |s| eval::is_miscalibrated(s.validation_norm())))
-        .count()
+    runs.filter(|r| {
+        r.outcome.as_ref().map_or(true, |s| eval::is_miscalibrated(s.validation_norm()))
+    })
+    .count()
 }
 
 fn stats_json(values: &[f64]) -> Value {
@@ -273,7 +282,9 @@ fn summary(a: &ExperimentArgs, methods: &[Method], trials: &[Trial], seconds: f6
                 DISTANCE_AXES
                     .iter()
                     .enumerate()
-                    .map(|(i, k)| (k.to_string(), stats_json(&frame_values(trials, m, validation, i))))
+                    .map(|(i, k)| {
+                        (k.to_string(), stats_json(&frame_values(trials, m, validation, i)))
+                    })
                     .collect::<serde_json::Map<_, _>>()
                     .into()
             };
@@ -283,7 +294,8 @@ fn summary(a: &ExperimentArgs, methods: &[Method], trials: &[Trial], seconds: f6
                 .map(|(i, k)| (k.to_string(), stats_json(&transform_values(trials, m, i))))
                 .collect();
             let g = global(trials, m);
-            let (slope, intercept) = g.fit.line().map_or((Value::Null, Value::Null), |(s, i)| (s.into(), i.into()));
+            let (slope, intercept) =
+                g.fit.line().map_or((Value::Null, Value::Null), |(s, i)| (s.into(), i.into()));
             let secs: Vec<f64> = runs.iter().map(|r| r.seconds).collect();
             json!({
                 "method": method.name(),
@@ -375,8 +387,11 @@ fn table(a: &ExperimentArgs, methods: &[Method], trials: &[Trial]) -> String {
             })
             .collect();
         let (name, paper) = paper_row(*method);
-        let paper: Vec<String> =
-            paper.iter().enumerate().map(|(i, v)| if i < 3 { format!("{v:.4}") } else { format!("{v:.3}") }).collect();
+        let paper: Vec<String> = paper
+            .iter()
+            .enumerate()
+            .map(|(i, v)| if i < 3 { format!("{v:.4}") } else { format!("{v:.3}") })
+            .collect();
         let _ = writeln!(out, "| `{}` | ours | {} |", method.name(), ours.join(" | "));
         let _ = writeln!(out, "| {name} | paper | {} |", paper.join(" | "));
     }

@@ -49,7 +49,10 @@ pub fn distance_boxes(path: &Path, methods: &[Method], trials: &[Trial]) -> Resu
     let root = SVGBackend::new(path, SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(|e| fail(path, e))?;
     let root = root
-        .titled("Distance error over the validation cube per axis (paper eq. 5)", ("sans-serif", 20))
+        .titled(
+            "Distance error over the validation cube per axis (paper eq. 5)",
+            ("sans-serif", 20),
+        )
         .map_err(|e| fail(path, e))?;
     let values: Vec<[Vec<f64>; 3]> = (0..methods.len())
         .map(|m| std::array::from_fn(|axis| frame_values(trials, m, true, axis)))
@@ -86,7 +89,8 @@ pub fn distance_boxes(path: &Path, methods: &[Method], trials: &[Trial]) -> Resu
             let low = v.iter().copied().find(|x| *x >= s.q1 - 1.5 * iqr).unwrap_or(s.min);
             let high = v.iter().rev().copied().find(|x| *x <= s.q3 + 1.5 * iqr).unwrap_or(s.max);
             let (x, w, c) = (m as f64, 0.3, colour(m));
-            let line = |a: (f64, f64), b: (f64, f64)| PathElement::new(vec![a, b], c.stroke_width(2));
+            let line =
+                |a: (f64, f64), b: (f64, f64)| PathElement::new(vec![a, b], c.stroke_width(2));
             chart
                 .draw_series([Rectangle::new([(x - w, s.q1), (x + w, s.q3)], c.mix(0.3).filled())])
                 .map_err(|e| fail(path, e))?;
