@@ -82,9 +82,10 @@ pub fn on_box(cube: &OrientedBox) -> impl Fn(&Point3<f64>) -> bool + '_ {
     move |p| p.z > VALIDATION_MARGIN && cube.contains(p.coords, VALIDATION_MARGIN)
 }
 
-/// Paper's miscalibration test on a trial's mean validation-cube error (m).
+/// Paper's miscalibration test on a trial's mean validation-cube error (m). NaN (no error could
+/// be measured) counts as miscalibrated.
 pub fn is_miscalibrated(validation_norm: f64) -> bool {
-    !(validation_norm <= MISCALIBRATION_THRESHOLD)
+    validation_norm.is_nan() || validation_norm > MISCALIBRATION_THRESHOLD
 }
 
 /// Least-squares line `y = slope x + intercept` over streamed samples, mergeable so trials can
@@ -133,7 +134,7 @@ impl LinearFit {
     pub fn line(&self) -> Option<(f64, f64)> {
         let (x0, y0) = self.shift?;
         let var = self.sxx - self.sx * self.sx / self.n;
-        if !(var > 1e-12 * self.n) {
+        if var.is_nan() || var <= 1e-12 * self.n {
             return None;
         }
         let slope = (self.sxy - self.sx * self.sy / self.n) / var;
