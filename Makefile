@@ -66,3 +66,11 @@ setup-browser: setup-node
 clean:
 	cargo clean
 	rm -rf www/pkg www/dist www/node_modules
+
+# The paper's experiment on the digital twin (README, "Digital twin and the paper's experiment"):
+# writes docs/experiment/{table.md,summary.json,*.svg,trials.csv}. FRAMES, TRIALS, SEED override.
+.PHONY: experiment
+experiment:
+	cargo run --release --bin gmmcalib -- experiment --preset paper \
+		--trials $(or $(TRIALS),100) --frames $(or $(FRAMES),20) --seed $(or $(SEED),2024) \
+		--methods gmm,jrmpc,p2p,p2l,gicp --out docs/experiment

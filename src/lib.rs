@@ -7,6 +7,7 @@
 
 pub mod calib;
 pub mod cloud;
+pub mod eval;
 pub mod icp;
 pub mod io;
 pub mod jrmpc;

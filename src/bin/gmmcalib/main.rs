@@ -1,6 +1,8 @@
 //! `gmmcalib calibrate`: GMMCalib's data folder and YAML config in, calibration out (text on
-//! stdout, JSON with `--json`). A thin adapter: the library does all the work. Native only; the
-//! wasm32 build gets an empty `main` so `cargo test --target wasm32-unknown-unknown` still builds.
+//! stdout, JSON with `--json`). `gmmcalib simulate`: the digital twin written in that layout.
+//! `gmmcalib experiment`: the paper's experiment on the twin. Thin adapters: the library does
+//! all the work. Native only; the wasm32 build gets an empty `main` so
+//! `cargo test --target wasm32-unknown-unknown` still builds.
 
 #[cfg(not(target_arch = "wasm32"))]
 mod args;
@@ -9,7 +11,15 @@ mod config;
 #[cfg(not(target_arch = "wasm32"))]
 mod dataset;
 #[cfg(not(target_arch = "wasm32"))]
+mod experiment;
+#[cfg(not(target_arch = "wasm32"))]
+mod plots;
+#[cfg(not(target_arch = "wasm32"))]
 mod report;
+#[cfg(not(target_arch = "wasm32"))]
+mod simulate;
+#[cfg(not(target_arch = "wasm32"))]
+mod twin;
 
 #[cfg(target_arch = "wasm32")]
 fn main() {}
@@ -43,6 +53,8 @@ mod cli {
                 Ok(())
             }
             Command::Calibrate(a) => calibrate(&a),
+            Command::Simulate(a) => crate::simulate::run(&a),
+            Command::Experiment(a) => crate::experiment::run(&a),
         }
     }
 

@@ -1,0 +1,130 @@
+//! `gmmcalib simulate`: the digital twin written in GMMCalib's layout, plus the truth.
+//!
+//! ```text
+//! DIR/config.yaml             nominal (miscalibrated) extrinsics and the preset's ROI
+//! DIR/data/sensor_N/F.pcd     binary PCD, organized WIDTH columns x HEIGHT channels, misses 0
+//! DIR/truth.json              true extrinsics, nominals, expected corrections (row-major 4x4)
+//! ```
+
+use std::fs;
+use std::path::Path;
+
+use gmmcalib::io::write_pcd_binary;
+use gmmcalib::se3::{Pose, to_row_major};
+use gmmcalib::sim::SimView;
+use serde::Serialize;
+
+use crate::args::{SimulateArgs, TwinArgs};
+use crate::twin::Twin;
+
+type Matrix = [[f64; 4]; 4];
+
+#[derive(Serialize)]
+struct Truth<'a> {
+    preset: &'a str,
+    seed: u64,
+    frames: usize,
+    /// Miscalibration bounds: rad per rotation axis, m per translation axis.
+    max_angle: f64,
+    max_translation: f64,
+    reference: &'a str,
+    sensors: Vec<SensorTruth<'a>>,
+}
+
+#[derive(Serialize)]
+struct SensorTruth<'a> {
+    name: &'a str,
+    folder: &'a str,
+    /// True `T_vehicle_sensor`.
+    truth: Matrix,
+    /// Miscalibrated `T_vehicle_sensor` in config.yaml.
+    nominal: Matrix,
+    /// `truth * nominal^-1`: maps nominally pre-aligned points onto the truth.
+    correction: Matrix,
+}
+
+pub fn run(a: &SimulateArgs) -> Result<(), String> {
+    let twin = Twin::new(&a.twin, a.twin.seed)?;
+    write(&twin, &a.twin, &a.out)?;
+    let n = twin.sensors.len();
+    println!("wrote {} frames of {n} sensors to {}", a.twin.frames, a.out.display());
+    Ok(())
+}
+
+/// Writes `twin` under `dir` (created if needed).
+pub fn write(twin: &Twin, args: &TwinArgs, dir: &Path) -> Result<(), String> {
+    let fail = |path: &Path, e: std::io::Error| format!("{}: {e}", path.display());
+    for view in &twin.views {
+        let folder = dir.join("data").join(&twin.sensors[twin.sensor_of(view)].folder);
+        fs::create_dir_all(&folder).map_err(|e| fail(&folder, e))?;
+        let file = folder.join(format!("{}.pcd", view.frame));
+        fs::write(&file, organized_pcd(view)).map_err(|e| fail(&file, e))?;
+    }
+    let config = dir.join("config.yaml");
+    fs::write(&config, config_yaml(twin)).map_err(|e| fail(&config, e))?;
+    let truth = Truth {
+        preset: &args.preset,
+        seed: args.seed,
+        frames: args.frames,
+        max_angle: args.max_angle_deg.to_radians(),
+        max_translation: args.max_translation,
+        reference: &twin.sensors[0].folder,
+        sensors: twin
+            .sensors
+            .iter()
+            .map(|s| SensorTruth {
+                name: &s.name,
+                folder: &s.folder,
+                truth: matrix(&s.truth),
+                nominal: matrix(&s.nominal),
+                correction: matrix(&s.correction),
+            })
+            .collect(),
+    };
+    let json = serde_json::to_string_pretty(&truth).map_err(|e| format!("JSON: {e}"))?;
+    let path = dir.join("truth.json");
+    fs::write(&path, json + "\n").map_err(|e| fail(&path, e))
+}
+
+/// Binary PCD with the scan's organized shape. The library's writer labels every cloud as one
+/// row (`WIDTH n`, `HEIGHT 1`); the data are the same, so only those two header lines change.
+fn organized_pcd(view: &SimView) -> Vec<u8> {
+    let bytes = write_pcd_binary(&view.cloud);
+    let flat = format!("WIDTH {}\nHEIGHT 1\n", view.cloud.len());
+    let shaped = format!("WIDTH {}\nHEIGHT {}\n", view.width, view.height);
+    let at = bytes.windows(flat.len()).position(|w| w == flat.as_bytes());
+    match at {
+        Some(at) => [&bytes[..at], shaped.as_bytes(), &bytes[at + flat.len()..]].concat(),
+        // Unreachable unless the writer's header changes; a flat cloud is still a valid scan.
+        None => bytes,
+    }
+}
+
+/// GMMCalib's config: `transform_sensor_N: - [roll, pitch, yaw, x, y, z]` and the ROI.
+fn config_yaml(twin: &Twin) -> String {
+    // `{:?}` prints the shortest text that parses back to the same f64.
+    let list = |v: &[f64]| v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ");
+    let mut yaml = format!(
+        "# gmmcalib simulate: the first sensor is the reference (true mount); the others are\n\
+         # miscalibrated. The truth is in truth.json.\nnumber_of_sensors: {}\n",
+        twin.sensors.len()
+    );
+    for s in &twin.sensors {
+        let (xyz, rpy) = s.nominal_xyz_rpy;
+        let values = [rpy[0], rpy[1], rpy[2], xyz[0], xyz[1], xyz[2]];
+        yaml += &format!(
+            "transform_{}:  # {}\n  - [{}]  # [roll, pitch, yaw, x, y, z]\n",
+            s.folder,
+            s.name,
+            list(&values)
+        );
+    }
+    yaml += &format!("min_bound:\n  - [{}]\n", list(&twin.preset.roi.min));
+    yaml += &format!("max_bound:\n  - [{}]\n", list(&twin.preset.roi.max));
+    yaml
+}
+
+fn matrix(pose: &Pose) -> Matrix {
+    let m = to_row_major(pose);
+    std::array::from_fn(|r| std::array::from_fn(|c| m[4 * r + c]))
+}
