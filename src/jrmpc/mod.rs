@@ -7,7 +7,9 @@
 //! back to the caller's frame.
 
 mod estep;
+mod grid;
 pub mod init;
+mod kernel;
 pub mod model;
 mod mstep;
 
@@ -41,6 +43,10 @@ pub struct Settings {
     /// Initial standard deviation of every component (m). `None`: the references' rule, the
     /// diagonal of the bounding box of all points and means.
     pub initial_sigma: Option<f64>,
+    /// Evaluate every point against every component with libm's exp: the reference the fast
+    /// E-step (a grid with a bound on the neglected mass, SIMD lanes, a polynomial exp) is
+    /// tested against. Slow.
+    pub dense: bool,
 }
 
 impl Default for Settings {
@@ -52,6 +58,7 @@ impl Default for Settings {
             variance_floor: 1e-6,
             update_priors: true,
             initial_sigma: None,
+            dense: false,
         }
     }
 }
@@ -80,6 +87,8 @@ pub enum Control {
 pub struct IterationStats {
     pub mean_sigma: f64,
     pub max_change: f64,
+    /// Gaussian terms the E-step evaluated (a dense E-step: points x K).
+    pub terms: u64,
 }
 
 /// The outcome of a registration.
@@ -175,16 +184,25 @@ pub fn register(
     let beta = settings.gamma / (h * (1.0 + settings.gamma));
     let mut transforms = vec![(Matrix3::identity(), Vector3::zeros()); views.len()];
     let mut stats = vec![ViewStats::zeros(k); views.len()];
-    let mut scratch = Vec::with_capacity(k);
+    let mut scratch = estep::Scratch::new();
+    let mut dense_terms = Vec::with_capacity(k);
     let mut history = Vec::new();
     let mut unsupported = Vec::new();
     let (mut converged, mut cancelled) = (false, false);
 
     for iteration in 1..=settings.max_iterations {
-        let terms = estep::EStepTerms::new(&mixture, beta);
-        for ((view, st), (r, t)) in points.iter().zip(&mut stats).zip(&transforms) {
-            st.clear();
-            estep::accumulate(view, r, t, &mixture.means, &terms, st, &mut scratch);
+        let mut terms = 0;
+        if settings.dense {
+            for ((view, st), (r, t)) in points.iter().zip(&mut stats).zip(&transforms) {
+                st.clear();
+                terms += estep::dense(view, r, t, &mixture, beta, st, &mut dense_terms);
+            }
+        } else {
+            let grid = grid::Grid::new(&mixture, beta);
+            for ((view, st), (r, t)) in points.iter().zip(&mut stats).zip(&transforms) {
+                st.clear();
+                terms += estep::accumulate(view, r, t, &mixture, &grid, beta, st, &mut scratch);
+            }
         }
         unsupported.clear();
         let previous = transforms.clone();
@@ -205,7 +223,7 @@ pub fn register(
         );
 
         let mean_sigma = mixture.mean_sigma();
-        history.push(IterationStats { mean_sigma, max_change });
+        history.push(IterationStats { mean_sigma, max_change, terms });
         let poses: Vec<Pose> = transforms.iter().map(|rt| uncentred(rt, &centre)).collect();
         let answer = progress(&Progress { iteration, poses: &poses, mean_sigma, max_change });
         if max_change <= settings.tolerance {
