@@ -182,12 +182,16 @@ mod tests {
         assert!(terms < (points.len() * k) as u64, "the grid skips components");
         let mut exact = ViewStats::zeros(k);
         dense(&points, &rotation, &translation, &mixture, beta, &mut exact, &mut Vec::new());
-        for c in 0..k {
-            // Skipped terms hold at most 1e-8 of a posterior's denominator.
-            let l = exact.lambda[c];
-            assert!((fast.lambda[c] - l).abs() <= 1e-9 * l + 1e-12, "component {c}: {l}");
-            assert!((fast.s1[c] - exact.s1[c]).norm() <= 1e-9 * exact.s1[c].norm() + 1e-12);
-            assert!((fast.s2[c] - exact.s2[c]).abs() <= 1e-9 * exact.s2[c] + 1e-12);
-        }
+        // Each point's skipped terms hold at most 1e-8 of its posterior denominator, so its
+        // posteriors move by at most 1e-8 in all: summed over components, the statistics
+        // move by at most 1e-8 of the point count (times |v|, |v|^2 for s1, s2).
+        let n = points.len() as f64;
+        let v1: f64 = points.iter().map(|v| v.norm()).sum();
+        let v2: f64 = points.iter().map(|v| v.norm_squared()).sum();
+        let d_lambda: f64 = (0..k).map(|c| (fast.lambda[c] - exact.lambda[c]).abs()).sum();
+        let d_s1: f64 = (0..k).map(|c| (fast.s1[c] - exact.s1[c]).norm()).sum();
+        let d_s2: f64 = (0..k).map(|c| (fast.s2[c] - exact.s2[c]).abs()).sum();
+        println!("{:.1e} {:.1e} {:.1e}", d_lambda / n, d_s1 / v1, d_s2 / v2);
+        assert!(d_lambda <= 1e-8 * n && d_s1 <= 1e-8 * v1 && d_s2 <= 1e-8 * v2);
     }
 }
