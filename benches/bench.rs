@@ -16,7 +16,7 @@ mod jrmpc;
 #[unsafe(no_mangle)]
 pub extern "C" fn bench_jrmpc(job: u32, dense: u32, iterations: u32) -> f64 {
     let job = &jrmpc::JOBS[job as usize];
-    jrmpc::run(job, &jrmpc::rig(job), dense != 0, iterations as usize).terms as f64
+    jrmpc::run(job, &jrmpc::rig(job), dense != 0, iterations as usize, 1).terms as f64
 }
 
 #[cfg(target_arch = "wasm32")]
@@ -40,9 +40,8 @@ mod native {
     pub fn main() {
         let quick = std::env::args().any(|a| a == "--quick");
         println!(
-            "gmmcalib native bench ({} build, {} thread(s))",
+            "gmmcalib native bench ({} build; CPU time in brackets, the machine may be shared)",
             if cfg!(debug_assertions) { "debug" } else { "release" },
-            1
         );
         for job in JOBS.iter().take(if quick { 1 } else { JOBS.len() }) {
             run(job);
@@ -55,28 +54,45 @@ mod native {
         }
     }
 
+    /// Wall and CPU seconds of `f`.
+    fn timed<T>(f: impl FnOnce() -> T) -> (T, f64, f64) {
+        let (started, cpu) = (Instant::now(), cpu_seconds());
+        let out = f();
+        (out, started.elapsed().as_secs_f64(), cpu_seconds() - cpu)
+    }
+
+    /// User + system time of this process, from /proc (10 ms ticks).
+    fn cpu_seconds() -> f64 {
+        let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+        let fields: Vec<&str> = stat.rsplit(')').next().unwrap_or("").split_whitespace().collect();
+        let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(0.0);
+        (ticks(11) + ticks(12)) / 100.0
+    }
+
     fn run(job: &Job) {
         let rig = jrmpc::rig(job);
-        let started = Instant::now();
-        let fast = jrmpc::run(job, &rig, false, 100);
-        let seconds = started.elapsed().as_secs_f64();
-        let started = Instant::now();
-        let dense = jrmpc::run(job, &rig, true, job.dense_iterations);
-        let dense_seconds = started.elapsed().as_secs_f64() * 100.0 / dense.iterations as f64;
+        let (fast, seconds, cpu) = timed(|| jrmpc::run(job, &rig, false, 100, 1));
+        let (_, seconds_2, cpu_2) = timed(|| jrmpc::run(job, &rig, false, 100, 2));
+        let (dense, dense_seconds, dense_cpu) =
+            timed(|| jrmpc::run(job, &rig, true, job.dense_iterations, 1));
+        let scale = 100.0 / dense.iterations as f64;
+        let (dense_seconds, dense_cpu) = (dense_seconds * scale, dense_cpu * scale);
         let dense_terms = (fast.points * job.components * fast.iterations) as f64;
         println!("jrmpc {} ({} points, {} iterations)", job.name, fast.points, fast.iterations);
         println!(
-            "  fast   {seconds:>8.2} s  {:>7.1} M terms evaluated ({:.1} % of dense)  \
+            "  fast   {seconds:>8.2} s ({cpu:.2})  {:>7.1} M terms evaluated ({:.1} % of dense)  \
              {:>7.1} M dense-equivalent terms/s",
             fast.terms as f64 / 1e6,
             100.0 * fast.terms as f64 / dense_terms,
             dense_terms / seconds / 1e6
         );
+        println!("  fast, 2 threads {seconds_2:>8.2} s ({cpu_2:.2})");
         println!(
-            "  dense  {dense_seconds:>8.2} s  (exact f64 E-step, {} iterations timed, scaled to \
-             100)  speed-up {:.1}x",
+            "  dense  {dense_seconds:>8.2} s ({dense_cpu:.2})  (exact E-step, {} iterations \
+             timed, scaled to 100)  speed-up {:.1}x wall, {:.1}x CPU",
             dense.iterations,
-            dense_seconds / seconds
+            dense_seconds / seconds,
+            dense_cpu / cpu
         );
         println!("  peak memory of the process so far (VmHWM) {}", peak_memory());
     }

@@ -50,8 +50,8 @@ pub fn rig(job: &Job) -> Rig {
 }
 
 /// Calibrates `rig` with JRMPC for exactly `iterations` (the convergence test off, like the
-/// reference), on the fast E-step or the dense reference.
-pub fn run(job: &Job, rig: &Rig, dense: bool, iterations: usize) -> Outcome {
+/// reference), on the fast E-step or the dense reference, with the views on `threads`.
+pub fn run(job: &Job, rig: &Rig, dense: bool, iterations: usize, threads: usize) -> Outcome {
     let mut settings = calib::Settings {
         method: calib::Method::Jrmpc,
         components: job.components,
@@ -60,6 +60,7 @@ pub fn run(job: &Job, rig: &Rig, dense: bool, iterations: usize) -> Outcome {
     settings.jrmpc.tolerance = 0.0;
     settings.jrmpc.max_iterations = iterations;
     settings.jrmpc.dense = dense;
+    settings.jrmpc.threads = threads;
     let result = calib::calibrate(rig, &settings, |_| Control::Continue).expect("calibration");
     Outcome {
         points: rig.views.iter().map(|v| v.points.len()).sum(),

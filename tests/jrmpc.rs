@@ -236,3 +236,23 @@ fn fast_estep_calibrates_as_the_dense_one() {
         }
     }
 }
+
+/// Sharding the views over threads changes nothing: each view's sums come from one thread.
+#[test]
+fn threads_give_identical_results() {
+    let identity = Pose::identity();
+    let offset = pose_from_xyz_rpy([0.03, 0.02, -0.01], [0.02, 0.01, -0.03]);
+    let views: Vec<Vec<[f32; 3]>> = (0..5)
+        .map(|j| cube_points(800, 10 + j, if j % 2 == 0 { &offset } else { &identity }))
+        .collect();
+    let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
+    let one = Settings { initial_sigma: Some(0.5), max_iterations: 40, ..Settings::default() };
+    let a = jrmpc::register(&refs, &prior_means(150), &one, |_| Control::Continue).unwrap();
+    for threads in [2, 3, 8] {
+        let s = Settings { threads, ..one.clone() };
+        let b = jrmpc::register(&refs, &prior_means(150), &s, |_| Control::Continue).unwrap();
+        assert_eq!(a.poses, b.poses, "{threads} threads");
+        assert_eq!(a.mixture, b.mixture);
+        assert_eq!(a.history, b.history);
+    }
+}

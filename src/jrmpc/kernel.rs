@@ -2,8 +2,8 @@
 //!
 //! Plain loops with no reduction inside, over structure-of-arrays columns, which LLVM turns
 //! into SIMD (SSE2 natively, simd128 under wasm32 with `+simd128`); a polynomial exp instead of
-//! libm's; no fused multiply-add and lane sums reduced in a fixed order, so native and wasm
-//! builds give the same results. f64 throughout: the reference's calibrations move by 1e-5 rad
+//! libm's; no fused multiply-add and lane sums reduced in a fixed order, so results do not
+//! depend on how the loops were vectorised. f64 throughout: the reference's calibrations move by 1e-5 rad
 //! when every term carries a relative error of 1e-7 (f32), so f32 cannot meet the 1e-4 rad
 //! bound after 100 iterations on rigs that have not converged.
 

@@ -47,6 +47,9 @@ pub struct Settings {
     /// E-step (a grid with a bound on the neglected mass, SIMD lanes, a polynomial exp) is
     /// tested against. Slow.
     pub dense: bool,
+    /// Threads sharing the E-step's views (native only; wasm runs one). Each view's sums are
+    /// computed by one thread and combined in view order, so results do not depend on it.
+    pub threads: usize,
 }
 
 impl Default for Settings {
@@ -59,6 +62,7 @@ impl Default for Settings {
             update_priors: true,
             initial_sigma: None,
             dense: false,
+            threads: 1,
         }
     }
 }
@@ -184,7 +188,8 @@ pub fn register(
     let beta = settings.gamma / (h * (1.0 + settings.gamma));
     let mut transforms = vec![(Matrix3::identity(), Vector3::zeros()); views.len()];
     let mut stats = vec![ViewStats::zeros(k); views.len()];
-    let mut scratch = estep::Scratch::new();
+    let mut scratch: Vec<estep::Scratch> =
+        (0..settings.threads.clamp(1, views.len())).map(|_| estep::Scratch::new()).collect();
     let mut dense_terms = Vec::with_capacity(k);
     let mut history = Vec::new();
     let mut unsupported = Vec::new();
@@ -199,9 +204,32 @@ pub fn register(
             }
         } else {
             let grid = grid::Grid::new(&mixture, beta);
-            for ((view, st), (r, t)) in points.iter().zip(&mut stats).zip(&transforms) {
-                st.clear();
-                terms += estep::accumulate(view, r, t, &mixture, &grid, beta, st, &mut scratch);
+            let shard = |views: &[Vec<Vector3<f64>>],
+                         stats: &mut [ViewStats],
+                         transforms: &[(Matrix3<f64>, Vector3<f64>)],
+                         scratch: &mut estep::Scratch| {
+                let mut terms = 0;
+                for ((view, st), (r, t)) in views.iter().zip(stats).zip(transforms) {
+                    st.clear();
+                    terms += estep::accumulate(view, r, t, &mixture, &grid, beta, st, scratch);
+                }
+                terms
+            };
+            let per = points.len().div_ceil(scratch.len());
+            let shards = points
+                .chunks(per)
+                .zip(stats.chunks_mut(per))
+                .zip(transforms.chunks(per))
+                .zip(scratch.iter_mut());
+            if cfg!(target_arch = "wasm32") || shards.len() == 1 {
+                terms = shards.map(|(((v, s), t), sc)| shard(v, s, t, sc)).sum();
+            } else {
+                terms = std::thread::scope(|scope| {
+                    let handles: Vec<_> = shards
+                        .map(|(((v, s), t), sc)| scope.spawn(move || shard(v, s, t, sc)))
+                        .collect();
+                    handles.into_iter().map(|h| h.join().expect("E-step thread")).sum()
+                });
             }
         }
         unsupported.clear();
@@ -269,6 +297,9 @@ fn validate(
     }
     if !(settings.variance_floor.is_finite() && settings.variance_floor > 0.0) {
         return Err(JrmpcError::InvalidSetting("variance_floor must be positive"));
+    }
+    if settings.threads == 0 {
+        return Err(JrmpcError::InvalidSetting("threads must be at least 1"));
     }
     if !(settings.tolerance.is_finite() && settings.tolerance >= 0.0) {
         return Err(JrmpcError::InvalidSetting("tolerance must be zero or positive"));
