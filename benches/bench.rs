@@ -1,110 +1,125 @@
 //! Benchmarks (not tests): `cargo run --release --bin bench [-- --quick]`.
-//! Prints wall time, iterations and Gaussian terms evaluated per second for the JRMPC jobs the
-//! README reports (the wasm twin is `www/bench/bench.mjs`, same jobs under Node), then the ICP
-//! baselines' per-pair times.
+//! For each JRMPC job the README reports: wall time, Gaussian terms evaluated, dense-equivalent
+//! terms per second and the speed-up over the exact dense E-step, then peak memory; then the
+//! ICP baselines' per-pair times. The wasm twin is `www/bench/bench.mjs`: the same jobs under
+//! Node, through the JS API and through this file built for wasm32 (`bench_jrmpc` below).
 
-use std::time::Instant;
-
+#[cfg(not(target_arch = "wasm32"))]
 #[path = "icp.rs"]
 mod icp;
+#[allow(dead_code)] // rig_of is only used natively
+mod jrmpc;
 
-use gmmcalib::calib::{self, Rig, View};
-use gmmcalib::jrmpc::Control;
-use gmmcalib::synth::{self, RigSpec};
-
-struct Job {
-    name: &'static str,
-    frames: usize,
-    points_per_view: usize,
-    components: usize,
+/// Runs JRMPC job `job` (index into `JOBS`) for `iterations`, dense (1) or fast (0); returns
+/// the Gaussian terms evaluated. JS times the call.
+#[cfg(target_arch = "wasm32")]
+#[unsafe(no_mangle)]
+pub extern "C" fn bench_jrmpc(job: u32, dense: u32, iterations: u32) -> f64 {
+    let job = &jrmpc::JOBS[job as usize];
+    jrmpc::run(job, &jrmpc::rig(job), dense != 0, iterations as usize, 1).terms as f64
 }
 
-const JOBS: [Job; 2] = [
-    Job {
-        name: "sample scale: 10 views x 1300 points, K=444",
-        frames: 5,
-        points_per_view: 1300,
-        components: 444,
-    },
-    Job {
-        name: "paper scale: 212 views x 1850 points, K=400",
-        frames: 106,
-        points_per_view: 1850,
-        components: 400,
-    },
-];
+#[cfg(target_arch = "wasm32")]
+fn main() {}
 
-fn run(job: &Job) {
-    let spec = RigSpec {
-        frames: job.frames,
-        points_per_view: job.points_per_view,
-        partial: true,
-        ..RigSpec::default()
-    };
-    let rig = rig_of(synth::generate(&spec));
-    let mut settings = calib::Settings {
-        method: calib::Method::Jrmpc,
-        components: job.components,
-        ..Default::default()
-    };
-    settings.jrmpc.tolerance = 0.0; // always the full 100 iterations, like the reference
-    let points: usize = rig.views.iter().map(|v| v.points.len()).sum();
-    let started = Instant::now();
-    let result = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibration");
-    let seconds = started.elapsed().as_secs_f64();
-    let terms = (points * job.components * result.iterations) as f64;
-    println!(
-        "jrmpc {:<46} {:>8.2} s  {:>3} iterations  {:>7.1} M terms/s  ({} points)",
-        job.name,
-        seconds,
-        result.iterations,
-        terms / seconds / 1e6,
-        points
-    );
-}
-
-/// ICP baselines through the calibration, per frame pair, on the synthetic rig's partial views:
-/// the same jobs as the wasm bench.
-fn icp_per_pair(points_per_view: usize) {
-    let frames = if points_per_view > 10_000 { 1 } else { 5 };
-    let spec = RigSpec { frames, points_per_view, partial: true, seed: 2, ..RigSpec::default() };
-    let rig = rig_of(synth::generate(&spec));
-    for method in ["p2p", "p2l", "gicp"] {
-        let settings =
-            calib::Settings { method: method.parse().expect("method"), ..Default::default() };
-        let started = Instant::now();
-        calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibration");
-        let ms = started.elapsed().as_secs_f64() * 1e3 / frames as f64;
-        println!("{method:<5} per pair, {points_per_view:>5}-point views {ms:>9.1} ms");
-    }
-}
-
-fn rig_of(rig: synth::SyntheticRig) -> Rig {
-    Rig {
-        views: rig
-            .views
-            .into_iter()
-            .map(|v| View { sensor: v.sensor, frame: v.frame, points: v.points })
-            .collect(),
-        nominal: rig.nominal,
-        roi: rig.roi,
-        reference: None,
-    }
-}
-
+#[cfg(not(target_arch = "wasm32"))]
 fn main() {
-    let quick = std::env::args().any(|a| a == "--quick");
-    println!(
-        "gmmcalib native bench ({} build)",
-        if cfg!(debug_assertions) { "debug" } else { "release" }
-    );
-    for job in JOBS.iter().take(if quick { 1 } else { JOBS.len() }) {
-        run(job);
+    native::main();
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+mod native {
+    use std::time::Instant;
+
+    use gmmcalib::calib::{self};
+    use gmmcalib::jrmpc::Control;
+    use gmmcalib::synth::{self, RigSpec};
+
+    use super::jrmpc::{self, JOBS, Job};
+
+    pub fn main() {
+        let quick = std::env::args().any(|a| a == "--quick");
+        println!(
+            "gmmcalib native bench ({} build; CPU time in brackets, the machine may be shared)",
+            if cfg!(debug_assertions) { "debug" } else { "release" },
+        );
+        for job in JOBS.iter().take(if quick { 1 } else { JOBS.len() }) {
+            run(job);
+        }
+        for points in if quick { &[2000][..] } else { &[2000, 65_000][..] } {
+            icp_per_pair(*points);
+        }
+        if !quick {
+            super::icp::run();
+        }
     }
-    for points in if quick { &[2000][..] } else { &[2000, 65_000][..] } {
-        icp_per_pair(*points);
+
+    /// Wall and CPU seconds of `f`.
+    fn timed<T>(f: impl FnOnce() -> T) -> (T, f64, f64) {
+        let (started, cpu) = (Instant::now(), cpu_seconds());
+        let out = f();
+        (out, started.elapsed().as_secs_f64(), cpu_seconds() - cpu)
     }
-    if !quick {
-        icp::run();
+
+    /// User + system time of this process, from /proc (10 ms ticks).
+    fn cpu_seconds() -> f64 {
+        let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+        let fields: Vec<&str> = stat.rsplit(')').next().unwrap_or("").split_whitespace().collect();
+        let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(0.0);
+        (ticks(11) + ticks(12)) / 100.0
+    }
+
+    fn run(job: &Job) {
+        let rig = jrmpc::rig(job);
+        let (fast, seconds, cpu) = timed(|| jrmpc::run(job, &rig, false, 100, 1));
+        let (_, seconds_2, cpu_2) = timed(|| jrmpc::run(job, &rig, false, 100, 2));
+        let (dense, dense_seconds, dense_cpu) =
+            timed(|| jrmpc::run(job, &rig, true, job.dense_iterations, 1));
+        let scale = 100.0 / dense.iterations as f64;
+        let (dense_seconds, dense_cpu) = (dense_seconds * scale, dense_cpu * scale);
+        let dense_terms = (fast.points * job.components * fast.iterations) as f64;
+        println!("jrmpc {} ({} points, {} iterations)", job.name, fast.points, fast.iterations);
+        println!(
+            "  fast   {seconds:>8.2} s ({cpu:.2})  {:>7.1} M terms evaluated ({:.1} % of dense)  \
+             {:>7.1} M dense-equivalent terms/s",
+            fast.terms as f64 / 1e6,
+            100.0 * fast.terms as f64 / dense_terms,
+            dense_terms / seconds / 1e6
+        );
+        println!("  fast, 2 threads {seconds_2:>8.2} s ({cpu_2:.2})");
+        println!(
+            "  dense  {dense_seconds:>8.2} s ({dense_cpu:.2})  (exact E-step, {} iterations \
+             timed, scaled to 100)  speed-up {:.1}x wall, {:.1}x CPU",
+            dense.iterations,
+            dense_seconds / seconds,
+            dense_cpu / cpu
+        );
+        println!("  peak memory of the process so far (VmHWM) {}", peak_memory());
+    }
+
+    fn peak_memory() -> String {
+        std::fs::read_to_string("/proc/self/status")
+            .ok()
+            .and_then(|s| {
+                s.lines().find(|l| l.starts_with("VmHWM:")).map(|l| l[6..].trim().to_string())
+            })
+            .unwrap_or_else(|| "unknown".into())
+    }
+
+    /// ICP baselines through the calibration, per frame pair, on the synthetic rig's partial
+    /// views: the same jobs as the wasm bench.
+    fn icp_per_pair(points_per_view: usize) {
+        let frames = if points_per_view > 10_000 { 1 } else { 5 };
+        let spec =
+            RigSpec { frames, points_per_view, partial: true, seed: 2, ..RigSpec::default() };
+        let rig = jrmpc::rig_of(synth::generate(&spec));
+        for method in ["p2p", "p2l", "gicp"] {
+            let settings =
+                calib::Settings { method: method.parse().expect("method"), ..Default::default() };
+            let started = Instant::now();
+            calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibration");
+            let ms = started.elapsed().as_secs_f64() * 1e3 / frames as f64;
+            println!("{method:<5} per pair, {points_per_view:>5}-point views {ms:>9.1} ms");
+        }
     }
 }

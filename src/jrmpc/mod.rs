@@ -7,7 +7,9 @@
 //! back to the caller's frame.
 
 mod estep;
+mod grid;
 pub mod init;
+mod kernel;
 pub mod model;
 mod mstep;
 
@@ -41,6 +43,13 @@ pub struct Settings {
     /// Initial standard deviation of every component (m). `None`: the references' rule, the
     /// diagonal of the bounding box of all points and means.
     pub initial_sigma: Option<f64>,
+    /// Evaluate every point against every component with libm's exp: the reference the fast
+    /// E-step (a grid with a bound on the neglected mass, SIMD lanes, a polynomial exp) is
+    /// tested against. Slow.
+    pub dense: bool,
+    /// Threads sharing the E-step's views (native only; wasm runs one). Each view's sums are
+    /// computed by one thread and combined in view order, so results do not depend on it.
+    pub threads: usize,
 }
 
 impl Default for Settings {
@@ -52,6 +61,8 @@ impl Default for Settings {
             variance_floor: 1e-6,
             update_priors: true,
             initial_sigma: None,
+            dense: false,
+            threads: 1,
         }
     }
 }
@@ -80,6 +91,8 @@ pub enum Control {
 pub struct IterationStats {
     pub mean_sigma: f64,
     pub max_change: f64,
+    /// Gaussian terms the E-step evaluated (a dense E-step: points x K).
+    pub terms: u64,
 }
 
 /// The outcome of a registration.
@@ -175,16 +188,49 @@ pub fn register(
     let beta = settings.gamma / (h * (1.0 + settings.gamma));
     let mut transforms = vec![(Matrix3::identity(), Vector3::zeros()); views.len()];
     let mut stats = vec![ViewStats::zeros(k); views.len()];
-    let mut scratch = Vec::with_capacity(k);
+    let mut scratch: Vec<estep::Scratch> =
+        (0..settings.threads.clamp(1, views.len())).map(|_| estep::Scratch::new()).collect();
+    let mut dense_terms = Vec::with_capacity(k);
     let mut history = Vec::new();
     let mut unsupported = Vec::new();
     let (mut converged, mut cancelled) = (false, false);
 
     for iteration in 1..=settings.max_iterations {
-        let terms = estep::EStepTerms::new(&mixture, beta);
-        for ((view, st), (r, t)) in points.iter().zip(&mut stats).zip(&transforms) {
-            st.clear();
-            estep::accumulate(view, r, t, &mixture.means, &terms, st, &mut scratch);
+        let mut terms = 0;
+        if settings.dense {
+            for ((view, st), (r, t)) in points.iter().zip(&mut stats).zip(&transforms) {
+                st.clear();
+                terms += estep::dense(view, r, t, &mixture, beta, st, &mut dense_terms);
+            }
+        } else {
+            let grid = grid::Grid::new(&mixture, beta);
+            let shard = |views: &[Vec<Vector3<f64>>],
+                         stats: &mut [ViewStats],
+                         transforms: &[(Matrix3<f64>, Vector3<f64>)],
+                         scratch: &mut estep::Scratch| {
+                let mut terms = 0;
+                for ((view, st), (r, t)) in views.iter().zip(stats).zip(transforms) {
+                    st.clear();
+                    terms += estep::accumulate(view, r, t, &mixture, &grid, beta, st, scratch);
+                }
+                terms
+            };
+            let per = points.len().div_ceil(scratch.len());
+            let shards = points
+                .chunks(per)
+                .zip(stats.chunks_mut(per))
+                .zip(transforms.chunks(per))
+                .zip(scratch.iter_mut());
+            if cfg!(target_arch = "wasm32") || shards.len() == 1 {
+                terms = shards.map(|(((v, s), t), sc)| shard(v, s, t, sc)).sum();
+            } else {
+                terms = std::thread::scope(|scope| {
+                    let handles: Vec<_> = shards
+                        .map(|(((v, s), t), sc)| scope.spawn(move || shard(v, s, t, sc)))
+                        .collect();
+                    handles.into_iter().map(|h| h.join().expect("E-step thread")).sum()
+                });
+            }
         }
         unsupported.clear();
         let previous = transforms.clone();
@@ -205,7 +251,7 @@ pub fn register(
         );
 
         let mean_sigma = mixture.mean_sigma();
-        history.push(IterationStats { mean_sigma, max_change });
+        history.push(IterationStats { mean_sigma, max_change, terms });
         let poses: Vec<Pose> = transforms.iter().map(|rt| uncentred(rt, &centre)).collect();
         let answer = progress(&Progress { iteration, poses: &poses, mean_sigma, max_change });
         if max_change <= settings.tolerance {
@@ -251,6 +297,9 @@ fn validate(
     }
     if !(settings.variance_floor.is_finite() && settings.variance_floor > 0.0) {
         return Err(JrmpcError::InvalidSetting("variance_floor must be positive"));
+    }
+    if settings.threads == 0 {
+        return Err(JrmpcError::InvalidSetting("threads must be at least 1"));
     }
     if !(settings.tolerance.is_finite() && settings.tolerance >= 0.0) {
         return Err(JrmpcError::InvalidSetting("tolerance must be zero or positive"));

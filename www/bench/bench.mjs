@@ -1,30 +1,58 @@
-// The wasm twin of `cargo run --release --bin bench`: the same jobs through the JS API, under
-// Node, one thread. Run `make wasm` first (or `make bench`). Pass --quick for the small jobs.
+// The wasm twin of `cargo run --release --bin bench`: the same jobs under Node, one thread.
+// Run `make wasm` first (or `make bench`). Pass --quick for the small jobs.
+//
+// JRMPC is timed twice: through the JS API (`calibrate`, what the page calls), and through
+// `benches/bench.rs` built for wasm32 (`bench_jrmpc`, built here with cargo), which also
+// reports the Gaussian terms evaluated and runs the exact dense E-step the JS API does not
+// expose. That module's wasm-bindgen imports are never called; they are stubbed.
+import { execFileSync } from 'node:child_process';
 import { readFile } from 'node:fs/promises';
 import { performance } from 'node:perf_hooks';
 import init, { calibrate, parseCloud, syntheticRig } from '../pkg/gmmcalib.js';
 
-await init({ module_or_path: await readFile(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
+const pkg = await init({ module_or_path: await readFile(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
 const quick = process.argv.includes('--quick');
-console.log(`gmmcalib wasm bench (Node ${process.version})`);
+console.log(`gmmcalib wasm bench (Node ${process.version}, one thread)`);
+
+const root = new URL('../../', import.meta.url);
+execFileSync('cargo', ['build', '--quiet', '--release', '--target', 'wasm32-unknown-unknown', '--bin', 'bench'],
+  { cwd: root, stdio: 'inherit' });
+const stub = new Proxy({}, { get: () => () => { throw new Error('bench module called a JS import'); } });
+const { instance } = await WebAssembly.instantiate(
+  await readFile(new URL('target/wasm32-unknown-unknown/release/bench.wasm', root)),
+  new Proxy({}, { get: () => stub }));
+const benchJrmpc = instance.exports.bench_jrmpc;
 
 const rigInput = (rig, extra) => ({ views: rig.views, nominal: rig.nominal, roi: rig.roi, ...extra });
 const pad = (s, n) => String(s).padStart(n);
+const mib = (bytes) => `${(bytes / 2 ** 20).toFixed(0)} MiB`;
 
-// JRMPC, 100 iterations, as the reference runs it.
+// JRMPC, 100 iterations, as the reference runs it. Same order as JOBS in benches/jrmpc.rs.
 const jobs = [
-  { name: 'sample scale: 10 views x 1300 points, K=444', frames: 5, pointsPerView: 1300, components: 444 },
-  { name: 'paper scale: 212 views x 1850 points, K=400', frames: 106, pointsPerView: 1850, components: 400 },
+  { name: 'sample scale: 10 views x 1300 points, K=444', frames: 5, pointsPerView: 1300, components: 444, denseIterations: 10 },
+  { name: 'paper scale: 212 views x 1850 points, K=400', frames: 106, pointsPerView: 1850, components: 400, denseIterations: 2 },
 ];
-for (const job of quick ? jobs.slice(0, 1) : jobs) {
+for (const [index, job] of (quick ? jobs.slice(0, 1) : jobs).entries()) {
   const rig = syntheticRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
   const points = rig.views.reduce((n, v) => n + v.points.length / 3, 0);
-  const started = performance.now();
+  let started = performance.now();
   const result = calibrate(rigInput(rig, { method: 'jrmpc', components: job.components, tolerance: 0 }));
   const seconds = (performance.now() - started) / 1000;
-  const terms = points * job.components * result.iterations;
-  console.log(`jrmpc ${job.name.padEnd(46)} ${pad(seconds.toFixed(2), 8)} s  ${pad(result.iterations, 3)} iterations  ` +
-    `${pad((terms / seconds / 1e6).toFixed(1), 7)} M terms/s  (${points} points)`);
+  started = performance.now();
+  const terms = benchJrmpc(index, 0, 100);
+  const moduleSeconds = (performance.now() - started) / 1000;
+  started = performance.now();
+  benchJrmpc(index, 1, job.denseIterations);
+  const denseSeconds = (performance.now() - started) / 1000 * 100 / job.denseIterations;
+  const dense = points * job.components * result.iterations;
+  console.log(`jrmpc ${job.name} (${points} points, ${result.iterations} iterations)`);
+  console.log(`  fast   ${pad(seconds.toFixed(2), 8)} s  ${pad((terms / 1e6).toFixed(1), 7)} M terms evaluated ` +
+    `(${(100 * terms / dense).toFixed(1)} % of dense)  ${pad((dense / seconds / 1e6).toFixed(1), 7)} M dense-equivalent terms/s` +
+    `  (JS API; ${moduleSeconds.toFixed(2)} s in the bench module)`);
+  console.log(`  dense  ${pad(denseSeconds.toFixed(2), 8)} s  (exact E-step, ${job.denseIterations} iterations timed, ` +
+    `scaled to 100)  speed-up ${(denseSeconds / moduleSeconds).toFixed(1)}x`);
+  console.log(`  peak wasm memory: ${mib(pkg.memory.buffer.byteLength)} (JS API), ` +
+    `${mib(instance.exports.memory.buffer.byteLength)} (bench module)`);
 }
 
 // ICP baselines: per frame pair, on partial views of the synthetic rig.
