@@ -4,10 +4,13 @@
 
 #![cfg(not(target_arch = "wasm32"))]
 
+mod common;
+
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
+use common::TempDir;
 use gmmcalib::Cloud;
 use gmmcalib::calib::{self, Method, Rig, Settings, View};
 use gmmcalib::io::{write_pcd_binary, write_ply_binary};
@@ -15,27 +18,6 @@ use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::{Pose, from_row_major, pose_from_xyz_rpy, xyz_rpy};
 use gmmcalib::synth::{self, RigSpec, SyntheticRig};
 use serde_json::Value;
-
-/// A fresh, empty folder under the system temp dir, removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> Self {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_nanos());
-        let dir = std::env::temp_dir()
-            .join(format!("gmmcalib-cli-{name}-{}-{nanos}", std::process::id()));
-        fs::create_dir_all(&dir).unwrap();
-        Self(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
-    }
-}
 
 /// Writes the rig as GMMCalib lays it out: `data/sensor_N/<frame>.pcd` (`.ply` for sensor_3)
 /// and `config.yaml` with the nominal extrinsics and the ROI, in GMMCalib's nested-list form.

@@ -5,36 +5,18 @@
 
 #![cfg(not(target_arch = "wasm32"))]
 
+mod common;
+
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
+use common::TempDir;
 use gmmcalib::io::parse_cloud;
 use gmmcalib::se3::{Pose, from_row_major, pose_from_xyz_rpy};
 use gmmcalib::sim::Preset;
 use nalgebra::Point3;
 use serde_json::Value;
-
-/// A fresh, empty folder under the system temp dir, removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> Self {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_nanos());
-        let dir = std::env::temp_dir()
-            .join(format!("gmmcalib-exp-{name}-{}-{nanos}", std::process::id()));
-        fs::create_dir_all(&dir).unwrap();
-        Self(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
-    }
-}
 
 fn gmmcalib(args: &[&str]) {
     let out = Command::new(env!("CARGO_BIN_EXE_gmmcalib")).args(args).output().unwrap();

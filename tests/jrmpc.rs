@@ -1,6 +1,8 @@
 //! JRMPC on its own: exact recovery of known transforms, the convergence test, and degenerate
 //! input.
 
+mod common;
+
 use gmmcalib::jrmpc::{self, Control, JrmpcError, Settings, init::cube_surface};
 use gmmcalib::se3::{Pose, pose_from_xyz_rpy};
 use nalgebra::Point3;
@@ -152,7 +154,7 @@ fn weak_data_never_produces_nan() {
 /// the result by up to 1e-3 rad: the bound holds for an f64 kernel, not an f32 one.
 #[test]
 fn fast_estep_calibrates_as_the_dense_one() {
-    use gmmcalib::calib::{self, InitialSigma, Method, Rig, View};
+    use gmmcalib::calib::{self, InitialSigma, Method};
     use gmmcalib::synth::{self, RigSpec};
 
     // (rig, K, mixture started at the prior's size (else the bounding box), max iterations,
@@ -179,20 +181,7 @@ fn fast_estep_calibrates_as_the_dense_one() {
     ];
     for (n, (spec, components, prior_size, iterations, converge)) in rigs.into_iter().enumerate() {
         let synthetic = synth::generate(&spec);
-        let rig = Rig {
-            views: synthetic
-                .views
-                .iter()
-                .map(|v| View {
-                    sensor: v.sensor.clone(),
-                    frame: v.frame.clone(),
-                    points: v.points.clone(),
-                })
-                .collect(),
-            nominal: synthetic.nominal.clone(),
-            roi: synthetic.roi,
-            reference: None,
-        };
+        let rig = common::rig_of(&synthetic);
         let mut settings = calib::Settings {
             method: Method::Jrmpc,
             components,

@@ -1,22 +1,13 @@
 // Cancel stops a run (the worker is replaced) and the page stays usable with its data.
-import { test, before, after } from 'node:test';
+import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { serveDist, launch, openPage, waitForStatus } from './harness.js';
+import { browserSession, waitForStatus } from './harness.js';
 
-let server;
-let browser;
-before(async () => {
-  server = await serveDist();
-  browser = await launch();
-});
-after(async () => {
-  await browser?.close();
-  server?.close();
-});
+const session = browserSession();
 
 test('cancel stops a run and the page stays usable', async () => {
   // Many components, a tolerance that never stops early: a run far longer than the test.
-  const { page, problems } = await openPage(browser, `${server.url}#demo=paper&frames=2&method=jrmpc&components=2000&iterations=1000`);
+  const { page, problems } = await session.open('#demo=paper&frames=2&method=jrmpc&components=2000&iterations=1000');
   await waitForStatus(page, /Calibrate next/);
   await page.getByTestId('calibrate').click();
   await waitForStatus(page, /iteration [1-9]/);

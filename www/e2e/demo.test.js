@@ -1,9 +1,9 @@
 // The demo end to end in real Chromium: simulate the paper rig in the worker, calibrate, check
 // the result against the simulated truth, keep a screenshot; a shared link reproduces the demo.
-import { test, before, after } from 'node:test';
+import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { mkdirSync } from 'node:fs';
-import { serveDist, launch, openPage, waitForStatus } from './harness.js';
+import { browserSession, waitForStatus } from './harness.js';
 import { errorOf, simulateRig } from './rigfiles.js';
 
 // Issue 6's bound for every start on the twin: within 0.1 deg and 1 cm (README, "Accuracy on
@@ -14,19 +14,10 @@ const DEMO_ERROR_BOUND = { deg: 0.1, mm: 10 };
 // main thread by mistake (parsing, registration) would take seconds.
 const LONGEST_TASK_MS = 500;
 
-let server;
-let browser;
-before(async () => {
-  server = await serveDist();
-  browser = await launch();
-});
-after(async () => {
-  await browser?.close();
-  server?.close();
-});
+const session = browserSession();
 
 test('demo: simulate, calibrate, and land within the bound of the truth', async () => {
-  const { page, problems } = await openPage(browser, server.url);
+  const { page, problems } = await session.open();
   await page.getByTestId('demo').click();
   await waitForStatus(page, /Calibrate next/);
   assert.match(page.url(), /demo=paper/);
@@ -73,7 +64,7 @@ test('demo: simulate, calibrate, and land within the bound of the truth', async 
 });
 
 test('a shared link loads the same demo', async () => {
-  const { page, problems } = await openPage(browser, `${server.url}#demo=paper&frames=1&seed=5&method=jrmpc`);
+  const { page, problems } = await session.open('#demo=paper&frames=1&seed=5&method=jrmpc');
   await waitForStatus(page, /Calibrate next/);
   assert.match(await page.getByTestId('status').textContent(), /seed 5, 1 frames/);
   assert.equal(await page.locator('#method').inputValue(), 'jrmpc');

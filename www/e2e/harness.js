@@ -4,6 +4,7 @@
 import { createServer } from 'node:http';
 import { readFile } from 'node:fs/promises';
 import { extname, join, normalize } from 'node:path';
+import { before, after } from 'node:test';
 import { chromium } from 'playwright-core';
 
 const DIST = new URL('../dist/', import.meta.url).pathname;
@@ -38,6 +39,22 @@ export async function launch() {
       '--disable-sync',
     ],
   });
+}
+
+// One server and one Chromium for a test file, started before its tests and stopped after.
+// `open(hash)` opens the site (with an optional `#...` hash) in a fresh page.
+export function browserSession() {
+  let server;
+  let browser;
+  before(async () => {
+    server = await serveDist();
+    browser = await launch();
+  });
+  after(async () => {
+    await browser?.close();
+    server?.close();
+  });
+  return { open: (hash = '') => openPage(browser, `${server.url}${hash}`) };
 }
 
 // A page that collects console errors, uncaught exceptions and failed requests.

@@ -1,11 +1,11 @@
 // Loading files: a GMMCalib folder (3 sensors, PCD and PLY, config.yaml) through the file
 // input, calibrated against its truth; a malformed file is named and the rest still calibrates.
-import { test, before, after } from 'node:test';
+import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { mkdirSync, mkdtempSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { dirname, join } from 'node:path';
-import { serveDist, launch, openPage, waitForStatus } from './harness.js';
+import { browserSession, waitForStatus } from './harness.js';
 import { calibrate } from '../pkg/gmmcalib.js';
 import { errorOf, gmmcalibFolder, pcdAscii, syntheticRig } from './rigfiles.js';
 
@@ -14,21 +14,12 @@ import { errorOf, gmmcalibFolder, pcdAscii, syntheticRig } from './rigfiles.js';
 // page computes exactly what the wasm package computes in Node from the same data.
 const UPLOAD_ERROR_BOUND = { deg: 1.5, mm: 100 };
 
-let server;
-let browser;
-before(async () => {
-  server = await serveDist();
-  browser = await launch();
-});
-after(async () => {
-  await browser?.close();
-  server?.close();
-});
+const session = browserSession();
 
 test('upload a GMMCalib folder through file-input and calibrate it', async () => {
   const rig = syntheticRig({ sensors: 3, frames: 3, pointsPerView: 1000, seed: 2 });
   const files = gmmcalibFolder(rig, 'rig', 'initial_sigma: prior\ncomponents: 200\n');
-  const { page, problems } = await openPage(browser, server.url);
+  const { page, problems } = await session.open();
   await page.getByTestId('file-input').setInputFiles(files);
   await waitForStatus(page, /9 scans of 3 sensors loaded/);
   // Assigned by folder, nominal and ROI from the config, our keys applied.
@@ -75,7 +66,7 @@ test('a malformed file shows a named error; the good files still calibrate', asy
   const rig = syntheticRig({ sensors: 2, frames: 2, pointsPerView: 800, seed: 3 });
   const files = gmmcalibFolder(rig, 'rig', 'initial_sigma: prior\ncomponents: 150\n');
   files.push({ name: 'rig/sensor_2/3.pcd', mimeType: 'application/octet-stream', buffer: Buffer.from('VERSION 0.7\nFIELDS x y z\nDATA ascii\n1 2 3\n') });
-  const { page, problems } = await openPage(browser, server.url);
+  const { page, problems } = await session.open();
   await page.getByTestId('file-input').setInputFiles(files);
   await waitForStatus(page, /4 scans of 2 sensors loaded, 1 file\(s\) with problems/);
   const error = await page.getByTestId('error').textContent();
@@ -98,7 +89,7 @@ test('a folder picked from disk keeps its sensor_N layout', async () => {
       mkdirSync(dirname(join(dir, f.name)), { recursive: true });
       writeFileSync(join(dir, f.name), f.buffer);
     }
-    const { page, problems } = await openPage(browser, server.url);
+    const { page, problems } = await session.open();
     await page.locator('#folder-input').setInputFiles(join(dir, 'rig'));
     await waitForStatus(page, /4 scans of 2 sensors loaded\.$/);
     const sensors = await page.locator('#files tr td:nth-child(2) input').evaluateAll((inputs) => inputs.map((i) => i.value));
@@ -114,7 +105,7 @@ test('loose files dropped on the view are grouped by <sensor>_<frame> and can be
   const rig = syntheticRig({ sensors: 2, frames: 2, pointsPerView: 300, seed: 6 });
   const names = { sensor_1: 'left', sensor_2: 'right' };
   const files = rig.views.map((v) => ({ name: `${names[v.sensor]}_00${v.frame}.pcd`, mimeType: 'application/octet-stream', buffer: pcdAscii(v.points) }));
-  const { page, problems } = await openPage(browser, server.url);
+  const { page, problems } = await session.open();
   await page.locator('#view').drop({ files });
   await waitForStatus(page, /4 scans of 2 sensors loaded\.$/);
   const rows = () => page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => [...tr.querySelectorAll('input')].map((i) => i.value).join('/')));
