@@ -104,12 +104,7 @@ pub fn dense(
     a: &mut Vec<f64>,
 ) -> u64 {
     let k = mixture.len();
-    let scale: Vec<f64> = (0..k)
-        .map(|c| {
-            let q = 1.0 / mixture.variances[c];
-            mixture.priors[c] * q * q.sqrt()
-        })
-        .collect();
+    let scale = mixture.peak_scales();
     for v in points {
         let p = rotation * v + translation;
         a.clear();

@@ -47,12 +47,7 @@ impl Grid {
     /// Builds the grid for one iteration. `beta` is the outlier term of the posterior.
     pub fn new(mixture: &Mixture, beta: f64) -> Self {
         let k = mixture.len();
-        let scale: Vec<f64> = (0..k)
-            .map(|c| {
-                let q = 1.0 / mixture.variances[c];
-                mixture.priors[c] * q * q.sqrt()
-            })
-            .collect();
+        let scale = mixture.peak_scales();
         let active: Vec<usize> = (0..k).filter(|&c| scale[c] > 0.0).collect();
         let mut sigmas: Vec<f64> = active.iter().map(|&c| mixture.variances[c].sqrt()).collect();
         sigmas.sort_by(f64::total_cmp);

@@ -20,6 +20,19 @@ impl Mixture {
         self.means.is_empty()
     }
 
+    /// Per component, its peak density factor `prior * Q^1.5` (`Q = 1 / variance`): each term of
+    /// the E-step is this times `exp(-Q d^2 / 2)` (the common `(2 pi)^-1.5` cancels).
+    pub fn peak_scales(&self) -> Vec<f64> {
+        self.variances
+            .iter()
+            .zip(&self.priors)
+            .map(|(v, p)| {
+                let q = 1.0 / v;
+                p * q * q.sqrt()
+            })
+            .collect()
+    }
+
     /// Mean of the standard deviations (m) of the components that still hold data (prior > 0).
     pub fn mean_sigma(&self) -> f64 {
         let (sum, n) = self

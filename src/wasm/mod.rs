@@ -8,8 +8,13 @@ mod files;
 mod simulate;
 mod synthetic;
 
+use std::collections::BTreeMap;
+
+use js_sys::Float32Array;
 use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
+
+use crate::se3::{Pose, xyz_rpy};
 
 pub use calibrate::calibrate;
 pub use files::parse_cloud;
@@ -23,11 +28,39 @@ struct XyzRpy {
     rpy: [f64; 3],
 }
 
+impl From<&Pose> for XyzRpy {
+    fn from(pose: &Pose) -> Self {
+        let (xyz, rpy) = xyz_rpy(pose);
+        Self { xyz, rpy }
+    }
+}
+
 /// An axis-aligned box (m), bounds inclusive.
 #[derive(Serialize, Deserialize)]
 struct Roi {
     min: [f64; 3],
     max: [f64; 3],
+}
+
+/// One scan of a generated rig, in the sensor frame.
+#[derive(Serialize)]
+struct RigView {
+    sensor: String,
+    frame: String,
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    points: Float32Array,
+    /// Missed beams (exact-zero returns) left out, as `parseCloud` would.
+    dropped: usize,
+}
+
+/// A generated rig in the shape `calibrate` takes, plus `truth` (true `T_vehicle_sensor`).
+#[derive(Serialize)]
+struct RigOutput {
+    views: Vec<RigView>,
+    nominal: BTreeMap<String, XyzRpy>,
+    truth: BTreeMap<String, XyzRpy>,
+    roi: Roi,
+    reference: String,
 }
 
 #[wasm_bindgen(start)]

@@ -6,11 +6,10 @@ use std::collections::BTreeMap;
 use js_sys::Float32Array;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 use wasm_bindgen::prelude::*;
 
-use super::{Roi, XyzRpy, to_js};
-use crate::se3::{Pose, xyz_rpy};
+use super::{RigOutput, RigView, Roi, XyzRpy, to_js};
 use crate::sim::{self, Preset};
 
 #[derive(Deserialize, Default)]
@@ -21,25 +20,6 @@ struct SimulateInput {
     seed: Option<u64>,
     max_angle_deg: Option<f64>,
     max_translation: Option<f64>,
-}
-
-#[derive(Serialize)]
-struct SimulatedView {
-    sensor: String,
-    frame: String,
-    #[serde(with = "serde_wasm_bindgen::preserve")]
-    points: Float32Array,
-    /// Missed beams (exact-zero returns) left out, as `parseCloud` would.
-    dropped: usize,
-}
-
-#[derive(Serialize)]
-struct SimulateOutput {
-    views: Vec<SimulatedView>,
-    nominal: BTreeMap<String, XyzRpy>,
-    truth: BTreeMap<String, XyzRpy>,
-    roi: Roi,
-    reference: String,
 }
 
 /// Most frames one call simulates: each is a full scan per sensor (about 100k rays).
@@ -85,10 +65,6 @@ pub fn simulate_rig(options: JsValue) -> Result<JsValue, JsError> {
     // the same scans.
     let scans = preset.simulate(frames, seed);
     let mut rng = Pcg64::seed_from_u64(seed ^ 0x6d69_7363_616c_6962);
-    let pose_out = |p: &Pose| {
-        let (xyz, rpy) = xyz_rpy(p);
-        XyzRpy { xyz, rpy }
-    };
     let mut nominal = BTreeMap::new();
     let mut truth = BTreeMap::new();
     for (i, s) in preset.sensors.iter().enumerate() {
@@ -97,14 +73,14 @@ pub fn simulate_rig(options: JsValue) -> Result<JsValue, JsError> {
         } else {
             sim::miscalibrate(&s.mount, max_angle, max_translation, &mut rng)
         };
-        nominal.insert(s.name.clone(), pose_out(&wrong));
-        truth.insert(s.name.clone(), pose_out(&s.mount));
+        nominal.insert(s.name.clone(), XyzRpy::from(&wrong));
+        truth.insert(s.name.clone(), XyzRpy::from(&s.mount));
     }
     let views = scans
         .into_iter()
         .map(|mut v| {
             let dropped = v.cloud.drop_invalid();
-            SimulatedView {
+            RigView {
                 sensor: v.sensor,
                 frame: v.frame,
                 points: Float32Array::from(v.cloud.points.as_flattened()),
@@ -112,7 +88,7 @@ pub fn simulate_rig(options: JsValue) -> Result<JsValue, JsError> {
             }
         })
         .collect();
-    to_js(&SimulateOutput {
+    to_js(&RigOutput {
         views,
         nominal,
         truth,

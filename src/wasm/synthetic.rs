@@ -1,13 +1,10 @@
 //! `syntheticRig(options)`: a rig with known truth for the demo and the tests.
 
-use std::collections::BTreeMap;
-
 use js_sys::Float32Array;
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 use wasm_bindgen::prelude::*;
 
-use super::{Roi, XyzRpy, to_js};
-use crate::se3::{Pose, xyz_rpy};
+use super::{RigOutput, RigView, Roi, XyzRpy, to_js};
 use crate::synth::{self, RigSpec};
 
 #[derive(Deserialize, Default)]
@@ -21,24 +18,9 @@ struct SyntheticInput {
     seed: Option<u64>,
 }
 
-#[derive(Serialize)]
-struct SyntheticViewOutput {
-    sensor: String,
-    frame: String,
-    #[serde(with = "serde_wasm_bindgen::preserve")]
-    points: Float32Array,
-}
-
-#[derive(Serialize)]
-struct SyntheticOutput {
-    views: Vec<SyntheticViewOutput>,
-    nominal: BTreeMap<String, XyzRpy>,
-    truth: BTreeMap<String, XyzRpy>,
-    roi: Roi,
-}
-
 /// A synthetic rig with known truth (a cube seen by several sensors whose nominal extrinsics
-/// are wrong), in the shape `calibrate` takes, plus `truth` (true `T_vehicle_sensor`).
+/// are wrong), in the shape `calibrate` takes, plus `truth` (true `T_vehicle_sensor`) and
+/// `reference` (the first sensor).
 #[wasm_bindgen(js_name = syntheticRig)]
 pub fn synthetic_rig(options: JsValue) -> Result<JsValue, JsError> {
     let o: SyntheticInput = if options.is_undefined() || options.is_null() {
@@ -58,22 +40,20 @@ pub fn synthetic_rig(options: JsValue) -> Result<JsValue, JsError> {
         ..d
     };
     let rig = synth::generate(&spec);
-    let pose_out = |p: &Pose| {
-        let (xyz, rpy) = xyz_rpy(p);
-        XyzRpy { xyz, rpy }
-    };
-    to_js(&SyntheticOutput {
+    to_js(&RigOutput {
         views: rig
             .views
             .iter()
-            .map(|v| SyntheticViewOutput {
+            .map(|v| RigView {
                 sensor: v.sensor.clone(),
                 frame: v.frame.clone(),
                 points: Float32Array::from(v.points.as_flattened()),
+                dropped: 0,
             })
             .collect(),
-        nominal: rig.nominal.iter().map(|(n, p)| (n.clone(), pose_out(p))).collect(),
-        truth: rig.truth.iter().map(|(n, p)| (n.clone(), pose_out(p))).collect(),
+        nominal: rig.nominal.iter().map(|(n, p)| (n.clone(), XyzRpy::from(p))).collect(),
+        truth: rig.truth.iter().map(|(n, p)| (n.clone(), XyzRpy::from(p))).collect(),
         roi: Roi { min: rig.roi.min, max: rig.roi.max },
+        reference: rig.nominal.first().map(|(n, _)| n.clone()).unwrap_or_default(),
     })
 }
