@@ -28,12 +28,16 @@ fn json(path: &Path) -> Value {
     serde_json::from_str(&fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// A row-major 4x4 matrix, written as 4 rows (truth.json) or 16 numbers (`--json`).
 fn matrix(v: &Value) -> Pose {
     let m: Vec<f64> = v
         .as_array()
         .unwrap()
         .iter()
-        .flat_map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()))
+        .flat_map(|r| match r.as_array() {
+            Some(row) => row.iter().map(|x| x.as_f64().unwrap()).collect(),
+            None => vec![r.as_f64().unwrap()],
+        })
         .collect();
     from_row_major(&m.try_into().unwrap())
 }
