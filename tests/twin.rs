@@ -17,12 +17,12 @@ use rand_pcg::Pcg64;
 
 use common::{for_seeds, median};
 
-/// Rotation (deg) and translation (m) error of every non-reference sensor's correction.
-type Errors = Vec<(f64, f64)>;
+/// The error `C_est^-1 C_true` of every non-reference sensor's correction.
+type Errors = Vec<Pose>;
 
-thread_local! {
-    /// Per-axis |roll, pitch, yaw| (deg) and |x, y, z| (mm) of the last trial's errors.
-    static AXES: std::cell::RefCell<Vec<[f64; 6]>> = const { std::cell::RefCell::new(Vec::new()) };
+/// Rotation (deg) and translation (m) of an error.
+fn deg_m(d: &Pose) -> (f64, f64) {
+    (d.rotation.angle().to_degrees(), d.translation.vector.norm())
 }
 
 /// One trial: `frames` scans of the preset (scene noise from `seed`), nominals drawn from
@@ -74,13 +74,7 @@ fn trial(
         .zip(&nominal[1..])
         .zip(&result.sensors[1..])
         .map(|((truth, (_, nominal)), estimate)| {
-            let expected = expected_correction(&truth.mount, nominal);
-            let d = estimate.correction.inverse() * expected;
-            let (xyz, rpy) = gmmcalib::se3::xyz_rpy(&d);
-            let axes = [0, 1, 2, 3, 4, 5]
-                .map(|i| if i < 3 { rpy[i].to_degrees().abs() } else { xyz[i - 3].abs() * 1e3 });
-            AXES.with(|a| a.borrow_mut().push(axes));
-            (d.rotation.angle().to_degrees(), d.translation.vector.norm())
+            estimate.correction.inverse() * expected_correction(&truth.mount, nominal)
         })
         .collect()
 }
@@ -122,10 +116,12 @@ fn gmm_on_the_twin_is_precise() {
     let errors: Vec<Errors> =
         for_seeds(1..=4, |seed| trial(&preset, 5, seed, 0, spec_bounds(), &settings));
     for (seed, e) in (1..).zip(&errors) {
-        println!("seed {seed}: {:.4} deg / {:.2} mm", e[0].0, e[0].1 * 1e3);
+        let (deg, m) = deg_m(&e[0]);
+        println!("seed {seed}: {deg:.4} deg / {:.2} mm", m * 1e3);
     }
     for (seed, e) in (1..).zip(&errors) {
-        assert!(e[0].0 <= 0.1 && e[0].1 <= 0.01, "seed {seed}: {e:?}");
+        let (deg, m) = deg_m(&e[0]);
+        assert!(deg <= 0.1 && m <= 0.01, "seed {seed}: {deg} deg, {m} m");
     }
 }
 
@@ -220,12 +216,18 @@ fn study() {
         (1..=seeds).flat_map(|s| (0..starts).map(move |k| (s, k))).collect();
     let results = for_seeds(0..=(jobs.len() as u64 - 1), |j| {
         let (seed, start) = jobs[j as usize];
-        let errors = trial(&preset, 5, seed, start, bounds, &settings);
-        let axes = AXES.with(|a| std::mem::take(&mut *a.borrow_mut()));
-        (errors, axes)
+        trial(&preset, 5, seed, start, bounds, &settings)
     });
-    let (results, axes): (Vec<Errors>, Vec<Vec<[f64; 6]>>) = results.into_iter().unzip();
-    let axes: Vec<[f64; 6]> = axes.into_iter().flatten().collect();
+    // Per error: |roll, pitch, yaw| (deg) and |x, y, z| (mm).
+    let axes: Vec<[f64; 6]> = results
+        .iter()
+        .flatten()
+        .map(|d| {
+            let (xyz, rpy) = gmmcalib::se3::xyz_rpy(d);
+            [0, 1, 2, 3, 4, 5]
+                .map(|i| if i < 3 { rpy[i].to_degrees().abs() } else { xyz[i - 3].abs() * 1e3 })
+        })
+        .collect();
     let mean_axis = |i: usize| axes.iter().map(|a| a[i]).sum::<f64>() / axes.len() as f64;
     println!(
         "mean |roll pitch yaw| (deg) {:.4} {:.4} {:.4}, |x y z| (mm) {:.2} {:.2} {:.2}",
@@ -236,10 +238,10 @@ fn study() {
         mean_axis(4),
         mean_axis(5)
     );
-    let all: Vec<(f64, f64)> = results.iter().flatten().copied().collect();
+    let all: Vec<(f64, f64)> = results.iter().flatten().map(deg_m).collect();
     for ((seed, start), e) in jobs.iter().zip(&results) {
         let cells: Vec<String> =
-            e.iter().map(|(a, t)| format!("{a:.4} deg {:.2} mm", t * 1e3)).collect();
+            e.iter().map(deg_m).map(|(a, t)| format!("{a:.4} deg {:.2} mm", t * 1e3)).collect();
         println!("seed {seed} start {start}: {}", cells.join(" | "));
     }
     let angles: Vec<f64> = all.iter().map(|e| e.0).collect();

@@ -12,7 +12,7 @@ use nalgebra::{Matrix3, Point3, SymmetricEigen, Translation3, UnitQuaternion, Ve
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
-use crate::cloud::Aabb;
+use crate::cloud::{Aabb, is_valid_point};
 use crate::se3::Pose;
 
 /// A plane `normal . p + offset = 0` with a unit normal pointing up (+z).
@@ -180,7 +180,7 @@ pub fn search_box(roi: &Aabb, margin: [f64; 3]) -> Aabb {
 pub fn points_in(cloud: &[[f32; 3]], pose: &Pose, bounds: &Aabb) -> Vec<Vector3<f64>> {
     cloud
         .iter()
-        .filter(|p| p.iter().any(|c| *c != 0.0))
+        .filter(|p| is_valid_point(p))
         .map(|p| (pose * Point3::from(p.map(f64::from))).coords)
         .filter(|p| bounds.contains([p.x, p.y, p.z]))
         .collect()

@@ -133,7 +133,11 @@ pub fn calibrate(
     if settings.components == 0 {
         return Err(CalibError::InvalidSetting("components must be at least 1"));
     }
-    let nominal = |s: &str| rig.nominal.iter().find(|(n, _)| n == s).map(|(_, p)| *p);
+    // Per sensor, in `sensors` order (`sensor_order` checked that each has one).
+    let nominals: Vec<Pose> = sensors
+        .iter()
+        .map(|s| rig.nominal.iter().find(|(n, _)| n == s).map_or_else(Pose::identity, |(_, p)| *p))
+        .collect();
     let r = sensors.iter().position(|n| n == &reference).unwrap_or(0);
     for view in &rig.views {
         if let Some(index) = view.points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
@@ -147,7 +151,7 @@ pub fn calibrate(
 
     // 1. Pre-align, levelled onto the reference's ground when asked.
     let levelling = if settings.levels_ground() {
-        level_grounds(rig, &sensors, r, settings)
+        level_grounds(rig, &sensors, &nominals, r, settings)
     } else {
         Vec::new()
     };
@@ -167,9 +171,7 @@ pub fn calibrate(
     let mut kept_jrmpc = Vec::new();
     for view in &rig.views {
         let s = sensors.iter().position(|n| n == &view.sensor).unwrap_or(0);
-        let pose = applied[s]
-            * nominal(&view.sensor)
-                .ok_or_else(|| CalibError::UnknownSensor(view.sensor.clone()))?;
+        let pose = applied[s] * nominals[s];
         let cloud = Cloud::from_points(view.points.clone()).transformed(&pose).cropped(&rig.roi);
         let distinct = cloud.points.iter().any(|p| p != &cloud.points[0]);
         let needed = settings.min_view_points.max(3);
@@ -255,7 +257,7 @@ pub fn calibrate(
     }
 
     // 4. Average over frames.
-    let reference_nominal = nominal(&reference).unwrap_or_default();
+    let reference_nominal = nominals[r];
     let mut results = Vec::with_capacity(sensors.len());
     for (s, name) in sensors.iter().enumerate() {
         let corrections: Vec<Pose> = per_frame[s].iter().map(|(_, c)| c * applied[s]).collect();
@@ -275,7 +277,7 @@ pub fn calibrate(
             );
             skipped.push(FrameNote { sensor: name.clone(), frame: usable[view].1.clone(), reason });
         }
-        let extrinsic = correction * nominal(name).unwrap_or_default();
+        let extrinsic = correction * nominals[s];
         results.push(SensorResult {
             name: name.clone(),
             correction,
@@ -319,18 +321,23 @@ pub fn calibrate(
 
 /// Step 1's levelling: every sensor's ground in a box around the ROI (all its frames,
 /// pre-aligned with its nominal), and the motion putting it on the reference's ground.
-fn level_grounds(rig: &Rig, sensors: &[String], r: usize, settings: &Settings) -> Vec<Levelling> {
+fn level_grounds(
+    rig: &Rig,
+    sensors: &[String],
+    nominals: &[Pose],
+    r: usize,
+    settings: &Settings,
+) -> Vec<Levelling> {
     let bounds = level::search_box(&rig.roi, settings.ground.margin);
     let grounds: Vec<Option<(Plane, usize)>> = sensors
         .iter()
         .enumerate()
         .map(|(s, name)| {
-            let pose = rig.nominal.iter().find(|(n, _)| n == name).map(|(_, p)| *p)?;
             let points: Vec<_> = rig
                 .views
                 .iter()
                 .filter(|v| &v.sensor == name)
-                .flat_map(|v| level::points_in(&v.points, &pose, &bounds))
+                .flat_map(|v| level::points_in(&v.points, &nominals[s], &bounds))
                 .collect();
             level::fit_ground(&points, &settings.ground, settings.seed.wrapping_add(s as u64))
         })

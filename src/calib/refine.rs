@@ -105,10 +105,9 @@ pub fn per_frame(
                 Some(t) => Ok(t),
                 None => icp::Target::new(clouds[r], method, settings).map(|mut t| {
                     if let Some((plane, band)) = ground {
-                        t.set_planes(|p| {
+                        t.set_normals(|p| {
                             let p = Vector3::from(p.map(f64::from));
-                            (plane.distance(&p).abs() <= band)
-                                .then_some((plane.normal, plane.offset))
+                            (plane.distance(&p).abs() <= band).then_some(plane.normal)
                         });
                     }
                     &*targets[r].insert(t)

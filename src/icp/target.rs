@@ -76,20 +76,17 @@ impl Target {
         &self.covariances
     }
 
-    /// Replaces the estimated surface of every target point for which `plane_at` knows
-    /// better, e.g. ground points whose rings lie too far apart for a neighbourhood to show
-    /// the plane: `plane_at(p) = Some((n, d))` is the plane `n . x + d = 0` (unit `n`). Sets
-    /// the normal (point-to-plane) or plane covariance (GICP). Returns how many points changed.
-    pub fn set_planes(
-        &mut self,
-        plane_at: impl Fn(&[f32; 3]) -> Option<(Vector3<f64>, f64)>,
-    ) -> usize {
+    /// Replaces the estimated surface normal of every target point for which `normal_at` knows
+    /// better (a unit vector), e.g. ground points whose rings lie too far apart for a
+    /// neighbourhood to show the plane. Sets the normal (point-to-plane) or plane covariance
+    /// (GICP). Returns how many points changed.
+    pub fn set_normals(&mut self, normal_at: impl Fn(&[f32; 3]) -> Option<Vector3<f64>>) -> usize {
         if self.method == Method::PointToPoint {
             return 0;
         }
         let mut changed = 0;
         for i in 0..self.points.len() {
-            let Some((n, _)) = plane_at(&self.points[i]) else {
+            let Some(n) = normal_at(&self.points[i]) else {
                 continue;
             };
             match self.method {

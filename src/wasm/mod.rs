@@ -69,6 +69,18 @@ fn start() {
     std::panic::set_hook(Box::new(|info| web_sys::console::error_1(&info.to_string().into())));
 }
 
+/// Optional options of the exported function `name`: defaults when `undefined` or `null`.
+fn options_or_default<T: Default + serde::de::DeserializeOwned>(
+    options: JsValue,
+    name: &str,
+) -> Result<T, JsError> {
+    if options.is_undefined() || options.is_null() {
+        return Ok(T::default());
+    }
+    serde_wasm_bindgen::from_value(options)
+        .map_err(|e| JsError::new(&format!("invalid {name} options: {e}")))
+}
+
 /// JSON-compatible conversion: plain objects (not Maps), `null` for missing values.
 fn to_js<T: Serialize>(value: &T) -> Result<JsValue, JsError> {
     value

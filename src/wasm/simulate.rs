@@ -9,7 +9,7 @@ use rand_pcg::Pcg64;
 use serde::Deserialize;
 use wasm_bindgen::prelude::*;
 
-use super::{RigOutput, RigView, Roi, XyzRpy, to_js};
+use super::{RigOutput, RigView, Roi, XyzRpy, options_or_default, to_js};
 use crate::sim::{self, Preset};
 
 #[derive(Deserialize, Default)]
@@ -31,12 +31,7 @@ const MAX_FRAMES: usize = 200;
 /// views in the sensor frame, `truth` the true `T_vehicle_sensor`. Seeded.
 #[wasm_bindgen(js_name = simulateRig)]
 pub fn simulate_rig(options: JsValue) -> Result<JsValue, JsError> {
-    let o: SimulateInput = if options.is_undefined() || options.is_null() {
-        SimulateInput::default()
-    } else {
-        serde_wasm_bindgen::from_value(options)
-            .map_err(|e| JsError::new(&format!("invalid simulateRig options: {e}")))?
-    };
+    let o: SimulateInput = options_or_default(options, "simulateRig")?;
     let preset = match o.preset.as_deref().unwrap_or("paper") {
         "paper" => Preset::paper(),
         "os1-128" => Preset::os1_128(),

@@ -4,7 +4,7 @@ use js_sys::Float32Array;
 use serde::Deserialize;
 use wasm_bindgen::prelude::*;
 
-use super::{RigOutput, RigView, Roi, XyzRpy, to_js};
+use super::{RigOutput, RigView, Roi, XyzRpy, options_or_default, to_js};
 use crate::synth::{self, RigSpec};
 
 #[derive(Deserialize, Default)]
@@ -23,12 +23,7 @@ struct SyntheticInput {
 /// `reference` (the first sensor).
 #[wasm_bindgen(js_name = syntheticRig)]
 pub fn synthetic_rig(options: JsValue) -> Result<JsValue, JsError> {
-    let o: SyntheticInput = if options.is_undefined() || options.is_null() {
-        SyntheticInput::default()
-    } else {
-        serde_wasm_bindgen::from_value(options)
-            .map_err(|e| JsError::new(&format!("invalid syntheticRig options: {e}")))?
-    };
+    let o: SyntheticInput = options_or_default(options, "syntheticRig")?;
     let d = RigSpec::default();
     let spec = RigSpec {
         sensors: o.sensors.unwrap_or(d.sensors).clamp(2, 16),

@@ -3,6 +3,7 @@
 // the target's plausibility; a convergence plot; with several methods, one comparison table.
 import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from './transforms.js';
 
+const IDENTITY = matrixFromXyzRpy([0, 0, 0], [0, 0, 0]);
 const f = (v, d) => v.map((x) => x.toFixed(d)).join(', ');
 const esc = (s) => String(s).replace(/[&<>"]/g, (c) => `&#${c.charCodeAt(0)};`);
 
@@ -46,9 +47,7 @@ function levellingHtml(levelling = []) {
   if (!levelling.length) return '';
   const row = (l) => {
     if (l.note) return `<li>${esc(l.sensor)}: ${esc(l.note)}</li>`;
-    // The applied rotation's angle from its row-major matrix: cos = (trace - 1) / 2.
-    const m = l.applied;
-    const tilt = degrees(Math.acos(Math.min(1, Math.max(-1, (m[0] + m[5] + m[10] - 1) / 2))));
+    const tilt = degrees(poseDifference(IDENTITY, l.applied).angle);
     return `<li>${esc(l.sensor)}: ground from ${l.inliers} points, levelled by ${tilt.toFixed(3)} deg</li>`;
   };
   return `<p>ground levelling:</p><ul>${levelling.map(row).join('')}</ul>`;
