@@ -39,6 +39,20 @@ pub struct LevellingReport {
     pub applied: [f64; 16],
     /// Why no levelling was applied, if none was.
     pub note: Option<String>,
+    /// The bird's-eye search's yaw and shift, included in `applied`.
+    pub bev: Option<BevReport>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct BevReport {
+    /// Yaw about the ground normal through the sensor (rad).
+    pub yaw: f64,
+    /// Shift along the ground (m, vehicle frame).
+    pub shift: [f64; 3],
+    /// Structure points on the reference's, weighted by closeness: found and unchanged.
+    pub score: f64,
+    pub score_unchanged: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -125,6 +139,12 @@ impl From<&Calibration> for Report {
                     inliers: l.inliers,
                     applied: to_row_major(&l.applied),
                     note: l.note.clone(),
+                    bev: l.bev.map(|b| BevReport {
+                        yaw: b.yaw,
+                        shift: b.shift.into(),
+                        score: b.score,
+                        score_unchanged: b.score_unchanged,
+                    }),
                 })
                 .collect(),
             history: HistoryReport {

@@ -195,6 +195,9 @@ fn study() {
     if let Ok(k) = std::env::var("TWIN_COMPONENTS") {
         settings.components = k.parse().unwrap();
     }
+    if std::env::var("TWIN_BEV").is_ok_and(|b| b == "0") {
+        settings.bev = None;
+    }
     if let Ok(level) = std::env::var("TWIN_LEVEL") {
         settings.level_ground = Some(level == "1");
     }
@@ -237,6 +240,21 @@ fn study() {
         mean_axis(3),
         mean_axis(4),
         mean_axis(5)
+    );
+    // Signed means: a bias shows here, seed noise averages out.
+    let signed: Vec<[f64; 2]> = results
+        .iter()
+        .flatten()
+        .map(|d| {
+            let (xyz, rpy) = gmmcalib::se3::xyz_rpy(d);
+            [rpy[2].to_degrees(), xyz[1] * 1e3]
+        })
+        .collect();
+    let n = signed.len() as f64;
+    println!(
+        "signed mean yaw {:.4} deg, y {:.2} mm",
+        signed.iter().map(|s| s[0]).sum::<f64>() / n,
+        signed.iter().map(|s| s[1]).sum::<f64>() / n
     );
     let all: Vec<(f64, f64)> = results.iter().flatten().map(deg_m).collect();
     for ((seed, start), e) in jobs.iter().zip(&results) {

@@ -12,6 +12,7 @@ use nalgebra::{Matrix3, Point3, SymmetricEigen, Translation3, UnitQuaternion, Ve
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
+use super::bev::BevAlignment;
 use crate::cloud::{Aabb, is_valid_point};
 use crate::se3::Pose;
 
@@ -75,9 +76,12 @@ pub struct Levelling {
     pub ground: Option<Plane>,
     /// Points on it (all frames).
     pub inliers: usize,
-    /// Applied to the sensor's pre-aligned points before cropping; identity when either this
-    /// sensor's or the reference's ground was not found.
+    /// Applied to the sensor's pre-aligned points before cropping: the levelling, then the
+    /// bird's-eye search's motion; identity when either this sensor's or the reference's
+    /// ground was not found.
     pub applied: Pose,
+    /// The bird's-eye search's yaw and shift (non-reference sensors with a ground, when on).
+    pub bev: Option<BevAlignment>,
     /// Why nothing was applied, if nothing was.
     pub note: Option<String>,
 }

@@ -14,6 +14,7 @@
 //! 5. fit the prior shape to the reconstructed means as a plausibility check.
 
 mod average;
+mod bev;
 mod error;
 mod level;
 mod refine;
@@ -24,6 +25,7 @@ use crate::jrmpc::{self, Control};
 use crate::se3::Pose;
 use crate::target_fit::{ShapeFit, fit_prior};
 use average::{average, robust_average};
+pub use bev::{BevAlignment, BevSettings};
 pub use error::CalibError;
 pub use level::{GroundSettings, Levelling, Plane};
 pub use refine::RefineSettings;
@@ -320,7 +322,8 @@ pub fn calibrate(
 }
 
 /// Step 1's levelling: every sensor's ground in a box around the ROI (all its frames,
-/// pre-aligned with its nominal), and the motion putting it on the reference's ground.
+/// pre-aligned with its nominal), and the motion putting it on the reference's ground; then,
+/// when on, the bird's-eye search for each levelled sensor's yaw and in-plane shift.
 fn level_grounds(
     rig: &Rig,
     sensors: &[String],
@@ -329,17 +332,22 @@ fn level_grounds(
     settings: &Settings,
 ) -> Vec<Levelling> {
     let bounds = level::search_box(&rig.roi, settings.ground.margin);
-    let grounds: Vec<Option<(Plane, usize)>> = sensors
+    let near_roi: Vec<Vec<nalgebra::Vector3<f64>>> = sensors
         .iter()
         .enumerate()
         .map(|(s, name)| {
-            let points: Vec<_> = rig
-                .views
+            rig.views
                 .iter()
                 .filter(|v| &v.sensor == name)
                 .flat_map(|v| level::points_in(&v.points, &nominals[s], &bounds))
-                .collect();
-            level::fit_ground(&points, &settings.ground, settings.seed.wrapping_add(s as u64))
+                .collect()
+        })
+        .collect();
+    let grounds: Vec<Option<(Plane, usize)>> = near_roi
+        .iter()
+        .enumerate()
+        .map(|(s, points)| {
+            level::fit_ground(points, &settings.ground, settings.seed.wrapping_add(s as u64))
         })
         .collect();
     let pivot = nalgebra::Vector3::from_fn(|i, _| 0.5 * (rig.roi.min[i] + rig.roi.max[i]));
@@ -348,7 +356,7 @@ fn level_grounds(
         .enumerate()
         .map(|(s, name)| {
             let (ground, inliers) = grounds[s].map_or((None, 0), |(p, n)| (Some(p), n));
-            let (applied, note) = match (ground, grounds[r]) {
+            let (mut applied, note) = match (ground, grounds[r]) {
                 (Some(_), _) if s == r => (Pose::identity(), None),
                 (Some(own), Some((reference, _))) => {
                     (level::levelling(&own, &reference, &pivot), None)
@@ -359,7 +367,21 @@ fn level_grounds(
                     Some(format!("the reference sensor {} shows no ground plane", sensors[r])),
                 ),
             };
-            Levelling { sensor: name.clone(), ground, inliers, applied, note }
+            let bev = match (&settings.bev, grounds[r]) {
+                (Some(bev_settings), Some((reference, _))) if s != r && note.is_none() => {
+                    let levelled: Vec<_> = near_roi[s]
+                        .iter()
+                        .map(|p| (applied * nalgebra::Point3::from(*p)).coords)
+                        .collect();
+                    let sensor = (applied * nominals[s]).translation.vector;
+                    bev::search(&levelled, &near_roi[r], &reference, &sensor, bev_settings)
+                }
+                _ => None,
+            };
+            if let Some(found) = &bev {
+                applied = found.applied * applied;
+            }
+            Levelling { sensor: name.clone(), ground, inliers, applied, bev, note }
         })
         .collect()
 }

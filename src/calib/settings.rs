@@ -4,6 +4,7 @@
 use std::str::FromStr;
 
 use super::CalibError;
+use super::bev::BevSettings;
 use super::level::GroundSettings;
 use super::refine::RefineSettings;
 use crate::icp::{self, IcpSettings};
@@ -93,6 +94,9 @@ pub struct Settings {
     /// bias comes from"); `None`: only for `gmm` (the paper's methods run as published).
     pub level_ground: Option<bool>,
     pub ground: GroundSettings,
+    /// After levelling, search yaw and in-plane shift from above (README, "Beyond the spec");
+    /// `None`: off.
+    pub bev: Option<BevSettings>,
 }
 
 impl Settings {
@@ -116,6 +120,7 @@ impl Default for Settings {
             refine: RefineSettings::default(),
             level_ground: None,
             ground: GroundSettings::default(),
+            bev: Some(BevSettings::default()),
         }
     }
 }

@@ -48,7 +48,10 @@ function levellingHtml(levelling = []) {
   const row = (l) => {
     if (l.note) return `<li>${esc(l.sensor)}: ${esc(l.note)}</li>`;
     const tilt = degrees(poseDifference(IDENTITY, l.applied).angle);
-    return `<li>${esc(l.sensor)}: ground from ${l.inliers} points, levelled by ${tilt.toFixed(3)} deg</li>`;
+    const bev = l.bev
+      ? `; seen from above, turned ${degrees(l.bev.yaw).toFixed(1)} deg and shifted ${f(l.bev.shift.slice(0, 2), 2)} m`
+      : '';
+    return `<li>${esc(l.sensor)}: ground from ${l.inliers} points, moved by ${tilt.toFixed(3)} deg in all${bev}</li>`;
   };
   return `<p>ground levelling:</p><ul>${levelling.map(row).join('')}</ul>`;
 }
