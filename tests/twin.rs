@@ -125,14 +125,12 @@ fn gmm_on_the_twin_is_precise() {
     }
 }
 
-#[test]
-fn levelling_puts_each_ground_on_the_reference_ground() {
+/// `frames` scans of the paper preset with the second sensor's nominal moved by `error`
+/// (vehicle frame), and that nominal.
+fn rig_with_error(frames: usize, seed: u64, error: Pose) -> (Rig, Pose) {
     let preset = Preset::paper();
-    let views = preset.simulate(2, 7);
-    let truth = preset.sensors[1].mount;
-    // Pitch and roll errors large enough to move the ground 10 m ahead by half a metre.
-    let error = gmmcalib::se3::pose_from_xyz_rpy([0.05, -0.08, 0.1], [0.04, -0.05, 0.03]);
-    let nominal = error * truth;
+    let views = preset.simulate(frames, seed);
+    let nominal = error * preset.sensors[1].mount;
     let rig = Rig {
         views: views
             .into_iter()
@@ -145,8 +143,21 @@ fn levelling_puts_each_ground_on_the_reference_ground() {
         roi: preset.roi,
         reference: None,
     };
-    let settings =
-        calib::Settings { method: Method::Jrmpc, level_ground: Some(true), ..Default::default() };
+    (rig, nominal)
+}
+
+#[test]
+fn levelling_puts_each_ground_on_the_reference_ground() {
+    let truth = Preset::paper().sensors[1].mount;
+    // Pitch and roll errors large enough to move the ground 10 m ahead by half a metre.
+    let error = gmmcalib::se3::pose_from_xyz_rpy([0.05, -0.08, 0.1], [0.04, -0.05, 0.03]);
+    let (rig, nominal) = rig_with_error(2, 7, error);
+    let settings = calib::Settings {
+        method: Method::Jrmpc,
+        level_ground: Some(true),
+        bev: None,
+        ..Default::default()
+    };
     let result = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
     let [reference, other] = &result.levelling[..] else { panic!("{:?}", result.levelling) };
     assert_eq!(reference.applied, Pose::identity());
@@ -161,6 +172,24 @@ fn levelling_puts_each_ground_on_the_reference_ground() {
     let lift = (left * under_roi).z - under_roi.z;
     assert!(lift.abs() < 1e-3, "lift {lift} m");
     assert!(other.note.is_none() && other.inliers > 1000, "{other:?}");
+}
+
+#[test]
+fn bev_search_catches_a_yaw_beyond_jrmpc_reach() {
+    let truth = Preset::paper().sensors[1].mount;
+    // 8 deg of yaw moves the cubes 1.7 m sideways, past their 1.5 m spacing.
+    let error = gmmcalib::se3::pose_from_xyz_rpy([0.25, -0.3, 0.05], [0.02, -0.03, 0.14]);
+    let (rig, nominal) = rig_with_error(5, 3, error);
+    let result =
+        calib::calibrate(&rig, &calib::Settings::default(), |_| Control::Continue).unwrap();
+    let bev = result.levelling[1].bev.expect("a bird's-eye alignment");
+    println!("bev: {:.2} deg, shift {:?}", bev.yaw.to_degrees(), bev.shift);
+    assert!((bev.yaw + 0.14).abs() < 1f64.to_radians(), "{bev:?}");
+    assert!(bev.score > 1.5 * bev.score_unchanged, "{bev:?}");
+    let (deg, m) =
+        deg_m(&(result.sensors[1].correction.inverse() * expected_correction(&truth, &nominal)));
+    println!("gmm after the search: {deg:.4} deg / {:.2} mm", m * 1e3);
+    assert!(deg <= 0.1 && m <= 0.01, "{deg} deg, {m} m");
 }
 
 #[test]

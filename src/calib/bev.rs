@@ -201,7 +201,8 @@ pub fn search(
         }
         for a in -shift_steps..=shift_steps {
             for b in -shift_steps..=shift_steps {
-                let score: f64 = counted.iter().map(|([i, j], n)| n * target.at(i + a, j + b)).sum();
+                let score: f64 =
+                    counted.iter().map(|([i, j], n)| n * target.at(i + a, j + b)).sum();
                 if k == 0 && a == 0 && b == 0 {
                     unchanged = score;
                 }
