@@ -9,10 +9,10 @@ import { errorOf, simulateRig } from './rigfiles.js';
 // Issue 6's bound for every start on the twin: within 0.1 deg and 1 cm (README, "Accuracy on
 // the digital twin"; the demo's seed-1 rig ends well inside it).
 const DEMO_ERROR_BOUND = { deg: 0.1, mm: 10 };
-// Longest main-thread task allowed during a run. The goal is 100 ms; on this shared 2-core
-// machine with software WebGL, redraws measured 60-200 ms under a load of 8. Work done on the
-// main thread by mistake (parsing, registration) would take seconds.
-const LONGEST_TASK_MS = 500;
+// Issue 7: no main-thread task over 100 ms during a run. WebGL draws in a worker (viewer.js), so
+// the page's own work is what is left: measured 0-54 ms on this shared 2-core machine. Drawing on
+// the page's canvas took 60-260 ms a frame here (software WebGL, read back on the main thread).
+const LONGEST_TASK_MS = 100;
 
 const session = browserSession();
 

@@ -9,15 +9,15 @@ import { renderFiles } from './filelist.js';
 import { renderRig } from './rig.js';
 import { drawConvergence, renderResults } from './results.js';
 import { exportsOf, renderExports, resultJson } from './exports.js';
-import { targetBounds, targetObject } from './target.js';
+import { targetBounds } from './target.js';
 import { matrixFromXyzRpy } from './transforms.js';
 import { DEFAULTS, readHash, writeHash } from './url.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
-const mainViewer = new Viewer($('view'));
+const mainViewer = new Viewer($('view'), { onError: showError });
 const display = new Display(mainViewer);
-const targetViewer = new Viewer($('target-view'), { grid: false });
+const targetViewer = new Viewer($('target-view'), { grid: false, onError: showError });
 const METHODS = ['gmm', 'jrmpc', 'p2p', 'p2l', 'gicp'];
 
 const state = {
@@ -171,9 +171,15 @@ async function loadDemo() {
 
 // --- run --------------------------------------------------------------------------------------
 
-function calibrateInput(method) {
+// The views are copied (the originals stay loaded, whatever happens to the worker) one per task:
+// copying millions of points at once would block the page for 100 ms and more.
+async function calibrateInput(method) {
   const s = state.settings;
-  const views = state.views.map((v) => ({ sensor: v.sensor, frame: v.frame, points: v.points.slice() }));
+  const views = [];
+  for (const v of [...state.views]) {
+    views.push({ sensor: v.sensor, frame: v.frame, points: v.points.slice() });
+    await new Promise((resolve) => setTimeout(resolve));
+  }
   const input = {
     views,
     nominal: Object.fromEntries(state.rig.sensors.map((n) => [n, state.rig.nominal[n]])),
@@ -207,7 +213,7 @@ async function runCalibration() {
       const label = methods.length > 1 ? `${method} (${results.length + 1}/${methods.length}): ` : '';
       const started = performance.now();
       setStatus(`${label}starting…`);
-      const { input, transfer } = calibrateInput(method);
+      const { input, transfer } = await calibrateInput(method);
       const result = await client.request('calibrate', { input }, {
         transfer,
         onProgress: (p) => {
@@ -248,7 +254,7 @@ function showResults(results) {
   targetViewer.clear();
   const bounds = gmm && targetBounds(gmm.target);
   if (bounds) {
-    targetViewer.setObject('target', targetObject(gmm.target, { kind: 'cube' }));
+    targetViewer.setTarget('target', gmm.target, { kind: 'cube' });
     targetViewer.lookAt(bounds);
   }
 }
