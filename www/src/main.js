@@ -144,7 +144,7 @@ function clearAll() {
 async function loadDemo() {
   showError(null);
   const s = state.settings;
-  s.demo ||= 'paper';
+  s.demo = $('demo-preset').value || 'paper';
   s.seed = Number($('demo-seed').value);
   s.frames = Number($('demo-frames').value);
   writeHash(s);
@@ -265,6 +265,7 @@ const SETTING_INPUTS = ['method', 'edge', 'components', 'iterations', 'initialSi
 
 function syncSettingsInputs() {
   for (const key of SETTING_INPUTS) $(key).value = state.settings[key];
+  if (state.settings.demo) $('demo-preset').value = state.settings.demo; // else the last one picked
   $('demo-seed').value = state.settings.seed;
   $('demo-frames').value = state.settings.frames;
 }

@@ -5,11 +5,16 @@
 // here it lands on this worker. Renders on demand: every message asks for one frame at the next
 // animation frame, however many arrive before it.
 //
+// Point budget: during a run (preview) and while the user orbits (interacting), at most about
+// PREVIEW_POINTS points are drawn, so the view keeps up (1M points take about 0.5 s a frame on
+// SwiftShader here); the full clouds are drawn once it stops. Clouds are shuffled once when they
+// arrive, so the first n points of each are an even sample and a preview is just a draw range.
+//
 // Messages from viewer.js, {type, ...}: init {canvas, grid}, size {width, height, pixelRatio},
 // camera {position, quaternion, aspect}, cloud {id, positions, colors, size}, axes {id, length},
-// box {id, min, max, color}, target {id, target, prior}, pose {id, matrix}, stride {id, step},
-// visible {id, visible}, remove {id}, clear. After each frame: {type: 'frame', ms} (the time the
-// frame took here, readback included).
+// box {id, min, max, color}, target {id, target, prior}, pose {id, matrix}, visible {id, visible},
+// remove {id}, clear, preview {on}, interacting {on}. After each frame: {type: 'frame', points}
+// (the points it drew).
 import * as THREE from 'three';
 import { targetObject } from './target.js';
 
@@ -17,7 +22,9 @@ const scene = new THREE.Scene();
 scene.background = new THREE.Color(0x15181d);
 const camera = new THREE.PerspectiveCamera(50, 1, 0.05, 500);
 camera.up.set(0, 0, 1); // vehicle frame: z up
+const PREVIEW_POINTS = 100_000;
 const objects = new Map(); // id -> Object3D
+const budget = { preview: false, interacting: false };
 let renderer = null;
 let pending = false;
 const nextFrame = self.requestAnimationFrame?.bind(self) ?? ((draw) => setTimeout(draw, 16));
@@ -28,12 +35,43 @@ function render() {
   nextFrame(() => {
     pending = false;
     const started = performance.now();
+    const points = drawRanges();
     renderer.render(scene, camera);
-    // WebGL commits the frame when this task ends; finish() waits for it to be drawn, so `ms`
-    // is the whole frame, and the next one is not queued behind it.
-    renderer.getContext().finish();
-    self.postMessage({ type: 'frame', ms: performance.now() - started });
+    // The browser hands the frame over (and, in software compositing, reads it back) when this
+    // callback returns; a task queued now runs after that, so `ms` is the whole frame.
+    setTimeout(() => self.postMessage({ type: 'frame', points, ms: performance.now() - started }));
   });
+}
+
+// Sets each visible cloud's draw range for the budget; returns the points drawn.
+function drawRanges() {
+  const clouds = [...objects.values()].filter((o) => o.isPoints && o.visible);
+  const total = clouds.reduce((sum, o) => sum + o.geometry.userData.count, 0);
+  const limited = budget.preview || budget.interacting;
+  const share = limited ? Math.min(1, PREVIEW_POINTS / total) : 1;
+  let drawn = 0;
+  for (const { geometry } of clouds) {
+    const n = Math.ceil(geometry.userData.count * share);
+    geometry.setDrawRange(0, n);
+    drawn += n;
+  }
+  return drawn;
+}
+
+// Fisher-Yates with a fixed seed, the same permutation on positions and colours (xyz, rgb).
+function shuffle(positions, colors) {
+  let seed = 0x9e3779b9;
+  for (let i = positions.length / 3 - 1; i > 0; i--) {
+    seed = (Math.imul(seed, 1664525) + 1013904223) >>> 0;
+    const j = Math.floor((seed / 2 ** 32) * (i + 1));
+    for (const a of colors ? [positions, colors] : [positions]) {
+      for (let k = 0; k < 3; k++) {
+        const t = a[3 * i + k];
+        a[3 * i + k] = a[3 * j + k];
+        a[3 * j + k] = t;
+      }
+    }
+  }
 }
 
 function put(id, object) {
@@ -54,33 +92,17 @@ function remove(id) {
   objects.delete(id);
 }
 
-// Points (flat xyz, in the object's own frame); `colors` flat rgb 0..1 or one hex colour.
+// Points (flat xyz, in the object's own frame; ours, reordered here); `colors` flat rgb 0..1 or one
+// hex colour.
 function cloud({ id, positions, colors, size = 2 }) {
+  const perPoint = typeof colors !== 'number';
+  shuffle(positions, perPoint ? colors : null);
   const geometry = new THREE.BufferGeometry();
   geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
-  const perPoint = typeof colors !== 'number';
   if (perPoint) geometry.setAttribute('color', new THREE.BufferAttribute(colors, 3));
+  geometry.userData.count = positions.length / 3;
   const material = new THREE.PointsMaterial({ size, sizeAttenuation: false, vertexColors: perPoint, color: perPoint ? 0xffffff : colors });
   put(id, new THREE.Points(geometry, material));
-}
-
-// Draws every `step`-th point of a cloud only (1: all); cheap previews while poses animate.
-// The preview is a copy (drawArrays): an index buffer costs more than it saves in software GL.
-function stride({ id, step }) {
-  const geometry = objects.get(id)?.geometry;
-  if (!geometry || (geometry.userData.step ?? 1) === step) return;
-  const full = (geometry.userData.full ??= Object.fromEntries(['position', 'color'].filter((k) => geometry.getAttribute(k)).map((k) => [k, geometry.getAttribute(k)])));
-  for (const [key, attribute] of Object.entries(full)) {
-    if (step === 1) {
-      geometry.setAttribute(key, attribute);
-      continue;
-    }
-    const n = Math.ceil(attribute.count / step);
-    const out = new Float32Array(n * 3);
-    for (let i = 0; i < n; i++) out.set(attribute.array.subarray(i * step * 3, i * step * 3 + 3), i * 3);
-    geometry.setAttribute(key, new THREE.BufferAttribute(out, 3));
-  }
-  geometry.userData.step = step;
 }
 
 const handlers = {
@@ -117,7 +139,8 @@ const handlers = {
     object.matrix.set(...matrix);
     object.matrixWorldNeedsUpdate = true;
   },
-  stride,
+  preview: ({ on }) => (budget.preview = on),
+  interacting: ({ on }) => (budget.interacting = on),
   visible({ id, visible }) {
     const object = objects.get(id);
     if (object) object.visible = visible;

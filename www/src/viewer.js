@@ -5,6 +5,8 @@
 import { PerspectiveCamera, Vector3 } from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 
+const INTERACTION_SETTLE_MS = 250;
+
 export class Viewer {
   #canvas;
   #worker;
@@ -27,14 +29,26 @@ export class Viewer {
     this.#camera.position.set(-8, -6, 8);
     this.#controls = new OrbitControls(this.#camera, canvas);
     this.#controls.addEventListener('change', () => this.render());
+    // While the user orbits, the worker draws a sample; the full clouds once they stop (a pause
+    // between wheel steps keeps the sample).
+    let settle;
+    this.#controls.addEventListener('start', () => {
+      clearTimeout(settle);
+      this.#post({ type: 'interacting', on: true });
+    });
+    this.#controls.addEventListener('end', () => {
+      settle = setTimeout(() => this.#post({ type: 'interacting', on: false }), INTERACTION_SETTLE_MS);
+    });
     new ResizeObserver(() => this.#resize()).observe(canvas);
     this.#resize();
   }
 
-  // Test and bench hook: `data-frames` counts the frames drawn, `data-frame-ms` times the last.
-  #drawn({ ms }) {
-    this.#canvas.dataset.frames = ++this.#frames;
+  // Test and bench hook: `data-frames` counts the frames drawn, `data-points` the points in the
+  // last one, `data-frame-ms` the time it took in the worker.
+  #drawn({ points, ms }) {
+    this.#canvas.dataset.points = points;
     this.#canvas.dataset.frameMs = ms.toFixed(1);
+    this.#canvas.dataset.frames = ++this.#frames;
   }
 
   #post(message, transfer = []) {
@@ -81,9 +95,10 @@ export class Viewer {
     this.#post({ type: 'pose', id, matrix: [...matrix] });
   }
 
-  // Draws every `step`-th point of a cloud only (1: all); cheap previews while poses animate.
-  setStride(id, step) {
-    this.#post({ type: 'stride', id, step });
+  // Draws a sample of the points only (the worker's PREVIEW_POINTS), for redraws on every iteration of a
+  // run; `false`: everything again.
+  setPreview(on) {
+    this.#post({ type: 'preview', on });
   }
 
   setVisible(id, visible) {
