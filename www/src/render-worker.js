@@ -5,10 +5,11 @@
 // here it lands on this worker. Renders on demand: every message asks for one frame at the next
 // animation frame, however many arrive before it.
 //
-// Point budget: during a run (preview) and while the user orbits (interacting), at most about
-// PREVIEW_POINTS points are drawn, so the view keeps up (1M points take about 0.5 s a frame on
-// SwiftShader here); the full clouds are drawn once it stops. Clouds are shuffled once when they
-// arrive, so the first n points of each are an even sample and a preview is just a draw range.
+// Point budgets: while the user orbits, at most ORBIT_POINTS points are drawn, so the view keeps
+// up (1M points take about 0.5 s a frame on SwiftShader here); during a run, RUN_POINTS, so the
+// frame of every iteration takes little CPU from the calibration and the page. The full clouds
+// are drawn once either stops. Clouds are shuffled once when they arrive, so the first n points
+// of each are an even sample and a smaller frame is just a draw range.
 //
 // Messages from viewer.js, {type, ...}: init {canvas, grid}, size {width, height, pixelRatio},
 // camera {position, quaternion, aspect}, cloud {id, positions, colors, size}, axes {id, length},
@@ -22,7 +23,8 @@ const scene = new THREE.Scene();
 scene.background = new THREE.Color(0x15181d);
 const camera = new THREE.PerspectiveCamera(50, 1, 0.05, 500);
 camera.up.set(0, 0, 1); // vehicle frame: z up
-const PREVIEW_POINTS = 100_000;
+const ORBIT_POINTS = 100_000;
+const RUN_POINTS = 30_000;
 const objects = new Map(); // id -> Object3D
 const budget = { preview: false, interacting: false };
 let renderer = null;
@@ -47,8 +49,8 @@ function render() {
 function drawRanges() {
   const clouds = [...objects.values()].filter((o) => o.isPoints && o.visible);
   const total = clouds.reduce((sum, o) => sum + o.geometry.userData.count, 0);
-  const limited = budget.preview || budget.interacting;
-  const share = limited ? Math.min(1, PREVIEW_POINTS / total) : 1;
+  const limit = Math.min(budget.preview ? RUN_POINTS : Infinity, budget.interacting ? ORBIT_POINTS : Infinity);
+  const share = Math.min(1, limit / total);
   let drawn = 0;
   for (const { geometry } of clouds) {
     const n = Math.ceil(geometry.userData.count * share);

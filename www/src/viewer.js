@@ -95,8 +95,8 @@ export class Viewer {
     this.#post({ type: 'pose', id, matrix: [...matrix] });
   }
 
-  // Draws a sample of the points only (the worker's PREVIEW_POINTS), for redraws on every iteration of a
-  // run; `false`: everything again.
+  // Draws a sample of the points only (the worker's RUN_POINTS), for redraws on every iteration
+  // of a run; `false`: everything again.
   setPreview(on) {
     this.#post({ type: 'preview', on });
   }
