@@ -39,6 +39,7 @@ function showError(error) {
   $('error').textContent = error ? String(error.message ?? error) : '';
 }
 const setStatus = (text) => ($('status').textContent = text);
+const nextTask = () => new Promise((resolve) => setTimeout(resolve));
 
 // --- view -------------------------------------------------------------------------------------
 
@@ -178,7 +179,7 @@ async function calibrateInput(method) {
   const views = [];
   for (const v of [...state.views]) {
     views.push({ sensor: v.sensor, frame: v.frame, points: v.points.slice() });
-    await new Promise((resolve) => setTimeout(resolve));
+    await nextTask();
   }
   const input = {
     views,
@@ -227,7 +228,7 @@ async function runCalibration() {
       results.push(result);
     }
     $('progress').value = 1;
-    showResults(results);
+    await showResults(results);
     const r = results[0];
     setStatus(`Done: ${methods.length > 1 ? `${methods.length} methods` : `${r.iterations} iterations${r.converged ? ' (converged)' : ''}`}.`);
   } catch (error) {
@@ -240,15 +241,22 @@ async function runCalibration() {
   }
 }
 
-function showResults(results) {
+// In three tasks of a few ms each: on a busy machine a task waits for a core several times as
+// long as it computes, and the page must not stall (issue 7). A result forgotten meanwhile (new
+// files, a new run) stops here.
+async function showResults(results) {
   state.results = results;
   state.show = 'after';
   $('show-after').disabled = false;
   $('show-after').checked = true;
   redraw();
   renderResults($('results'), results, state.truth);
+  await nextTask();
+  if (state.results !== results) return;
   drawConvergence($('convergence'), results[0].history);
   renderExports($('exports'), exportsOf(results[0], { roi: state.rig.roi }));
+  await nextTask();
+  if (state.results !== results) return;
   $('result-json').textContent = resultJson(results.length > 1 ? results : results[0]);
   const gmm = results.find((r) => r.target.priors.length);
   targetViewer.clear();
