@@ -3,16 +3,17 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { mkdirSync } from 'node:fs';
-import { browserSession, waitForStatus } from './harness.js';
+import { browserSession, loadedPoints, waitForStatus, waitForView } from './harness.js';
 import { errorOf, simulateRig } from './rigfiles.js';
 
 // Issue 6's bound for every start on the twin: within 0.1 deg and 1 cm (README, "Accuracy on
 // the digital twin"; the demo's seed-1 rig ends well inside it).
 const DEMO_ERROR_BOUND = { deg: 0.1, mm: 10 };
-// Longest main-thread task allowed during a run. The goal is 100 ms; on this shared 2-core
-// machine with software WebGL, redraws measured 60-200 ms under a load of 8. Work done on the
-// main thread by mistake (parsing, registration) would take seconds.
-const LONGEST_TASK_MS = 500;
+// Issue 7: no main-thread task over 100 ms during a run. WebGL draws in a worker (viewer.js), so
+// the page's own work is what is left: none over 50 ms in 10 runs on this 2-core machine at a
+// load of 7-8 (README, "Main-thread budget"). Drawing on the page's canvas took 45-260 ms a frame
+// here (software WebGL, read back on the main thread).
+const LONGEST_TASK_MS = 100;
 
 const session = browserSession();
 
@@ -22,7 +23,9 @@ test('demo: simulate, calibrate, and land within the bound of the truth', async 
   await waitForStatus(page, /Calibrate next/);
   assert.match(page.url(), /demo=paper/);
   mkdirSync('e2e/artifacts', { recursive: true });
-  await page.waitForTimeout(300); // one animation frame for the on-demand render
+  // The view draws the first frame of each sensor (in its worker).
+  const firstFrame = await loadedPoints(page, '1');
+  await waitForView(page, firstFrame);
   await page.screenshot({ path: 'e2e/artifacts/demo-before.png' });
   // Long main-thread tasks during the run (the page must stay responsive).
   await page.evaluate(() => {
@@ -58,15 +61,16 @@ test('demo: simulate, calibrate, and land within the bound of the truth', async 
   const ros = await page.locator('[data-export=ros2] pre').textContent();
   assert.match(ros, /--frame-id vehicle --child-frame-id front_right/);
 
-  await page.waitForTimeout(300);
+  await waitForView(page, firstFrame); // all of them again after the run's previews
   await page.screenshot({ path: 'e2e/artifacts/demo.png' });
   assert.deepEqual(problems, []);
 });
 
-test('a shared link loads the same demo', async () => {
-  const { page, problems } = await session.open('#demo=paper&frames=1&seed=5&method=jrmpc');
+test('a shared link loads the same demo, preset included', async () => {
+  const { page, problems } = await session.open('#demo=os1-128&frames=1&seed=5&method=jrmpc');
   await waitForStatus(page, /Calibrate next/);
-  assert.match(await page.getByTestId('status').textContent(), /seed 5, 1 frames/);
+  assert.match(await page.getByTestId('status').textContent(), /os1-128 rig, seed 5, 1 frames/);
+  assert.equal(await page.locator('#demo-preset').inputValue(), 'os1-128');
   assert.equal(await page.locator('#method').inputValue(), 'jrmpc');
   assert.equal(await page.locator('#files tr').count(), 1 + 2);
   assert.deepEqual(problems, []);

@@ -89,3 +89,18 @@ export async function waitForStatus(page, pattern, timeout = 60_000) {
     throw new Error(`status '${status}', error '${await page.getByTestId('error').textContent()}'`);
   }
 }
+
+// Points of the loaded scans, from the file table; `frame`: that frame's only.
+export async function loadedPoints(page, frame = null) {
+  const rows = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => {
+    const cells = tr.querySelectorAll('td');
+    return [cells[2].firstChild.value, Number(cells[4].textContent.replaceAll(',', ''))];
+  }));
+  return rows.filter(([f]) => frame === null || f === frame).reduce((sum, [, n]) => sum + n, 0);
+}
+
+// Waits until the main view has drawn a frame of exactly `points` points (the viewer's
+// `data-points`), so a screenshot shows what it should.
+export async function waitForView(page, points, timeout = 60_000) {
+  await page.waitForFunction((n) => document.querySelector('#view').dataset.points === String(n), points, { timeout });
+}

@@ -3,9 +3,6 @@
 // Clouds are uploaded once per view and colour mode; a pose change only moves objects.
 import { multiply } from './transforms.js';
 
-// Points drawn while a run animates: software WebGL (no GPU) takes about 1 ms per 1000 points
-// a frame, and the page must stay responsive.
-const PREVIEW_POINTS = 30_000;
 const PALETTE = [0xff6b6b, 0x4dabf7, 0x69db7c, 0xffd43b, 0xda77f2, 0xff922b, 0x38d9a9, 0xf783ac];
 
 export const sensorColour = (i) => PALETTE[i % PALETTE.length];
@@ -54,8 +51,8 @@ export class Display {
     this.#roiKey = '';
   }
 
-  // `poses`: sensor -> row-major T_vehicle_sensor to draw with. `preview`: draw at most about
-  // PREVIEW_POINTS points, for redraws on every iteration of a run.
+  // `poses`: sensor -> row-major T_vehicle_sensor to draw with. `preview`: draw a sample of the
+  // points only (the viewer's budget), for redraws on every iteration of a run.
   update({ views, rig, colour, allFrames }, poses, { preview = false } = {}) {
     const firstFrame = new Map();
     for (const v of views) if (!firstFrame.has(v.sensor)) firstFrame.set(v.sensor, v.frame);
@@ -67,8 +64,7 @@ export class Display {
       }
     }
     const shown = views.filter((v) => allFrames || firstFrame.get(v.sensor) === v.frame);
-    const total = shown.reduce((sum, v) => sum + v.points.length / 3, 0);
-    const stride = preview ? Math.max(1, Math.ceil(total / PREVIEW_POINTS)) : 1;
+    this.#viewer.setPreview(preview);
     for (const view of views) {
       const index = rig.sensors.indexOf(view.sensor);
       const pose = poses[view.sensor];
@@ -77,7 +73,6 @@ export class Display {
         this.#uploaded.set(view.id, `${colour}/${view.sensor}`);
       }
       this.#viewer.setPose(view.id, pose);
-      this.#viewer.setStride(view.id, stride);
       this.#viewer.setVisible(view.id, shown.includes(view));
     }
     for (const id of this.#axes) if (!rig.sensors.includes(id.slice(5))) this.#viewer.remove(id);

@@ -9,15 +9,15 @@ import { renderFiles } from './filelist.js';
 import { renderRig } from './rig.js';
 import { drawConvergence, renderResults } from './results.js';
 import { exportsOf, renderExports, resultJson } from './exports.js';
-import { targetBounds, targetObject } from './target.js';
+import { targetBounds } from './target.js';
 import { matrixFromXyzRpy } from './transforms.js';
 import { DEFAULTS, readHash, writeHash } from './url.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
-const mainViewer = new Viewer($('view'));
+const mainViewer = new Viewer($('view'), { onError: showError });
 const display = new Display(mainViewer);
-const targetViewer = new Viewer($('target-view'), { grid: false });
+const targetViewer = new Viewer($('target-view'), { grid: false, onError: showError });
 const METHODS = ['gmm', 'jrmpc', 'p2p', 'p2l', 'gicp'];
 
 const state = {
@@ -39,6 +39,7 @@ function showError(error) {
   $('error').textContent = error ? String(error.message ?? error) : '';
 }
 const setStatus = (text) => ($('status').textContent = text);
+const nextTask = () => new Promise((resolve) => setTimeout(resolve));
 
 // --- view -------------------------------------------------------------------------------------
 
@@ -144,7 +145,7 @@ function clearAll() {
 async function loadDemo() {
   showError(null);
   const s = state.settings;
-  s.demo ||= 'paper';
+  s.demo = $('demo-preset').value || 'paper';
   s.seed = Number($('demo-seed').value);
   s.frames = Number($('demo-frames').value);
   writeHash(s);
@@ -171,9 +172,15 @@ async function loadDemo() {
 
 // --- run --------------------------------------------------------------------------------------
 
-function calibrateInput(method) {
+// The views are copied (the originals stay loaded, whatever happens to the worker) one per task:
+// copying millions of points at once would block the page for 100 ms and more.
+async function calibrateInput(method) {
   const s = state.settings;
-  const views = state.views.map((v) => ({ sensor: v.sensor, frame: v.frame, points: v.points.slice() }));
+  const views = [];
+  for (const v of [...state.views]) {
+    views.push({ sensor: v.sensor, frame: v.frame, points: v.points.slice() });
+    await nextTask();
+  }
   const input = {
     views,
     nominal: Object.fromEntries(state.rig.sensors.map((n) => [n, state.rig.nominal[n]])),
@@ -207,7 +214,7 @@ async function runCalibration() {
       const label = methods.length > 1 ? `${method} (${results.length + 1}/${methods.length}): ` : '';
       const started = performance.now();
       setStatus(`${label}starting…`);
-      const { input, transfer } = calibrateInput(method);
+      const { input, transfer } = await calibrateInput(method);
       const result = await client.request('calibrate', { input }, {
         transfer,
         onProgress: (p) => {
@@ -221,7 +228,7 @@ async function runCalibration() {
       results.push(result);
     }
     $('progress').value = 1;
-    showResults(results);
+    await showResults(results);
     const r = results[0];
     setStatus(`Done: ${methods.length > 1 ? `${methods.length} methods` : `${r.iterations} iterations${r.converged ? ' (converged)' : ''}`}.`);
   } catch (error) {
@@ -234,21 +241,28 @@ async function runCalibration() {
   }
 }
 
-function showResults(results) {
+// In three tasks of a few ms each: on a busy machine a task waits for a core several times as
+// long as it computes, and the page must not stall (issue 7). A result forgotten meanwhile (new
+// files, a new run) stops here.
+async function showResults(results) {
   state.results = results;
   state.show = 'after';
   $('show-after').disabled = false;
   $('show-after').checked = true;
   redraw();
   renderResults($('results'), results, state.truth);
+  await nextTask();
+  if (state.results !== results) return;
   drawConvergence($('convergence'), results[0].history);
   renderExports($('exports'), exportsOf(results[0], { roi: state.rig.roi }));
+  await nextTask();
+  if (state.results !== results) return;
   $('result-json').textContent = resultJson(results.length > 1 ? results : results[0]);
   const gmm = results.find((r) => r.target.priors.length);
   targetViewer.clear();
   const bounds = gmm && targetBounds(gmm.target);
   if (bounds) {
-    targetViewer.setObject('target', targetObject(gmm.target, { kind: 'cube' }));
+    targetViewer.setTarget('target', gmm.target, { kind: 'cube' });
     targetViewer.lookAt(bounds);
   }
 }
@@ -259,6 +273,7 @@ const SETTING_INPUTS = ['method', 'edge', 'components', 'iterations', 'initialSi
 
 function syncSettingsInputs() {
   for (const key of SETTING_INPUTS) $(key).value = state.settings[key];
+  if (state.settings.demo) $('demo-preset').value = state.settings.demo; // else the last one picked
   $('demo-seed').value = state.settings.seed;
   $('demo-frames').value = state.settings.frames;
 }
