@@ -87,12 +87,22 @@ pub struct TargetReport {
     /// Component standard deviations (m).
     pub sigmas: Vec<f64>,
     pub priors: Vec<f64>,
-    /// RMS distance (m) of the means from the fitted prior shape; null without a fit.
-    pub rms: Option<f64>,
-    /// Fitted target size (m): cube edge or sphere diameter; null without a fit.
-    pub edge: Option<f64>,
-    /// Centre (m) of the fitted shape; null without a fit.
-    pub centre: Option<[f64; 3]>,
+    /// The prior shape fitted to each target off the ground, largest first.
+    pub fits: Vec<FitReport>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct FitReport {
+    /// RMS distance (m) of the target's means from the fitted shape.
+    pub rms: f64,
+    /// Fitted size (m): cube edge or sphere diameter.
+    pub edge: f64,
+    /// Centre (m), vehicle frame.
+    pub centre: [f64; 3],
+    /// Orientation as a rotation vector (rad), vehicle frame.
+    pub rotation: [f64; 3],
+    /// Share of the mixture's weight off the ground that this target holds.
+    pub weight: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -124,9 +134,17 @@ impl From<&Calibration> for Report {
                 means: t.means.iter().flatten().copied().collect(),
                 sigmas: t.sigmas.clone(),
                 priors: t.priors.clone(),
-                rms: t.fit.map(|f| f.rms),
-                edge: t.fit.map(|f| f.size),
-                centre: t.fit.map(|f| f.centre),
+                fits: t
+                    .fits
+                    .iter()
+                    .map(|f| FitReport {
+                        rms: f.rms,
+                        edge: f.size,
+                        centre: f.centre,
+                        rotation: f.rotation,
+                        weight: f.weight,
+                    })
+                    .collect(),
             },
             skipped: notes(&c.skipped),
             kept_jrmpc: notes(&c.kept_jrmpc),

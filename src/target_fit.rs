@@ -1,6 +1,10 @@
 //! Plausibility of a reconstruction: fit the prior shape (cube or sphere) to the reconstructed
 //! means. A good calibration reconstructs a crisp target of the right size; a poor one a blurred
 //! or doubled shape, which shows as a large RMS or a wrong size.
+//!
+//! A scene may hold several targets on a ground (the paper's three cubes): [`fit_targets`] drops
+//! the components on the ground, splits the rest into groups separated by gaps, and fits the
+//! prior to each group. One shape fitted across all of them would measure nothing.
 
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 
@@ -15,8 +19,76 @@ pub struct ShapeFit {
     pub size: f64,
     /// Fitted centre (m).
     pub centre: [f64; 3],
-    /// Share of the mixture's weight within 10% of the size from the surface.
+    /// Fitted orientation: rotation vector (rad) from the shape's axes to the means' frame.
+    pub rotation: [f64; 3],
+    /// Share of the fitted components' weight within 10% of the size from the surface.
     pub inlier_share: f64,
+    /// Share of the mixture's weight off the ground that this fit covers.
+    pub weight: f64,
+}
+
+/// A group smaller than this share of the weight off the ground is clutter, not a target.
+const MIN_TARGET_WEIGHT: f64 = 0.05;
+
+/// The prior fitted to each target among `means` (weighted by `priors`), largest share first.
+/// Components within a tenth of the prior's size of `ground` (`normal . p + offset = 0`) are
+/// left out; the rest split where a gap wider than half the prior's size separates them.
+pub fn fit_targets(
+    prior: &Prior,
+    means: &[Vector3<f64>],
+    priors: &[f64],
+    ground: Option<(Vector3<f64>, f64)>,
+) -> Vec<ShapeFit> {
+    let Some(size) = prior.size() else {
+        return Vec::new();
+    };
+    let kept: Vec<usize> = (0..means.len().min(priors.len()))
+        .filter(|&k| priors[k] > 0.0)
+        .filter(|&k| ground.is_none_or(|(n, d)| (n.dot(&means[k]) + d).abs() > 0.1 * size))
+        .collect();
+    let total: f64 = kept.iter().map(|&k| priors[k]).sum();
+    let mut fits: Vec<ShapeFit> = groups(&kept, means, 0.5 * size)
+        .into_iter()
+        .filter_map(|group| {
+            let weight = group.iter().map(|&k| priors[k]).sum::<f64>() / total;
+            let members: Vec<Vector3<f64>> = group.iter().map(|&k| means[k]).collect();
+            let weights: Vec<f64> = group.iter().map(|&k| priors[k]).collect();
+            (weight >= MIN_TARGET_WEIGHT)
+                .then(|| fit_prior(prior, &members, &weights))
+                .flatten()
+                .map(|fit| ShapeFit { weight, ..fit })
+        })
+        .collect();
+    fits.sort_by(|a, b| b.weight.total_cmp(&a.weight));
+    fits
+}
+
+/// Single-linkage groups of `indices` (into `means`): two components share a group when a
+/// chain of steps no longer than `gap` joins them.
+fn groups(indices: &[usize], means: &[Vector3<f64>], gap: f64) -> Vec<Vec<usize>> {
+    let mut group_of = vec![usize::MAX; indices.len()];
+    let mut groups = Vec::new();
+    for seed in 0..indices.len() {
+        if group_of[seed] != usize::MAX {
+            continue;
+        }
+        let id = groups.len();
+        group_of[seed] = id;
+        let mut members = vec![seed];
+        let mut next = 0;
+        while next < members.len() {
+            let a = means[indices[members[next]]];
+            next += 1;
+            for b in 0..indices.len() {
+                if group_of[b] == usize::MAX && (means[indices[b]] - a).norm() <= gap {
+                    group_of[b] = id;
+                    members.push(b);
+                }
+            }
+        }
+        groups.push(members.into_iter().map(|i| indices[i]).collect());
+    }
+    groups
 }
 
 /// Fits the prior's shape to `means` weighted by `priors`. `None` for user-given means or when
@@ -128,7 +200,9 @@ fn summary(
         rms: (sq / total).sqrt(),
         size,
         centre: [p[3], p[4], p[5]],
+        rotation: [p[0], p[1], p[2]],
         inlier_share: inliers / total,
+        weight: 1.0,
     }
 }
 
@@ -151,5 +225,44 @@ mod tests {
         let fit = fit_prior(&Prior::Sphere { radius: 0.25 }, &means, &vec![1.0; 200]).unwrap();
         assert!((fit.size - 0.6).abs() < 1e-6 && fit.rms < 1e-6, "{fit:?}");
         assert!(fit_prior(&Prior::Means(vec![]), &means, &vec![1.0; 200]).is_none());
+    }
+
+    #[test]
+    fn fits_each_cube_on_a_ground_apart() {
+        let mut means = Vec::new();
+        let yaws = [0.0, 0.35, 0.7];
+        for (i, yaw) in yaws.iter().enumerate() {
+            let r = Rotation3::from_euler_angles(0.0, 0.0, *yaw);
+            let c = Vector3::new(12.3, -1.5 + 1.5 * i as f64, 0.25);
+            // Only the sides and top, as a LiDAR sees them.
+            means.extend(
+                cube_surface(0.5, 120, i as u64)
+                    .iter()
+                    .map(|p| r * Vector3::from(*p) + c)
+                    .filter(|p| p.z > 0.01),
+            );
+        }
+        // A ground sheet whose components sit closer than the gap, as JRMPC leaves them.
+        for x in 0..14 {
+            for y in 0..26 {
+                means.push(Vector3::new(11.0 + 0.2 * x as f64, -2.5 + 0.2 * y as f64, 0.0));
+            }
+        }
+        let priors = vec![1.0; means.len()];
+        let ground = Some((Vector3::z(), 0.0));
+        let fits = fit_targets(&Prior::Cube { edge: 0.5 }, &means, &priors, ground);
+        assert_eq!(fits.len(), 3, "{fits:?}");
+        for fit in &fits {
+            assert!((fit.size - 0.5).abs() < 0.01 && fit.rms < 0.01, "{fit:?}");
+            let cube = ((fit.centre[1] + 1.5) / 1.5).round() as usize;
+            // A cube's yaw is defined modulo 90 deg.
+            let yaw = Rotation3::new(Vector3::from(fit.rotation)).euler_angles().2;
+            let off = (yaw - yaws[cube]).rem_euclid(std::f64::consts::FRAC_PI_2);
+            assert!(off.min(std::f64::consts::FRAC_PI_2 - off) < 0.02, "{fit:?}");
+            assert!((fit.weight - 1.0 / 3.0).abs() < 0.05, "{fit:?}");
+        }
+        // Without the ground dropped, the sheet joins the cubes into one group.
+        let joined = fit_targets(&Prior::Cube { edge: 0.5 }, &means, &priors, None);
+        assert_eq!(joined.len(), 1);
     }
 }

@@ -134,7 +134,7 @@ fn three_sensors_with_missing_frames() {
         let d = expected.inverse() * result.sensors[i].relative;
         assert!(d.rotation.angle() < 1e-9 && d.translation.vector.norm() < 1e-9);
     }
-    let fit = result.target.fit.expect("cube fit");
+    let fit = result.target.fits.first().expect("cube fit");
     assert!((fit.size - 0.5).abs() < 0.03 && fit.rms < 0.02, "{fit:?}");
 }
 

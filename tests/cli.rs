@@ -113,7 +113,7 @@ fn calibrates_a_gmmcalib_folder_like_the_library() {
     assert!(out.status.success(), "exit {:?}: {stderr}", out.status);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("method jrmpc, reference sensor_1"), "{stdout}");
-    assert!(stdout.contains("sensor_3") && stdout.contains("target fit: rms"), "{stdout}");
+    assert!(stdout.contains("sensor_3") && stdout.contains("target at "), "{stdout}");
 
     let json: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
     assert_eq!(json["method"], "jrmpc");
@@ -155,7 +155,9 @@ fn calibrates_a_gmmcalib_folder_like_the_library() {
     let history = &json["history"];
     assert_eq!(history["meanSigma"].as_array().unwrap().len(), lib.iterations);
     assert_eq!(history["maxChange"].as_array().unwrap().len(), lib.iterations);
-    assert!(json["target"]["rms"].as_f64().is_some() && json["target"]["edge"].as_f64().is_some());
+    let fit = &json["target"]["fits"][0];
+    assert!(fit["rms"].as_f64().is_some() && fit["edge"].as_f64().is_some(), "{fit}");
+    assert_eq!(fit["rotation"].as_array().map(Vec::len), Some(3));
     assert!(json["skipped"].as_array().unwrap().is_empty());
     assert!(json["keptJrmpc"].as_array().is_some());
 }

@@ -11,7 +11,7 @@
 //!    - `p2p`, `p2l`, `gicp`: ICP of each frame onto the reference's, from the nominal;
 //! 4. average over frames (chordal mean rotation, mean translation) with per-axis spread,
 //!    leaving out and reporting frames far from the others;
-//! 5. fit the prior shape to the reconstructed means as a plausibility check.
+//! 5. fit the prior shape to each target among the reconstructed means, a plausibility check.
 
 mod average;
 mod bev;
@@ -23,7 +23,7 @@ mod settings;
 use crate::cloud::{Aabb, Cloud};
 use crate::jrmpc::{self, Control};
 use crate::se3::Pose;
-use crate::target_fit::{ShapeFit, fit_prior};
+use crate::target_fit::{ShapeFit, fit_targets};
 use average::{average, robust_average};
 pub use bev::{BevAlignment, BevSettings};
 pub use error::CalibError;
@@ -74,16 +74,17 @@ pub struct SensorResult {
     pub spread: Spread,
 }
 
-/// The reconstructed target: the final mixture, in the vehicle frame.
+/// The reconstructed target: the final mixture, mapped into the reference sensor's pre-aligned
+/// (vehicle) frame by the mean of the reference views' JRMPC poses.
 #[derive(Clone, Debug)]
 pub struct Target {
     pub means: Vec<[f64; 3]>,
     /// Standard deviations (m).
     pub sigmas: Vec<f64>,
     pub priors: Vec<f64>,
-    /// The prior shape fitted to the means (None for user-given means and ICP methods, which
-    /// reconstruct nothing).
-    pub fit: Option<ShapeFit>,
+    /// The prior shape fitted to each target among the means, off the reference's ground,
+    /// largest first (empty for user-given means and ICP methods, which reconstruct nothing).
+    pub fits: Vec<ShapeFit>,
 }
 
 #[derive(Clone, Debug)]
@@ -293,16 +294,31 @@ pub fn calibrate(
     let (target, iterations, converged, cancelled, history) = match registration {
         Some(reg) => {
             let mix = &reg.mixture;
+            // The mixture floats; the reference's views put it where the reference sees it.
+            let reference_poses: Vec<Pose> = pairs[r].iter().map(|&(v, _)| reg.poses[v]).collect();
+            let to_vehicle =
+                average(&reference_poses).map_or_else(Pose::identity, |(m, _)| m).inverse();
+            let means: Vec<nalgebra::Vector3<f64>> = mix
+                .means
+                .iter()
+                .map(|m| (to_vehicle * nalgebra::Point3::from(*m)).coords)
+                .collect();
+            // Without levelling, the reference's ground is found for the fit alone.
+            let ground = match levelling.get(r) {
+                Some(l) => l.ground,
+                None => sensor_ground(rig, &sensors, &nominals, r, settings).1.map(|(g, _)| g),
+            };
+            let ground = ground.map(|g| (g.normal, g.offset));
             let target = Target {
-                means: mix.means.iter().map(|m| [m.x, m.y, m.z]).collect(),
+                means: means.iter().map(|m| [m.x, m.y, m.z]).collect(),
                 sigmas: mix.variances.iter().map(|v| v.sqrt()).collect(),
                 priors: mix.priors.clone(),
-                fit: fit_prior(&settings.prior, &mix.means, &mix.priors),
+                fits: fit_targets(&settings.prior, &means, &mix.priors, ground),
             };
             (target, reg.iterations, reg.converged, reg.cancelled, reg.history)
         }
         None => {
-            let empty = Target { means: vec![], sigmas: vec![], priors: vec![], fit: None };
+            let empty = Target { means: vec![], sigmas: vec![], priors: vec![], fits: vec![] };
             (empty, 0, true, false, vec![])
         }
     };
@@ -331,25 +347,8 @@ fn level_grounds(
     r: usize,
     settings: &Settings,
 ) -> Vec<Levelling> {
-    let bounds = level::search_box(&rig.roi, settings.ground.margin);
-    let near_roi: Vec<Vec<nalgebra::Vector3<f64>>> = sensors
-        .iter()
-        .enumerate()
-        .map(|(s, name)| {
-            rig.views
-                .iter()
-                .filter(|v| &v.sensor == name)
-                .flat_map(|v| level::points_in(&v.points, &nominals[s], &bounds))
-                .collect()
-        })
-        .collect();
-    let grounds: Vec<Option<(Plane, usize)>> = near_roi
-        .iter()
-        .enumerate()
-        .map(|(s, points)| {
-            level::fit_ground(points, &settings.ground, settings.seed.wrapping_add(s as u64))
-        })
-        .collect();
+    let (near_roi, grounds): (Vec<_>, Vec<_>) =
+        (0..sensors.len()).map(|s| sensor_ground(rig, sensors, nominals, s, settings)).unzip();
     let pivot = nalgebra::Vector3::from_fn(|i, _| 0.5 * (rig.roi.min[i] + rig.roi.max[i]));
     sensors
         .iter()
@@ -384,6 +383,26 @@ fn level_grounds(
             Levelling { sensor: name.clone(), ground, inliers, applied, bev, note }
         })
         .collect()
+}
+
+/// Sensor `s`'s points (all frames, pre-aligned with its nominal) in the box around the ROI
+/// where the ground is searched, and the ground plane found among them.
+fn sensor_ground(
+    rig: &Rig,
+    sensors: &[String],
+    nominals: &[Pose],
+    s: usize,
+    settings: &Settings,
+) -> (Vec<nalgebra::Vector3<f64>>, Option<(Plane, usize)>) {
+    let bounds = level::search_box(&rig.roi, settings.ground.margin);
+    let points: Vec<_> = rig
+        .views
+        .iter()
+        .filter(|v| v.sensor == sensors[s])
+        .flat_map(|v| level::points_in(&v.points, &nominals[s], &bounds))
+        .collect();
+    let ground = level::fit_ground(&points, &settings.ground, settings.seed.wrapping_add(s as u64));
+    (points, ground)
 }
 
 /// Step 3 for the GMM methods: all views to one mixture started from the prior at the ROI

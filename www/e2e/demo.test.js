@@ -43,6 +43,13 @@ test('demo: simulate, calibrate, and land within the bound of the truth', async 
   assert.deepEqual(result.sensors.map((s) => s.name), ['front_left', 'front_right']);
   assert.equal(result.sensors[1].extrinsic.length, 16);
   assert.ok(Array.isArray(result.target.means) && result.history.meanSigma.length === result.iterations);
+  // The paper scene's three 0.5 m cubes, each fitted on its own, standing 12.3 m ahead.
+  const fits = result.target.fits;
+  assert.equal(fits.length, 3, JSON.stringify(fits));
+  for (const fit of fits) {
+    assert.ok(Math.abs(fit.edge - 0.5) < 0.05 && fit.rms < 0.03 && Math.abs(fit.centre[0] - 12.3) < 0.1, JSON.stringify(fit));
+  }
+  assert.match(await page.locator('#results').textContent(), /3 targets: edge 0\.\d{3} m/);
 
   // Truth from the twin directly (Node), not from the page.
   const { truth } = simulateRig({ preset: 'paper', frames: 1, seed: 1 });

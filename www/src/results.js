@@ -71,7 +71,10 @@ function comparisonHtml(results, truth) {
 export function renderResults(container, results, truth) {
   const r = results[0];
   const t = r.target;
-  const fit = t.rms != null ? `target fit: RMS ${(t.rms * 1000).toFixed(1)} mm, edge ${t.edge.toFixed(3)} m` : 'no target reconstructed (ICP method)';
+  const fitText = (x) => `edge ${x.edge.toFixed(3)} m, RMS ${(x.rms * 1000).toFixed(1)} mm`;
+  const fit = t.fits.length
+    ? `${t.fits.length === 1 ? 'target' : `${t.fits.length} targets`}: ${t.fits.map(fitText).join('; ')}`
+    : t.means.length ? 'no target stands out from the ground' : 'no target reconstructed (ICP method)';
   container.innerHTML = `
     ${results.length > 1 ? `<h3>All methods</h3>${comparisonHtml(results, truth)}<h3>Details: ${r.method}</h3>` : ''}
     <p>method ${r.method}, reference ${esc(r.reference)}, ${r.iterations} iterations${r.converged ? ', converged' : ''}${r.cancelled ? ', cancelled' : ''}; ${fit}</p>

@@ -31,8 +31,15 @@ pub fn summary(c: &Calibration) -> String {
             s.spread.frames
         );
     }
-    if let Some(fit) = c.target.fit {
-        let _ = writeln!(out, "\ntarget fit: rms {:.4} m, edge {:.4} m", fit.rms, fit.size);
+    for fit in &c.target.fits {
+        let [x, y, z] = fit.centre;
+        let _ = writeln!(
+            out,
+            "\ntarget at {x:.3}, {y:.3}, {z:.3} m ({:.0} % of the weight): rms {:.4} m, edge {:.4} m",
+            fit.weight * 100.0,
+            fit.rms,
+            fit.size
+        );
     }
     notes(&mut out, "skipped", &c.skipped);
     notes(&mut out, "refinement rejected, kept the JRMPC correction", &c.kept_jrmpc);
