@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 use gmmcalib::Cloud;
 use gmmcalib::io::{
     Format, Offset, ParsedCloud, ReadOptions, parse_cloud, parse_cloud_with, write_pcd_binary,
-    write_pcd_binary_compressed, write_ply_binary,
+    write_pcd_binary_compressed, write_pcd_binary_organized, write_ply_binary,
 };
 
 fn fixture(name: &str) -> Vec<u8> {
@@ -114,6 +114,19 @@ fn writers_round_trip_bit_for_bit() {
                 .is_empty()
         );
     }
+}
+
+#[test]
+fn organized_writer_keeps_the_scan_shape() {
+    let mut cloud = same_cloud(12);
+    cloud.points[5] = [0.0; 3]; // a miss stays in place in an organized scan
+    let bytes = write_pcd_binary_organized(&cloud, 4, 3).unwrap();
+    let parsed = parse_cloud(&bytes, "scan.pcd").unwrap();
+    assert_eq!((parsed.width, parsed.height), (4, 3));
+    assert_eq!(parsed.dropped, 1);
+    assert_eq!(parsed.cloud.len(), 11);
+    assert!(write_pcd_binary_organized(&cloud, 5, 3).is_none());
+    assert!(write_pcd_binary_organized(&cloud, usize::MAX, 2).is_none());
 }
 
 #[test]

@@ -23,7 +23,9 @@ use std::fmt;
 use crate::cloud::Cloud;
 use crate::se3::Pose;
 
-pub use write::{write_pcd_binary, write_pcd_binary_compressed, write_ply_binary};
+pub use write::{
+    write_pcd_binary, write_pcd_binary_compressed, write_pcd_binary_organized, write_ply_binary,
+};
 
 /// The on-disk encoding a cloud was read from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -11,7 +11,9 @@ fn intensity_of(cloud: &Cloud) -> Option<&[f32]> {
     cloud.intensity.as_deref().filter(|v| v.len() == cloud.points.len())
 }
 
-fn pcd_header(n: usize, with_intensity: bool, data: &str) -> String {
+fn pcd_header(shape: [usize; 2], with_intensity: bool, data: &str) -> String {
+    let [width, height] = shape;
+    let n = width * height;
     let (fields, size, ty, count) = if with_intensity {
         ("x y z intensity", "4 4 4 4", "F F F F", "1 1 1 1")
     } else {
@@ -19,7 +21,7 @@ fn pcd_header(n: usize, with_intensity: bool, data: &str) -> String {
     };
     format!(
         "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {fields}\nSIZE {size}\n\
-         TYPE {ty}\nCOUNT {count}\nWIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\n\
+         TYPE {ty}\nCOUNT {count}\nWIDTH {width}\nHEIGHT {height}\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\n\
          DATA {data}\n"
     )
 }
@@ -41,8 +43,18 @@ fn point_major(cloud: &Cloud, intensity: Option<&[f32]>) -> Vec<u8> {
 
 /// PCD v0.7, `DATA binary`: `FIELDS x y z [intensity]`, all `F` of size 4, `HEIGHT 1`.
 pub fn write_pcd_binary(cloud: &Cloud) -> Vec<u8> {
+    binary_pcd(cloud, [cloud.len(), 1])
+}
+
+/// [`write_pcd_binary`] for an organized scan: `WIDTH width`, `HEIGHT height` (row-major
+/// points, misses kept in place). `None` unless `width * height` is the point count.
+pub fn write_pcd_binary_organized(cloud: &Cloud, width: usize, height: usize) -> Option<Vec<u8>> {
+    (width.checked_mul(height) == Some(cloud.len())).then(|| binary_pcd(cloud, [width, height]))
+}
+
+fn binary_pcd(cloud: &Cloud, shape: [usize; 2]) -> Vec<u8> {
     let intensity = intensity_of(cloud);
-    let mut out = pcd_header(cloud.len(), intensity.is_some(), "binary").into_bytes();
+    let mut out = pcd_header(shape, intensity.is_some(), "binary").into_bytes();
     out.extend_from_slice(&point_major(cloud, intensity));
     out
 }
@@ -64,7 +76,8 @@ pub fn write_pcd_binary_compressed(cloud: &Cloud) -> Option<Vec<u8>> {
         packed = raw.clone();
     }
     let (packed_len, raw_len) = (u32::try_from(packed.len()).ok()?, u32::try_from(raw.len()).ok()?);
-    let mut out = pcd_header(cloud.len(), intensity.is_some(), "binary_compressed").into_bytes();
+    let mut out =
+        pcd_header([cloud.len(), 1], intensity.is_some(), "binary_compressed").into_bytes();
     out.extend_from_slice(&packed_len.to_le_bytes());
     out.extend_from_slice(&raw_len.to_le_bytes());
     out.extend_from_slice(&packed);

@@ -9,7 +9,7 @@
 use std::fs;
 use std::path::Path;
 
-use gmmcalib::io::write_pcd_binary;
+use gmmcalib::io::{write_pcd_binary, write_pcd_binary_organized};
 use gmmcalib::se3::{Pose, to_row_major};
 use gmmcalib::sim::SimView;
 use serde::Serialize;
@@ -58,7 +58,10 @@ pub fn write(twin: &Twin, args: &TwinArgs, dir: &Path) -> Result<(), String> {
         let folder = dir.join("data").join(&twin.sensors[twin.sensor_of(view)].folder);
         fs::create_dir_all(&folder).map_err(|e| fail(&folder, e))?;
         let file = folder.join(format!("{}.pcd", view.frame));
-        fs::write(&file, organized_pcd(view)).map_err(|e| fail(&file, e))?;
+        // A flat cloud is still a valid scan, should the shape not match.
+        let bytes = write_pcd_binary_organized(&view.cloud, view.width, view.height)
+            .unwrap_or_else(|| write_pcd_binary(&view.cloud));
+        fs::write(&file, bytes).map_err(|e| fail(&file, e))?;
     }
     let config = dir.join("config.yaml");
     fs::write(&config, config_yaml(twin)).map_err(|e| fail(&config, e))?;
@@ -84,20 +87,6 @@ pub fn write(twin: &Twin, args: &TwinArgs, dir: &Path) -> Result<(), String> {
     let json = serde_json::to_string_pretty(&truth).map_err(|e| format!("JSON: {e}"))?;
     let path = dir.join("truth.json");
     fs::write(&path, json + "\n").map_err(|e| fail(&path, e))
-}
-
-/// Binary PCD with the scan's organized shape. The library's writer labels every cloud as one
-/// row (`WIDTH n`, `HEIGHT 1`); the data are the same, so only those two header lines change.
-fn organized_pcd(view: &SimView) -> Vec<u8> {
-    let bytes = write_pcd_binary(&view.cloud);
-    let flat = format!("WIDTH {}\nHEIGHT 1\n", view.cloud.len());
-    let shaped = format!("WIDTH {}\nHEIGHT {}\n", view.width, view.height);
-    let at = bytes.windows(flat.len()).position(|w| w == flat.as_bytes());
-    match at {
-        Some(at) => [&bytes[..at], shaped.as_bytes(), &bytes[at + flat.len()..]].concat(),
-        // Unreachable unless the writer's header changes; a flat cloud is still a valid scan.
-        None => bytes,
-    }
 }
 
 /// GMMCalib's config: `transform_sensor_N: - [roll, pitch, yaw, x, y, z]` and the ROI.
