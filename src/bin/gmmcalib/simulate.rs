@@ -11,7 +11,6 @@ use std::path::Path;
 
 use gmmcalib::io::{write_pcd_binary, write_pcd_binary_organized};
 use gmmcalib::se3::{Pose, to_row_major};
-use gmmcalib::sim::SimView;
 use serde::Serialize;
 
 use crate::args::{SimulateArgs, TwinArgs};
