@@ -169,30 +169,9 @@ pub fn calibrate(
     };
 
     // 2. Crop.
-    let mut usable = Vec::new(); // (sensor index, frame, cropped cloud)
-    let mut skipped = Vec::new();
+    let poses: Vec<Pose> = applied.iter().zip(&nominals).map(|(a, n)| a * n).collect();
+    let (usable, mut skipped) = crop_views(rig, &sensors, &poses, settings);
     let mut kept_jrmpc = Vec::new();
-    for view in &rig.views {
-        let s = sensors.iter().position(|n| n == &view.sensor).unwrap_or(0);
-        let pose = applied[s] * nominals[s];
-        let cloud = Cloud::from_points(view.points.clone()).transformed(&pose).cropped(&rig.roi);
-        let distinct = cloud.points.iter().any(|p| p != &cloud.points[0]);
-        let needed = settings.min_view_points.max(3);
-        if cloud.len() < needed || !distinct {
-            let reason = if distinct || cloud.is_empty() {
-                format!("{} points in the ROI, need {needed}", cloud.len())
-            } else {
-                "all points in the ROI coincide".to_string()
-            };
-            skipped.push(FrameNote {
-                sensor: view.sensor.clone(),
-                frame: view.frame.clone(),
-                reason,
-            });
-            continue;
-        }
-        usable.push((s, view.frame.clone(), cloud));
-    }
     for (s, name) in sensors.iter().enumerate() {
         if !usable.iter().any(|(u, _, _)| *u == s) {
             return Err(CalibError::NoPointsInRoi(name.clone()));
@@ -293,28 +272,13 @@ pub fn calibrate(
     // 5. Plausibility of the reconstruction.
     let (target, iterations, converged, cancelled, history) = match registration {
         Some(reg) => {
-            let mix = &reg.mixture;
-            // The mixture floats; the reference's views put it where the reference sees it.
-            let reference_poses: Vec<Pose> = pairs[r].iter().map(|&(v, _)| reg.poses[v]).collect();
-            let to_vehicle =
-                average(&reference_poses).map_or_else(Pose::identity, |(m, _)| m).inverse();
-            let means: Vec<nalgebra::Vector3<f64>> = mix
-                .means
-                .iter()
-                .map(|m| (to_vehicle * nalgebra::Point3::from(*m)).coords)
-                .collect();
             // Without levelling, the reference's ground is found for the fit alone.
             let ground = match levelling.get(r) {
                 Some(l) => l.ground,
                 None => sensor_ground(rig, &sensors, &nominals, r, settings).1.map(|(g, _)| g),
             };
-            let ground = ground.map(|g| (g.normal, g.offset));
-            let target = Target {
-                means: means.iter().map(|m| [m.x, m.y, m.z]).collect(),
-                sigmas: mix.variances.iter().map(|v| v.sqrt()).collect(),
-                priors: mix.priors.clone(),
-                fits: fit_targets(&settings.prior, &means, &mix.priors, ground),
-            };
+            let reference_views: Vec<usize> = pairs[r].iter().map(|&(v, _)| v).collect();
+            let target = reconstruction(&reg, &reference_views, ground, &settings.prior);
             (target, reg.iterations, reg.converged, reg.cancelled, reg.history)
         }
         None => {
@@ -335,6 +299,40 @@ pub fn calibrate(
         levelling,
         history,
     })
+}
+
+/// Step 2: each view pre-aligned by its sensor's pose and cropped to the ROI, as
+/// (sensor index, frame, cloud); views left with too few points are noted instead.
+fn crop_views(
+    rig: &Rig,
+    sensors: &[String],
+    poses: &[Pose],
+    settings: &Settings,
+) -> (Vec<(usize, String, Cloud)>, Vec<FrameNote>) {
+    let mut usable = Vec::new();
+    let mut skipped = Vec::new();
+    for view in &rig.views {
+        let s = sensors.iter().position(|n| n == &view.sensor).unwrap_or(0);
+        let cloud =
+            Cloud::from_points(view.points.clone()).transformed(&poses[s]).cropped(&rig.roi);
+        let distinct = cloud.points.iter().any(|p| p != &cloud.points[0]);
+        let needed = settings.min_view_points.max(3);
+        if cloud.len() < needed || !distinct {
+            let reason = if distinct || cloud.is_empty() {
+                format!("{} points in the ROI, need {needed}", cloud.len())
+            } else {
+                "all points in the ROI coincide".to_string()
+            };
+            skipped.push(FrameNote {
+                sensor: view.sensor.clone(),
+                frame: view.frame.clone(),
+                reason,
+            });
+            continue;
+        }
+        usable.push((s, view.frame.clone(), cloud));
+    }
+    (usable, skipped)
 }
 
 /// Step 1's levelling: every sensor's ground in a box around the ROI (all its frames,
@@ -403,6 +401,29 @@ fn sensor_ground(
         .collect();
     let ground = level::fit_ground(&points, &settings.ground, settings.seed.wrapping_add(s as u64));
     (points, ground)
+}
+
+/// Step 5: the mixture in the vehicle frame (the mean of the reference views' poses puts it
+/// where the reference sees it; the mixture itself floats) and the prior fitted to each target
+/// standing on `ground`.
+fn reconstruction(
+    registration: &jrmpc::Registration,
+    reference_views: &[usize],
+    ground: Option<Plane>,
+    prior: &jrmpc::Prior,
+) -> Target {
+    let mix = &registration.mixture;
+    let poses: Vec<Pose> = reference_views.iter().map(|&v| registration.poses[v]).collect();
+    let to_vehicle = average(&poses).map_or_else(Pose::identity, |(m, _)| m).inverse();
+    let means: Vec<nalgebra::Vector3<f64>> =
+        mix.means.iter().map(|m| (to_vehicle * nalgebra::Point3::from(*m)).coords).collect();
+    let ground = ground.map(|g| (g.normal, g.offset));
+    Target {
+        means: means.iter().map(|m| [m.x, m.y, m.z]).collect(),
+        sigmas: mix.variances.iter().map(|v| v.sqrt()).collect(),
+        priors: mix.priors.clone(),
+        fits: fit_targets(prior, &means, &mix.priors, ground),
+    }
 }
 
 /// Step 3 for the GMM methods: all views to one mixture started from the prior at the ROI
