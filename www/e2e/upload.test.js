@@ -9,15 +9,16 @@ import { browserSession, waitForStatus } from './harness.js';
 import { calibrate } from '../pkg/gmmcalib.js';
 import { errorOf, gmmcalibFolder, pcdAscii, syntheticRig } from './rigfiles.js';
 
-// A coarse sanity bound against the truth: this small synthetic rig (3 frames of 1000 points)
-// calibrates to 0.15 and 0.99 deg (accuracy is issue 6's subject). The strong check is that the
-// page computes exactly what the wasm package computes in Node from the same data.
-const UPLOAD_ERROR_BOUND = { deg: 1.5, mm: 100 };
+// Against the truth: this synthetic rig (3 sensors, 3 frames of 3000 points, cube and no
+// ground) calibrates to 0.08 and 0.06 deg, 3 mm. At 1000 points a view, one sparse frame's
+// refinement is rejected and a sensor ends near 1 deg. The strongest check is that the page
+// computes exactly what the wasm package computes in Node from the same data.
+const UPLOAD_ERROR_BOUND = { deg: 0.3, mm: 20 };
 
 const session = browserSession();
 
 test('upload a GMMCalib folder through file-input and calibrate it', async () => {
-  const rig = syntheticRig({ sensors: 3, frames: 3, pointsPerView: 1000, seed: 2 });
+  const rig = syntheticRig({ sensors: 3, frames: 3, pointsPerView: 3000, seed: 2 });
   const files = gmmcalibFolder(rig, 'rig', 'initial_sigma: prior\ncomponents: 200\n');
   const { page, problems } = await session.open();
   await page.getByTestId('file-input').setInputFiles(files);
