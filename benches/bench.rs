@@ -1,4 +1,6 @@
-//! Benchmarks (not tests): `cargo run --release --bin bench [-- --quick]`.
+//! Benchmarks (not tests): `cargo run --release --bin bench [-- --quick] [--fast-only]`
+//! (`--quick`: the sample-scale job and small ICP views only; `--fast-only`: JRMPC's fast
+//! E-step alone, one thread, no dense reference, no ICP).
 //! For each JRMPC job the README reports: wall time, Gaussian terms evaluated, dense-equivalent
 //! terms per second and the speed-up over the exact dense E-step, then peak memory; then the
 //! ICP baselines' per-pair times. The wasm twin is `www/bench/bench.mjs`: the same jobs under
@@ -39,12 +41,16 @@ mod native {
 
     pub fn main() {
         let quick = std::env::args().any(|a| a == "--quick");
+        let fast_only = std::env::args().any(|a| a == "--fast-only");
         println!(
             "gmmcalib native bench ({} build; CPU time in brackets, the machine may be shared)",
             if cfg!(debug_assertions) { "debug" } else { "release" },
         );
         for job in JOBS.iter().take(if quick { 1 } else { JOBS.len() }) {
-            run(job);
+            run(job, fast_only);
+        }
+        if fast_only {
+            return;
         }
         for points in if quick { &[2000][..] } else { &[2000, 65_000][..] } {
             icp_per_pair(*points);
@@ -69,9 +75,19 @@ mod native {
         (ticks(11) + ticks(12)) / 100.0
     }
 
-    fn run(job: &Job) {
+    fn run(job: &Job, fast_only: bool) {
         let rig = jrmpc::rig(job);
         let (fast, seconds, cpu) = timed(|| jrmpc::run(job, &rig, false, 100, 1));
+        if fast_only {
+            let dense_terms = (fast.points * job.components * fast.iterations) as f64;
+            println!(
+                "jrmpc {}: fast {seconds:.2} s ({cpu:.2}), {:.1} M terms ({:.1} % of dense)",
+                job.name,
+                fast.terms as f64 / 1e6,
+                100.0 * fast.terms as f64 / dense_terms
+            );
+            return;
+        }
         let (_, seconds_2, cpu_2) = timed(|| jrmpc::run(job, &rig, false, 100, 2));
         let (dense, dense_seconds, dense_cpu) =
             timed(|| jrmpc::run(job, &rig, true, job.dense_iterations, 1));

@@ -18,8 +18,9 @@ use super::model::{Mixture, ViewStats};
 pub struct Scratch {
     keyed: Vec<([i64; 3], usize)>,
     transformed: Vec<Vector3<f64>>,
-    /// Component means in the view's own (untransformed) frame: `R^T (x_k - t)`.
-    means_in_view: Vec<Vector3<f64>>,
+    /// Per grid entry, the view's sums `[lambda, u_x, u_y, u_z, u2]` (see [`Accumulators`]),
+    /// `u = x_k - p` in the mixture's frame.
+    sums: Vec<[f64; 5]>,
     block: Block,
     entries: Vec<usize>,
     a: Vec<f64>,
@@ -31,7 +32,7 @@ impl Scratch {
         Self {
             keyed: Vec::new(),
             transformed: Vec::new(),
-            means_in_view: Vec::new(),
+            sums: Vec::new(),
             block: Block::default(),
             entries: Vec::new(),
             a: Vec::new(),
@@ -53,7 +54,7 @@ pub fn accumulate(
     stats: &mut ViewStats,
     scratch: &mut Scratch,
 ) -> u64 {
-    let Scratch { keyed, transformed, means_in_view, block, entries, a, acc } = scratch;
+    let Scratch { keyed, transformed, sums, block, entries, a, acc } = scratch;
     keyed.clear();
     transformed.clear();
     for (i, v) in points.iter().enumerate() {
@@ -62,14 +63,13 @@ pub fn accumulate(
         transformed.push(p);
     }
     keyed.sort_unstable();
-    let r_t = rotation.transpose();
-    means_in_view.clear();
-    means_in_view.extend(mixture.means.iter().map(|x| r_t * (x - translation)));
+    sums.clear();
+    sums.resize(grid.order.len(), [0.0; 5]);
     let mut terms = 0u64;
     for run in keyed.chunk_by(|a, b| a.0 == b.0) {
         grid.gather(run[0].0, block, entries);
-        a.resize(block.scale.len(), 0.0);
-        acc.reset(block.scale.len());
+        a.resize(block.padded, 0.0);
+        acc.reset(block.padded);
         for &(_, i) in run {
             let p = transformed[i] - block.origin;
             let p = [p.x, p.y, p.z];
@@ -78,17 +78,26 @@ pub fn accumulate(
                 acc.add(block, p, a, 1.0 / (total + beta));
             }
         }
-        // Back to sums over untransformed points: v - m_k = -R^T u.
-        for (e, &entry) in entries.iter().enumerate() {
-            let c = grid.order[entry];
-            let m = means_in_view[c];
-            let l = acc.lambda[e];
-            let u = r_t * Vector3::new(acc.x[e], acc.y[e], acc.z[e]);
-            stats.lambda[c] += l;
-            stats.s1[c] += l * m - u;
-            stats.s2[c] += l * m.norm_squared() - 2.0 * m.dot(&u) + acc.u2[e];
+        for (e, &entry) in entries[..block.len].iter().enumerate() {
+            let sum = &mut sums[entry];
+            sum[0] += acc.lambda[e];
+            sum[1] += acc.x[e];
+            sum[2] += acc.y[e];
+            sum[3] += acc.z[e];
+            sum[4] += acc.u2[e];
         }
         terms += (run.len() * block.len) as u64;
+    }
+    // Back to sums over untransformed points: with `m = R^T (x_k - t)` the mean in the view's
+    // frame, `v = m - R^T u`.
+    let r_t = rotation.transpose();
+    for (sum, &c) in sums.iter().zip(&grid.order) {
+        let [l, ux, uy, uz, u2] = *sum;
+        let m = r_t * (mixture.means[c] - translation);
+        let u = r_t * Vector3::new(ux, uy, uz);
+        stats.lambda[c] += l;
+        stats.s1[c] += l * m - u;
+        stats.s2[c] += l * m.norm_squared() - 2.0 * m.dot(&u) + u2;
     }
     terms
 }

@@ -1,16 +1,22 @@
 //! Components binned by mean into a uniform grid, with their E-step constants stored in cell
 //! order (structure of arrays), so the components near a cell are a few contiguous runs.
 //!
-//! Which components a point may skip follows from a bound on the mass it neglects: every
-//! binned component outside the box of cells around the point is farther than `reach`, so the
-//! skipped terms sum to at most `N = sum_k p_k Q_k^1.5 exp(-Q_k reach^2 / 2)` over the binned
-//! components. `reach` is chosen so `N <= NEGLECTED * beta`, and the posterior denominator is
-//! never below the outlier term `beta`, so no posterior moves by more than `NEGLECTED` of the
-//! point's total. The widest components (above the 90th percentile of sigma) would make the
-//! reach, and the box, as large as the scene: they are not binned and every point visits them.
-//! By the same bound, a term whose exponent exceeds `ln(S / (NEGLECTED beta))`, `S` the sum of
-//! all `p_k Q_k^1.5`, may be dropped inside the box too ([`Grid::cutoff`]); that also keeps
-//! the lanes clear of subnormal numbers.
+//! Which terms a point may skip follows from a bound on the mass it neglects: a term whose
+//! exponent `Q_k d^2 / 2` exceeds `cutoff = ln(S / (NEGLECTED beta))`, `S` the sum of all peak
+//! scales `p_k Q_k^1.5`, is below `p_k Q_k^1.5 NEGLECTED beta / S`, so all such terms together
+//! hold at most `NEGLECTED beta`; the posterior denominator is never below the outlier term
+//! `beta`, so no posterior moves by more than `NEGLECTED` of the point's total. Every term the
+//! E-step does not evaluate, or evaluates as 0, is past that cutoff:
+//! - binned components farther than `reach = sigma_binned sqrt(2 cutoff)` from a point's cell
+//!   (outside the box of cells around it, or in a cell of the box whose nearest face is
+//!   farther), `sigma_binned` the 90th percentile of sigma, the largest binned one;
+//! - any other component whose exponent exceeds the cutoff at every point of the cell
+//!   ([`Grid::gather`] tests each against the cell's cube);
+//! - inside a block, terms past the cutoff (the kernel zeroes them, which also keeps the
+//!   lanes clear of subnormal numbers).
+//!
+//! The widest components (above the 90th percentile) would make the reach, and the box, as
+//! large as the scene: they are not binned and are tested for every cell.
 
 use nalgebra::Vector3;
 
@@ -19,6 +25,10 @@ use super::model::Mixture;
 
 /// Largest share of a point's posterior denominator the skipped components may hold.
 pub const NEGLECTED: f64 = 1e-8;
+
+/// Cells of `reach / SUBDIVIDE`: smaller cells fit the gathered blocks closer to their points
+/// but leave fewer points per block to share the gathering.
+const SUBDIVIDE: f64 = 2.0;
 
 /// At most this many grid cells; beyond it the cells grow.
 const MAX_CELLS: usize = 1 << 18;
@@ -41,6 +51,13 @@ pub struct Grid {
     wide: usize,
     /// Largest exponent `Q_k d^2 / 2` worth evaluating.
     pub cutoff: f64,
+    /// `cutoff` with a margin for rounding: a component is gathered for a cell unless its
+    /// exponent exceeds this at every point of the cell.
+    cull: f64,
+    /// Farther than this from a cell, no binned component is gathered for it.
+    reach: f64,
+    /// The box of cells around a cell spans this many cells each way (`reach / cell`).
+    half_box: usize,
 }
 
 impl Grid {
@@ -54,12 +71,12 @@ impl Grid {
         let sigma_binned = sigmas.get(sigmas.len() * 9 / 10).copied().unwrap_or(1.0);
         let (binned, wide): (Vec<usize>, Vec<usize>) =
             active.iter().partition(|&&c| mixture.variances[c].sqrt() <= sigma_binned);
-        // With every binned term at most `scale_k exp(-reach^2 / (2 sigma_binned^2))`:
-        // reach = sigma_binned sqrt(2 ln(S / (NEGLECTED beta))), S the sum of binned scales.
-        let s: f64 = binned.iter().map(|&c| scale[c]).sum();
-        let reach = sigma_binned * (2.0 * (s / (NEGLECTED * beta)).ln().max(0.0)).sqrt();
-        let s_all: f64 = active.iter().map(|&c| scale[c]).sum();
-        let cutoff = (s_all / (NEGLECTED * beta)).ln().max(0.0);
+        let s: f64 = active.iter().map(|&c| scale[c]).sum();
+        let cutoff = (s / (NEGLECTED * beta)).ln().max(0.0);
+        // A margin for rounding: the kernel tests the exponent it computes against `cutoff`.
+        let cull = cutoff * (1.0 + 1e-9);
+        // Beyond it, every binned component's exponent exceeds `cull`.
+        let reach = sigma_binned * (2.0 * cull).sqrt();
 
         let means = &mixture.means;
         let (lo, hi) = binned.iter().fold(
@@ -68,8 +85,7 @@ impl Grid {
         );
         let (origin, extent) =
             if binned.is_empty() { (Vector3::zeros(), Vector3::zeros()) } else { (lo, hi - lo) };
-        // Cells of half the reach: a point visits 5 cells a side.
-        let mut cell = (reach / 2.0).max(1e-6);
+        let mut cell = (reach / SUBDIVIDE).max(1e-6);
         let dims = loop {
             let d = extent.map(|e| (e / cell).floor() as usize + 1);
             if d.iter().product::<usize>() <= MAX_CELLS {
@@ -107,13 +123,16 @@ impl Grid {
             wide: keyed.len(),
             order,
             cutoff,
+            cull,
+            reach,
+            half_box: (reach / cell).ceil() as usize,
         }
     }
 
     /// The cell of `p` (unclamped: points may lie outside the grid).
     pub fn cell_key(&self, p: &Vector3<f64>) -> [i64; 3] {
         let s = (p - self.origin) / self.cell;
-        [s.x.floor() as i64, s.y.floor() as i64, s.z.floor() as i64]
+        [floor(s.x), floor(s.y), floor(s.z)]
     }
 
     /// The centre of cell `key`: the origin of its block's coordinates, so that f32 holds
@@ -124,22 +143,40 @@ impl Grid {
     }
 
     /// Fills `block` with every component a point in cell `key` must visit: the binned ones
-    /// in the 5 x 5 x 5 cells around it, then the wide ones, with means relative to
-    /// `cell_centre(key)`. `entries` receives the grid entry (index into `order`) of each.
+    /// within `reach` of the cell, then the wide ones, with means relative to
+    /// `cell_centre(key)`, less those whose exponent exceeds the cutoff at every point of the
+    /// cell. `entries[..block.len]` receive the grid entry (index into `order`) of each.
     pub fn gather(&self, key: [i64; 3], block: &mut Block, entries: &mut Vec<usize>) {
-        block.clear();
+        block.start(self.order.len());
         block.origin = self.cell_centre(key);
-        entries.clear();
-        let range = |i: usize| {
-            let lo = (key[i] - 2).max(0);
-            let hi = (key[i] + 2).min(self.dims[i] as i64 - 1);
-            (lo as usize, hi as usize, lo <= hi)
+        if entries.len() < self.order.len() {
+            entries.resize(self.order.len(), 0);
+        }
+        // Gap between the cell and the cells `m` apart along an axis.
+        let gap = |m: i64| (m.saturating_abs() - 1).max(0) as f64 * self.cell;
+        let reach2 = self.reach * self.reach;
+        let h = self.half_box as i64;
+        let span = |i: usize, h: i64| {
+            let lo = key[i].saturating_sub(h).max(0);
+            let hi = key[i].saturating_add(h).min(self.dims[i] as i64 - 1);
+            lo..=hi
         };
-        let ((x0, x1, okx), (y0, y1, oky), (z0, z1, okz)) = (range(0), range(1), range(2));
-        if okx && oky && okz && self.wide > 0 {
-            for z in z0..=z1 {
-                for y in y0..=y1 {
-                    let row = self.dims[0] * (y + self.dims[1] * z);
+        if self.wide > 0 {
+            for z in span(2, h) {
+                let gz = gap(z.saturating_sub(key[2])).powi(2);
+                for y in span(1, h) {
+                    let left = reach2 - gz - gap(y.saturating_sub(key[1])).powi(2);
+                    if left < 0.0 {
+                        continue;
+                    }
+                    // Cells m apart along x are within reach while gap(m) <= sqrt(left).
+                    let hx = ((left.sqrt() / self.cell).floor() as i64 + 1).min(h);
+                    let xs = span(0, hx);
+                    if xs.is_empty() {
+                        continue;
+                    }
+                    let row = self.dims[0] * (y as usize + self.dims[1] * z as usize);
+                    let (x0, x1) = (*xs.start() as usize, *xs.end() as usize);
                     self.push(self.start[row + x0]..self.start[row + x1 + 1], block, entries);
                 }
             }
@@ -148,15 +185,36 @@ impl Grid {
         block.pad();
     }
 
-    fn push(&self, r: std::ops::Range<usize>, block: &mut Block, entries: &mut Vec<usize>) {
+    /// Appends the entries `r` that pass the cull test to `block` and `entries` (branch-free:
+    /// each is written, and kept by advancing the length).
+    fn push(&self, r: std::ops::Range<usize>, block: &mut Block, entries: &mut [usize]) {
         let o = block.origin;
-        block.x.extend(self.x[r.clone()].iter().map(|v| v - o.x));
-        block.y.extend(self.y[r.clone()].iter().map(|v| v - o.y));
-        block.z.extend(self.z[r.clone()].iter().map(|v| v - o.z));
-        block.half_q.extend_from_slice(&self.half_q[r.clone()]);
-        block.scale.extend_from_slice(&self.scale[r.clone()]);
-        entries.extend(r);
+        let half = 0.5 * self.cell;
+        // Squared distance from the cell (a cube about the origin) along one axis.
+        let gap = |d: f64| {
+            let g = (d.abs() - half).max(0.0);
+            g * g
+        };
+        let mut n = block.len;
+        for e in r {
+            let (x, y, z) = (self.x[e] - o.x, self.y[e] - o.y, self.z[e] - o.z);
+            block.x[n] = x;
+            block.y[n] = y;
+            block.z[n] = z;
+            block.half_q[n] = self.half_q[e];
+            block.scale[n] = self.scale[e];
+            entries[n] = e;
+            n += usize::from(self.half_q[e] * (gap(x) + gap(y) + gap(z)) <= self.cull);
+        }
+        block.len = n;
     }
+}
+
+/// `x.floor() as i64` without libm's `floor`, a call on x86-64 without SSE4.1.
+#[inline]
+fn floor(x: f64) -> i64 {
+    let t = x as i64;
+    t - i64::from((t as f64) > x)
 }
 
 fn cell_of(p: &Vector3<f64>, origin: &Vector3<f64>, cell: f64, dims: &[usize; 3]) -> [usize; 3] {
