@@ -17,6 +17,16 @@ pub fn pose_from_xyz_rpy(xyz: [f64; 3], rpy: [f64; 3]) -> Pose {
     )
 }
 
+/// `p -> rotation (p - pivot) + pivot + shift`: a rotation about a point, then a shift.
+pub fn rotation_about(
+    rotation: UnitQuaternion<f64>,
+    pivot: &Vector3<f64>,
+    shift: &Vector3<f64>,
+) -> Pose {
+    Isometry3::from_parts(Translation3::from(pivot + shift), rotation)
+        * Isometry3::translation(-pivot.x, -pivot.y, -pivot.z)
+}
+
 /// Roll, pitch, yaw (rad) of a rotation. At gimbal lock (pitch = +-90 deg) the split between
 /// roll and yaw is not unique; the returned triple still rebuilds the same rotation.
 pub fn rpy(rotation: &UnitQuaternion<f64>) -> [f64; 3] {

@@ -13,10 +13,10 @@
 //! reference as occupancy rather than point counts, because the two sensors sample the same
 //! surfaces at different densities.
 
-use nalgebra::{Point3, Translation3, Unit, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 
 use super::level::Plane;
-use crate::se3::Pose;
+use crate::se3::{Pose, rotation_about};
 
 /// The search range and resolution.
 #[derive(Clone, Debug, PartialEq)]
@@ -115,13 +115,13 @@ impl Occupancy {
         if size[0] * size[1] > 16_000_000 {
             return None;
         }
-        let mut occupied = vec![0.0; size[0] * size[1]];
+        let mut grid = Self { origin, cell, size, values: vec![0.0; size[0] * size[1]] };
         for p in points {
-            let [i, j] = [0, 1].map(|a| ((p[a] - origin[a]) / cell) as usize);
-            occupied[i * size[1] + j] = 1.0;
+            let [i, j] = grid.cell_of(p).map(|c| c as usize); // in range: the grid pads the points
+            grid.values[i * size[1] + j] = 1.0;
         }
-        let values = blur(&occupied, size, settings.blur / cell);
-        Some(Self { origin, cell, size, values })
+        grid.values = blur(&grid.values, size, settings.blur / cell);
+        Some(grid)
     }
 
     fn at(&self, i: i64, j: i64) -> f64 {
@@ -138,8 +138,8 @@ impl Occupancy {
 }
 
 /// Each cell's closeness to the nearest occupied cell: `exp(-d^2 / 2 sigma^2)`, 1 on an
-/// occupied cell. A maximum rather than a sum, so that a dense surface scores no more than a
-/// sparse one and a candidate's score counts cells.
+/// occupied cell. A maximum rather than a sum, so that where the reference samples a surface
+/// densely it weighs no more than where it samples sparsely.
 fn blur(grid: &[f64], size: [usize; 2], sigma_cells: f64) -> Vec<f64> {
     let radius = (3.0 * sigma_cells).ceil() as i64;
     let mut out = vec![0.0f64; grid.len()];
@@ -216,21 +216,14 @@ pub fn search(
     let yaw = k as f64 * settings.yaw_step;
     let shift = (frame.u * a as f64 + frame.v * b as f64) * settings.cell;
     let rotation = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(ground.normal), yaw);
-    // p -> R (p - pivot) + pivot + shift
-    let applied = Pose::from_parts(Translation3::from(pivot + shift), rotation)
-        * Pose::translation(-pivot.x, -pivot.y, -pivot.z);
-    debug_assert!((applied * Point3::from(*pivot)).coords.relative_eq(
-        &(pivot + shift),
-        1e-9,
-        1e-9
-    ));
+    let applied = rotation_about(rotation, pivot, &shift);
     Some(BevAlignment { yaw, shift, applied, score, score_unchanged: unchanged })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::se3::pose_from_xyz_rpy;
+    use nalgebra::Point3;
 
     /// Three 0.5 m cubes 12 m ahead (outlines, 2 cm spacing, several heights) on flat ground.
     fn cubes() -> Vec<Vector3<f64>> {
@@ -259,10 +252,8 @@ mod tests {
         let ground = Plane { normal: Vector3::z(), offset: 0.0 };
         let sensor = Vector3::new(2.3, -0.6, 1.6);
         // The sensor's view, mis-yawed by 8 deg about itself and shifted: 1.7 m at the cubes.
-        let error = Pose::translation(0.3, -0.25, 0.0)
-            * Pose::translation(sensor.x, sensor.y, sensor.z)
-            * pose_from_xyz_rpy([0.0; 3], [0.0, 0.0, 8f64.to_radians()])
-            * Pose::translation(-sensor.x, -sensor.y, -sensor.z);
+        let yaw = UnitQuaternion::from_euler_angles(0.0, 0.0, 8f64.to_radians());
+        let error = rotation_about(yaw, &sensor, &Vector3::new(0.3, -0.25, 0.0));
         let seen: Vec<Vector3<f64>> =
             reference.iter().map(|p| (error * Point3::from(*p)).coords).collect();
         let pivot = (error * Point3::from(sensor)).coords;

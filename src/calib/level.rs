@@ -8,13 +8,13 @@
 //! that and nothing else (the shortest rotation between the two normals, about a point on the
 //! plane under the ROI), so yaw and the in-plane translation are left to the registration.
 
-use nalgebra::{Matrix3, Point3, SymmetricEigen, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Point3, SymmetricEigen, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
 use super::bev::BevAlignment;
 use crate::cloud::{Aabb, is_valid_point};
-use crate::se3::Pose;
+use crate::se3::{Pose, rotation_about};
 
 /// A plane `normal . p + offset = 0` with a unit normal pointing up (+z).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -167,10 +167,7 @@ pub fn levelling(from: &Plane, to: &Plane, pivot: &Vector3<f64>) -> Pose {
     let foot = from.project(pivot);
     let rotation = UnitQuaternion::rotation_between(&from.normal, &to.normal)
         .unwrap_or_else(UnitQuaternion::identity);
-    let shift = -to.normal * to.distance(&foot);
-    // p -> R (p - foot) + foot + shift
-    Pose::from_parts(Translation3::from(foot + shift), rotation)
-        * Pose::translation(-foot.x, -foot.y, -foot.z)
+    rotation_about(rotation, &foot, &(-to.normal * to.distance(&foot)))
 }
 
 /// The search box for the ground: the ROI grown by `margin`.
