@@ -245,3 +245,58 @@ fn threads_give_identical_results() {
         assert_eq!(a.history, b.history);
     }
 }
+
+/// Driving EM by hand, as the browser's worker pool does, with uneven shards that each compute
+/// their own views' statistics, gives `register`'s result bit for bit.
+#[test]
+fn em_driven_over_uneven_shards_matches_register() {
+    let identity = Pose::identity();
+    let offset = pose_from_xyz_rpy([0.03, 0.02, -0.01], [0.02, 0.01, -0.03]);
+    let views: Vec<Vec<[f32; 3]>> = (0..5)
+        .map(|j| {
+            cube_points(
+                600 + 100 * j as usize,
+                20 + j,
+                if j % 2 == 0 { &offset } else { &identity },
+            )
+        })
+        .collect();
+    let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
+    let settings = Settings { initial_sigma: Some(0.5), max_iterations: 40, ..Settings::default() };
+    let expected =
+        jrmpc::register(&refs, &prior_means(150), &settings, |_| Control::Continue).unwrap();
+
+    let (mut em, points) = jrmpc::Em::start(&refs, &prior_means(150), &settings).unwrap();
+    let split = [1, 3, 1];
+    let mut points = points.into_iter();
+    let mut shards: Vec<jrmpc::Shard> = split
+        .iter()
+        .map(|&n| jrmpc::Shard::new(points.by_ref().take(n).collect(), false))
+        .collect();
+    let mut stats = em.empty_stats();
+    let mut iterations = 0;
+    while !em.finished() {
+        let mut first = 0;
+        let mut terms = 0;
+        // Last shard first: the order the shards finish in must not matter.
+        let ranges: Vec<_> = split
+            .iter()
+            .map(|&n| {
+                first += n;
+                first - n..first
+            })
+            .collect();
+        for (shard, range) in shards.iter_mut().zip(&ranges).rev() {
+            let transforms = &em.transforms()[range.clone()];
+            terms += shard.e_step(em.mixture(), em.beta(), transforms, &mut stats[range.clone()]);
+        }
+        em.m_step(&stats, terms);
+        iterations += 1;
+        assert_eq!(em.progress().iteration, iterations);
+    }
+    let driven = em.into_registration();
+    assert_eq!(driven.poses, expected.poses);
+    assert_eq!(driven.mixture, expected.mixture);
+    assert_eq!(driven.history, expected.history);
+    assert_eq!(driven.iterations, expected.iterations);
+}

@@ -122,12 +122,65 @@ pub struct Progress<'a> {
     pub corrections: &'a [Pose],
 }
 
-/// Calibrates every sensor of `rig` to the reference sensor.
+/// Calibrates every sensor of `rig` to the reference sensor: [`prepare`], JRMPC for the
+/// methods that use it, then [`Prepared::finish`].
 pub fn calibrate(
     rig: &Rig,
     settings: &Settings,
     mut progress: impl FnMut(&Progress) -> Control,
 ) -> Result<Calibration, CalibError> {
+    let prepared = prepare(rig, settings)?;
+    let registration = if settings.method.uses_jrmpc() {
+        let input = prepared.jrmpc_input();
+        let registration = jrmpc::register(&input.clouds, &input.means, &input.settings, |p| {
+            progress(&Progress {
+                iteration: p.iteration,
+                max_iterations: input.settings.max_iterations,
+                mean_sigma: p.mean_sigma,
+                max_change: p.max_change,
+                corrections: &prepared.jrmpc_corrections(&p.poses),
+            })
+        })?;
+        Some(registration)
+    } else {
+        None
+    };
+    prepared.finish(registration, progress)
+}
+
+/// A rig checked, levelled and cropped (steps 1 and 2), ready for the registration; owns what
+/// the later steps need, so a caller can drive JRMPC itself ([`Prepared::start_jrmpc`], e.g.
+/// over several workers) and then [`Prepared::finish`].
+pub struct Prepared {
+    settings: Settings,
+    sensors: Vec<String>,
+    reference: String,
+    /// Index of the reference in `sensors`.
+    r: usize,
+    /// Nominal `T_vehicle_sensor`, per sensor.
+    nominals: Vec<Pose>,
+    levelling: Vec<Levelling>,
+    /// The levelling applied on top of each sensor's nominal (identity without levelling).
+    applied: Vec<Pose>,
+    /// The views left after cropping: (sensor index, frame, cloud).
+    usable: Vec<(usize, String, Cloud)>,
+    skipped: Vec<FrameNote>,
+    /// Per sensor, its (reference view, sensor view) pairs; see [`frame_pairs`].
+    pairs: Vec<Vec<(usize, usize)>>,
+    /// The reference's ground, for the target fit.
+    ground: Option<Plane>,
+}
+
+/// What JRMPC registers: the cropped views, the prior's means at their centroid, and the EM
+/// settings.
+pub struct JrmpcInput<'a> {
+    pub clouds: Vec<&'a [[f32; 3]]>,
+    pub means: Vec<[f64; 3]>,
+    pub settings: jrmpc::Settings,
+}
+
+/// Steps 1 and 2: checks the rig and the settings, levels and crops.
+pub fn prepare(rig: &Rig, settings: &Settings) -> Result<Prepared, CalibError> {
     let sensors = sensor_order(rig)?;
     let reference = rig.reference.clone().unwrap_or_else(|| sensors[0].clone());
     if !sensors.contains(&reference) {
@@ -161,17 +214,10 @@ pub fn calibrate(
     let applied: Vec<Pose> = (0..sensors.len())
         .map(|s| levelling.get(s).map_or_else(Pose::identity, |l| l.applied))
         .collect();
-    // The caller sees corrections of the nominal pre-alignment, levelling included.
-    let mut progress = |p: &Progress| {
-        let corrections: Vec<Pose> =
-            p.corrections.iter().zip(&applied).map(|(c, l)| c * l).collect();
-        progress(&Progress { corrections: &corrections, ..*p })
-    };
 
     // 2. Crop.
     let poses: Vec<Pose> = applied.iter().zip(&nominals).map(|(a, n)| a * n).collect();
-    let (usable, mut skipped) = crop_views(rig, &sensors, &poses, settings);
-    let mut kept_jrmpc = Vec::new();
+    let (usable, skipped) = crop_views(rig, &sensors, &poses, settings);
     for (s, name) in sensors.iter().enumerate() {
         if !usable.iter().any(|(u, _, _)| *u == s) {
             return Err(CalibError::NoPointsInRoi(name.clone()));
@@ -183,122 +229,205 @@ pub fn calibrate(
             return Err(CalibError::NoCommonFrames(name.clone()));
         }
     }
+    // Without levelling, the reference's ground is found for the target fit alone.
+    let ground = match levelling.get(r) {
+        Some(l) => l.ground,
+        None if settings.method.uses_jrmpc() => {
+            sensor_ground(rig, &sensors, &nominals, r, settings).1.map(|(g, _)| g)
+        }
+        None => None,
+    };
+    Ok(Prepared {
+        settings: settings.clone(),
+        sensors,
+        reference,
+        r,
+        nominals,
+        levelling,
+        applied,
+        usable,
+        skipped,
+        pairs,
+        ground,
+    })
+}
 
-    // 3. Per-frame corrections by the chosen method.
-    let clouds: Vec<&[[f32; 3]]> = usable.iter().map(|(_, _, c)| c.points.as_slice()).collect();
-    let (mut per_frame, registration) = if settings.method.uses_jrmpc() {
-        let registration = register_jointly(&clouds, &pairs, settings, &mut progress)?;
-        let corrections = pairs
+impl Prepared {
+    /// Sensor names, in result order.
+    pub fn sensors(&self) -> &[String] {
+        &self.sensors
+    }
+
+    /// Step 3's JRMPC input: the cropped views, the prior's means at their centroid, and
+    /// the EM settings.
+    pub fn jrmpc_input(&self) -> JrmpcInput<'_> {
+        let settings = &self.settings;
+        let clouds: Vec<&[[f32; 3]]> =
+            self.usable.iter().map(|(_, _, c)| c.points.as_slice()).collect();
+        let all = Cloud::from_points(clouds.iter().flat_map(|c| c.iter().copied()).collect());
+        let centre = all.centroid().unwrap_or([0.0; 3]);
+        let means = settings.prior.means(settings.components, centre, settings.seed);
+        let jrmpc_settings = jrmpc::Settings {
+            initial_sigma: match settings.initial_sigma {
+                InitialSigma::PriorSize => settings.prior.size(),
+                InitialSigma::BoundingBox => None,
+                InitialSigma::Fixed(sigma) => Some(sigma),
+            },
+            ..settings.jrmpc.clone()
+        };
+        JrmpcInput { clouds, means, settings: jrmpc_settings }
+    }
+
+    /// JRMPC on [`Prepared::jrmpc_input`], to be driven step by step (see [`jrmpc::register`]).
+    pub fn start_jrmpc(&self) -> Result<(jrmpc::Em, jrmpc::CentredViews), CalibError> {
+        let input = self.jrmpc_input();
+        Ok(jrmpc::Em::start(&input.clouds, &input.means, &input.settings)?)
+    }
+
+    /// The running correction per sensor from JRMPC's views' poses: the mean over frames of
+    /// `T_ref,f^-1 T_s,f`, levelling included.
+    pub fn jrmpc_corrections(&self, poses: &[Pose]) -> Vec<Pose> {
+        self.pairs
             .iter()
-            .map(|p| {
-                p.iter()
-                    .map(|&(r, s)| {
-                        ((r, s), registration.poses[r].inverse() * registration.poses[s])
-                    })
-                    .collect()
+            .zip(&self.applied)
+            .map(|(frames, levelled)| {
+                let per_frame: Vec<Pose> =
+                    frames.iter().map(|&(r, s)| poses[r].inverse() * poses[s]).collect();
+                average(&per_frame).map_or_else(Pose::identity, |(c, _)| c) * levelled
             })
-            .collect();
-        (corrections, Some(registration))
-    } else {
-        (vec![Vec::new(); sensors.len()], None)
-    };
-    let reference_ground =
-        levelling.get(r).and_then(|l| l.ground).map(|plane| (plane, settings.ground.normal_band));
-    let plan = match settings.method {
-        Method::Gmm => Some(refine::Plan {
-            method: settings.refine.method,
-            settings: &settings.refine.icp,
-            match_distances: &settings.refine.match_distances,
-            max_departure: Some(settings.refine.max_departure),
-            ground: reference_ground,
-        }),
-        Method::Icp(method) => Some(refine::Plan {
-            method,
-            settings: &settings.icp,
-            match_distances: std::slice::from_ref(&settings.icp.max_correspondence_distance),
-            max_departure: None,
-            ground: None,
-        }),
-        Method::Jrmpc => None,
-    };
-    if let Some(plan) = plan {
-        let report = refine::per_frame(&clouds, &pairs, r, &mut per_frame, &plan, &mut progress)?;
-        for failure in report {
-            let (sensor, frame, _) = &usable[failure.view];
-            let note = FrameNote {
-                sensor: sensors[*sensor].clone(),
-                frame: frame.clone(),
-                reason: failure.reason,
-            };
-            if failure.kept_start {
-                kept_jrmpc.push(note);
-            } else {
-                skipped.push(note);
+            .collect()
+    }
+
+    /// Steps 3 (the per-frame corrections: from `registration` for the GMM methods, refined
+    /// for `gmm`; by ICP for the others), 4 and 5.
+    pub fn finish(
+        self,
+        registration: Option<jrmpc::Registration>,
+        mut progress: impl FnMut(&Progress) -> Control,
+    ) -> Result<Calibration, CalibError> {
+        let Self { settings, sensors, reference, r, nominals, levelling, applied, .. } = &self;
+        let (usable, pairs) = (&self.usable, &self.pairs);
+        let mut skipped = self.skipped.clone();
+        let mut kept_jrmpc = Vec::new();
+        // The caller sees corrections of the nominal pre-alignment, levelling included.
+        let mut progress = |p: &Progress| {
+            let corrections: Vec<Pose> =
+                p.corrections.iter().zip(applied).map(|(c, l)| c * l).collect();
+            progress(&Progress { corrections: &corrections, ..*p })
+        };
+
+        // 3. Per-frame corrections by the chosen method.
+        let clouds: Vec<&[[f32; 3]]> = usable.iter().map(|(_, _, c)| c.points.as_slice()).collect();
+        let mut per_frame: Vec<Vec<((usize, usize), Pose)>> = match &registration {
+            Some(registration) => pairs
+                .iter()
+                .map(|p| {
+                    p.iter()
+                        .map(|&(r, s)| {
+                            ((r, s), registration.poses[r].inverse() * registration.poses[s])
+                        })
+                        .collect()
+                })
+                .collect(),
+            None => vec![Vec::new(); sensors.len()],
+        };
+        let reference_ground = levelling
+            .get(*r)
+            .and_then(|l| l.ground)
+            .map(|plane| (plane, settings.ground.normal_band));
+        let plan = match settings.method {
+            Method::Gmm => Some(refine::Plan {
+                method: settings.refine.method,
+                settings: &settings.refine.icp,
+                match_distances: &settings.refine.match_distances,
+                max_departure: Some(settings.refine.max_departure),
+                ground: reference_ground,
+            }),
+            Method::Icp(method) => Some(refine::Plan {
+                method,
+                settings: &settings.icp,
+                match_distances: std::slice::from_ref(&settings.icp.max_correspondence_distance),
+                max_departure: None,
+                ground: None,
+            }),
+            Method::Jrmpc => None,
+        };
+        if let Some(plan) = plan {
+            let report =
+                refine::per_frame(&clouds, pairs, *r, &mut per_frame, &plan, &mut progress)?;
+            for failure in report {
+                let (sensor, frame, _) = &usable[failure.view];
+                let note = FrameNote {
+                    sensor: sensors[*sensor].clone(),
+                    frame: frame.clone(),
+                    reason: failure.reason,
+                };
+                if failure.kept_start {
+                    kept_jrmpc.push(note);
+                } else {
+                    skipped.push(note);
+                }
             }
         }
-    }
 
-    // 4. Average over frames.
-    let reference_nominal = nominals[r];
-    let mut results = Vec::with_capacity(sensors.len());
-    for (s, name) in sensors.iter().enumerate() {
-        let corrections: Vec<Pose> = per_frame[s].iter().map(|(_, c)| c * applied[s]).collect();
-        let Some((correction, spread, outliers)) = robust_average(&corrections) else {
-            return Err(CalibError::FramesFailed {
-                sensor: name.clone(),
-                reason: "every frame failed".into(),
-            });
-        };
-        for i in outliers {
-            let (_, view) = per_frame[s][i].0;
-            let d = correction.inverse() * corrections[i];
-            let reason = format!(
-                "left out of the average: {:.3} deg / {:.1} mm from the other frames",
-                d.rotation.angle().to_degrees(),
-                d.translation.vector.norm() * 1e3
-            );
-            skipped.push(FrameNote { sensor: name.clone(), frame: usable[view].1.clone(), reason });
-        }
-        let extrinsic = correction * nominals[s];
-        results.push(SensorResult {
-            name: name.clone(),
-            correction,
-            extrinsic,
-            relative: reference_nominal.inverse() * extrinsic,
-            spread,
-        });
-    }
-
-    // 5. Plausibility of the reconstruction.
-    let (target, iterations, converged, cancelled, history) = match registration {
-        Some(reg) => {
-            // Without levelling, the reference's ground is found for the fit alone.
-            let ground = match levelling.get(r) {
-                Some(l) => l.ground,
-                None => sensor_ground(rig, &sensors, &nominals, r, settings).1.map(|(g, _)| g),
+        // 4. Average over frames.
+        let reference_nominal = nominals[*r];
+        let mut results = Vec::with_capacity(sensors.len());
+        for (s, name) in sensors.iter().enumerate() {
+            let corrections: Vec<Pose> = per_frame[s].iter().map(|(_, c)| c * applied[s]).collect();
+            let Some((correction, spread, outliers)) = robust_average(&corrections) else {
+                return Err(CalibError::FramesFailed {
+                    sensor: name.clone(),
+                    reason: "every frame failed".into(),
+                });
             };
-            let reference_views: Vec<usize> = pairs[r].iter().map(|&(v, _)| v).collect();
-            let target = reconstruction(&reg, &reference_views, ground, &settings.prior);
-            (target, reg.iterations, reg.converged, reg.cancelled, reg.history)
+            for i in outliers {
+                let (_, view) = per_frame[s][i].0;
+                let d = correction.inverse() * corrections[i];
+                let reason = format!(
+                    "left out of the average: {:.3} deg / {:.1} mm from the other frames",
+                    d.rotation.angle().to_degrees(),
+                    d.translation.vector.norm() * 1e3
+                );
+                let frame = usable[view].1.clone();
+                skipped.push(FrameNote { sensor: name.clone(), frame, reason });
+            }
+            let extrinsic = correction * nominals[s];
+            results.push(SensorResult {
+                name: name.clone(),
+                correction,
+                extrinsic,
+                relative: reference_nominal.inverse() * extrinsic,
+                spread,
+            });
         }
-        None => {
-            let empty = Target { means: vec![], sigmas: vec![], priors: vec![], fits: vec![] };
-            (empty, 0, true, false, vec![])
-        }
-    };
-    Ok(Calibration {
-        method: settings.method,
-        reference,
-        sensors: results,
-        target,
-        iterations,
-        converged,
-        cancelled,
-        skipped,
-        kept_jrmpc,
-        levelling,
-        history,
-    })
+
+        // 5. Plausibility of the reconstruction.
+        let (target, iterations, converged, cancelled, history) = match registration {
+            Some(reg) => {
+                let reference_views: Vec<usize> = pairs[*r].iter().map(|&(v, _)| v).collect();
+                let target = reconstruction(&reg, &reference_views, self.ground, &settings.prior);
+                (target, reg.iterations, reg.converged, reg.cancelled, reg.history)
+            }
+            None => {
+                let empty = Target { means: vec![], sigmas: vec![], priors: vec![], fits: vec![] };
+                (empty, 0, true, false, vec![])
+            }
+        };
+        Ok(Calibration {
+            method: settings.method,
+            reference: reference.clone(),
+            sensors: results,
+            target,
+            iterations,
+            converged,
+            cancelled,
+            skipped,
+            kept_jrmpc,
+            levelling: levelling.clone(),
+            history,
+        })
+    }
 }
 
 /// Step 2: each view pre-aligned by its sensor's pose and cropped to the ROI, as
@@ -424,45 +553,6 @@ fn reconstruction(
         priors: mix.priors.clone(),
         fits: fit_targets(prior, &means, &mix.priors, ground),
     }
-}
-
-/// Step 3 for the GMM methods: all views to one mixture started from the prior at the ROI
-/// points' centroid, reporting the running per-sensor corrections after every iteration.
-fn register_jointly(
-    clouds: &[&[[f32; 3]]],
-    pairs: &[Vec<(usize, usize)>],
-    settings: &Settings,
-    progress: &mut impl FnMut(&Progress) -> Control,
-) -> Result<jrmpc::Registration, CalibError> {
-    let all = Cloud::from_points(clouds.iter().flat_map(|c| c.iter().copied()).collect());
-    let centre = all.centroid().unwrap_or([0.0; 3]);
-    let means = settings.prior.means(settings.components, centre, settings.seed);
-    let jrmpc_settings = jrmpc::Settings {
-        initial_sigma: match settings.initial_sigma {
-            InitialSigma::PriorSize => settings.prior.size(),
-            InitialSigma::BoundingBox => None,
-            InitialSigma::Fixed(sigma) => Some(sigma),
-        },
-        ..settings.jrmpc.clone()
-    };
-    let registration = jrmpc::register(clouds, &means, &jrmpc_settings, |p| {
-        let corrections: Vec<Pose> = pairs
-            .iter()
-            .map(|frames| {
-                let per_frame: Vec<Pose> =
-                    frames.iter().map(|&(r, s)| p.poses[r].inverse() * p.poses[s]).collect();
-                average(&per_frame).map_or_else(Pose::identity, |(c, _)| c)
-            })
-            .collect();
-        progress(&Progress {
-            iteration: p.iteration,
-            max_iterations: settings.jrmpc.max_iterations,
-            mean_sigma: p.mean_sigma,
-            max_change: p.max_change,
-            corrections: &corrections,
-        })
-    })?;
-    Ok(registration)
 }
 
 /// Sensor names in order of first appearance among the views: the order of

@@ -39,7 +39,7 @@ impl Method {
         }
     }
 
-    pub(super) fn uses_jrmpc(&self) -> bool {
+    pub fn uses_jrmpc(&self) -> bool {
         matches!(self, Method::Gmm | Method::Jrmpc)
     }
 }

@@ -21,7 +21,7 @@ pub use init::Prior;
 pub use model::Mixture;
 
 use crate::se3::Pose;
-use model::ViewStats;
+pub use model::ViewStats;
 
 /// EM settings. Defaults are GMMCalib's, except the variance floor and the convergence test.
 #[derive(Clone, Debug, PartialEq)]
@@ -68,11 +68,11 @@ impl Default for Settings {
 }
 
 /// What the progress callback sees after each iteration.
-pub struct Progress<'a> {
+pub struct Progress {
     /// 1-based iteration just completed.
     pub iteration: usize,
     /// `T_model_view` for every view, in the caller's frame.
-    pub poses: &'a [Pose],
+    pub poses: Vec<Pose>,
     /// Mean component standard deviation (m).
     pub mean_sigma: f64,
     /// Largest transform change in this iteration (rad or m).
@@ -155,127 +155,256 @@ impl std::error::Error for JrmpcError {}
 
 /// Registers `views` (points in a common, roughly aligned frame) jointly to a mixture that
 /// starts at `initial_means`. `progress` runs after every iteration and may stop the run.
+///
+/// The loop of [`Em`] and [`Shard`]s that a caller with its own workers drives step by step
+/// (the browser's worker pool, `src/wasm/session.rs`); with `settings.threads` > 1 the shards
+/// run on native threads.
 pub fn register(
     views: &[&[[f32; 3]]],
     initial_means: &[[f64; 3]],
     settings: &Settings,
     mut progress: impl FnMut(&Progress) -> Control,
 ) -> Result<Registration, JrmpcError> {
-    validate(views, initial_means, settings)?;
-    let centre = common_centroid(views);
-    let points: Vec<Vec<Vector3<f64>>> = views
-        .iter()
-        .map(|v| {
-            v.iter().map(|p| Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64) - centre).collect()
-        })
-        .collect();
-    let means: Vec<Vector3<f64>> =
-        initial_means.iter().map(|m| Vector3::new(m[0], m[1], m[2]) - centre).collect();
-    let k = means.len();
-
-    // Initialisation (as jrmpc.m): identity transforms, every variance the squared diagonal of
-    // the bounding box of all points and means, equal priors, and a fixed outlier term.
-    let variance = settings
-        .initial_sigma
-        .map_or_else(|| bounding_box_diagonal_sq(points.iter().flatten().chain(&means)), |s| s * s)
-        .max(settings.variance_floor);
-    let mut mixture = Mixture {
-        means,
-        variances: vec![variance; k],
-        priors: vec![1.0 / (k as f64 * (1.0 + settings.gamma)); k],
-    };
-    let h = 2.0 * variance; // 2 / mean(Q)
-    let beta = settings.gamma / (h * (1.0 + settings.gamma));
-    let mut transforms = vec![(Matrix3::identity(), Vector3::zeros()); views.len()];
-    let mut stats = vec![ViewStats::zeros(k); views.len()];
-    let mut scratch: Vec<estep::Scratch> =
-        (0..settings.threads.clamp(1, views.len())).map(|_| estep::Scratch::new()).collect();
-    let mut dense_terms = Vec::with_capacity(k);
-    let mut history = Vec::new();
-    let mut unsupported = Vec::new();
-    let (mut converged, mut cancelled) = (false, false);
-
-    for iteration in 1..=settings.max_iterations {
-        let mut terms = 0;
-        if settings.dense {
-            for ((view, st), (r, t)) in points.iter().zip(&mut stats).zip(&transforms) {
-                st.clear();
-                terms += estep::dense(view, r, t, &mixture, beta, st, &mut dense_terms);
-            }
+    let (mut em, points) = Em::start(views, initial_means, settings)?;
+    let threads = if cfg!(target_arch = "wasm32") { 1 } else { settings.threads };
+    let per = points.len().div_ceil(threads.clamp(1, points.len()));
+    let mut shards: Vec<Shard> = Vec::new();
+    let mut points = points.into_iter().peekable();
+    while points.peek().is_some() {
+        shards.push(Shard::new(points.by_ref().take(per).collect(), settings.dense));
+    }
+    let mut stats = em.empty_stats();
+    while !em.finished() {
+        let (mixture, beta, transforms) = (em.mixture(), em.beta(), em.transforms());
+        let jobs = shards.iter_mut().zip(stats.chunks_mut(per)).zip(transforms.chunks(per));
+        let terms = if jobs.len() == 1 {
+            jobs.map(|((shard, st), t)| shard.e_step(mixture, beta, t, st)).sum()
         } else {
-            let grid = grid::Grid::new(&mixture, beta);
-            let shard = |views: &[Vec<Vector3<f64>>],
-                         stats: &mut [ViewStats],
-                         transforms: &[(Matrix3<f64>, Vector3<f64>)],
-                         scratch: &mut estep::Scratch| {
-                let mut terms = 0;
-                for ((view, st), (r, t)) in views.iter().zip(stats).zip(transforms) {
-                    st.clear();
-                    terms += estep::accumulate(view, r, t, &mixture, &grid, beta, st, scratch);
-                }
-                terms
-            };
-            let per = points.len().div_ceil(scratch.len());
-            let shards = points
-                .chunks(per)
-                .zip(stats.chunks_mut(per))
-                .zip(transforms.chunks(per))
-                .zip(scratch.iter_mut());
-            if cfg!(target_arch = "wasm32") || shards.len() == 1 {
-                terms = shards.map(|(((v, s), t), sc)| shard(v, s, t, sc)).sum();
-            } else {
-                terms = std::thread::scope(|scope| {
-                    let handles: Vec<_> = shards
-                        .map(|(((v, s), t), sc)| scope.spawn(move || shard(v, s, t, sc)))
-                        .collect();
-                    handles.into_iter().map(|h| h.join().expect("E-step thread")).sum()
-                });
-            }
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = jobs
+                    .map(|((shard, st), t)| scope.spawn(move || shard.e_step(mixture, beta, t, st)))
+                    .collect();
+                handles.into_iter().map(|h| h.join().expect("E-step thread")).sum()
+            })
+        };
+        em.m_step(&stats, terms);
+        if progress(&em.progress()) == Control::Stop {
+            em.cancel();
         }
-        unsupported.clear();
-        let previous = transforms.clone();
-        for (j, (st, current)) in stats.iter().zip(&mut transforms).enumerate() {
-            match mstep::view_transform(st, &mixture, &current.0) {
+    }
+    Ok(em.into_registration())
+}
+
+/// Every view's points, centred on the views' common centroid: what the shards hold.
+pub type CentredViews = Vec<Vec<Vector3<f64>>>;
+
+/// EM between E-steps: the mixture, the views' transforms and the history, on data centred on
+/// the views' common centroid. Each iteration, the [`Shard`]s holding the views compute their
+/// statistics against [`Em::mixture`], [`Em::beta`] and [`Em::transforms`], and
+/// [`Em::m_step`] takes them all, in view order: so the result does not depend on how the views
+/// were split, or where the shards ran.
+pub struct Em {
+    settings: Settings,
+    centre: Vector3<f64>,
+    mixture: Mixture,
+    beta: f64,
+    transforms: Vec<(Matrix3<f64>, Vector3<f64>)>,
+    history: Vec<IterationStats>,
+    unsupported: Vec<usize>,
+    converged: bool,
+    cancelled: bool,
+}
+
+impl Em {
+    /// Checks the input and initialises (as jrmpc.m): identity transforms, every variance the
+    /// squared diagonal of the bounding box of all points and means (or the given sigma),
+    /// equal priors, a fixed outlier term. Also returns the views' points, centred, for the
+    /// shards.
+    pub fn start(
+        views: &[&[[f32; 3]]],
+        initial_means: &[[f64; 3]],
+        settings: &Settings,
+    ) -> Result<(Self, CentredViews), JrmpcError> {
+        validate(views, initial_means, settings)?;
+        let centre = common_centroid(views);
+        let points: Vec<Vec<Vector3<f64>>> = views
+            .iter()
+            .map(|v| v.iter().map(|p| Vector3::from(p.map(f64::from)) - centre).collect())
+            .collect();
+        let means: Vec<Vector3<f64>> =
+            initial_means.iter().map(|m| Vector3::from(*m) - centre).collect();
+        let k = means.len();
+        let variance = settings
+            .initial_sigma
+            .map_or_else(
+                || bounding_box_diagonal_sq(points.iter().flatten().chain(&means)),
+                |s| s * s,
+            )
+            .max(settings.variance_floor);
+        let mixture = Mixture {
+            means,
+            variances: vec![variance; k],
+            priors: vec![1.0 / (k as f64 * (1.0 + settings.gamma)); k],
+        };
+        let h = 2.0 * variance; // 2 / mean(Q)
+        let em = Self {
+            settings: settings.clone(),
+            centre,
+            mixture,
+            beta: settings.gamma / (h * (1.0 + settings.gamma)),
+            transforms: vec![(Matrix3::identity(), Vector3::zeros()); views.len()],
+            history: Vec::new(),
+            unsupported: Vec::new(),
+            converged: false,
+            cancelled: false,
+        };
+        Ok((em, points))
+    }
+
+    /// The mixture the next E-step evaluates (centred frame).
+    pub fn mixture(&self) -> &Mixture {
+        &self.mixture
+    }
+
+    /// The posterior's outlier term.
+    pub fn beta(&self) -> f64 {
+        self.beta
+    }
+
+    /// Each view's current transform (rotation, translation) in the centred frame.
+    pub fn transforms(&self) -> &[(Matrix3<f64>, Vector3<f64>)] {
+        &self.transforms
+    }
+
+    /// Zeroed statistics for every view, for the E-step to fill.
+    pub fn empty_stats(&self) -> Vec<ViewStats> {
+        vec![ViewStats::zeros(self.mixture.len()); self.transforms.len()]
+    }
+
+    /// Iterations done.
+    pub fn iteration(&self) -> usize {
+        self.history.len()
+    }
+
+    /// Converged, cancelled, or out of iterations.
+    pub fn finished(&self) -> bool {
+        self.converged || self.cancelled || self.iteration() >= self.settings.max_iterations
+    }
+
+    /// Ends the iteration whose E-step gave `stats` (every view's, in view order) after
+    /// evaluating `terms` Gaussian terms: transforms, then the mixture.
+    pub fn m_step(&mut self, stats: &[ViewStats], terms: u64) {
+        self.unsupported.clear();
+        let previous = self.transforms.clone();
+        for (j, (st, current)) in stats.iter().zip(&mut self.transforms).enumerate() {
+            match mstep::view_transform(st, &self.mixture, &current.0) {
                 Some(next) => *current = next,
-                None => unsupported.push(j),
+                None => self.unsupported.push(j),
             }
         }
-        let max_change = relative_change(&previous, &transforms);
+        let max_change = relative_change(&previous, &self.transforms);
+        let s = &self.settings;
         mstep::update_mixture(
-            &mut mixture,
-            &stats,
-            &transforms,
-            settings.gamma,
-            settings.variance_floor,
-            settings.update_priors,
+            &mut self.mixture,
+            stats,
+            &self.transforms,
+            s.gamma,
+            s.variance_floor,
+            s.update_priors,
         );
+        let mean_sigma = self.mixture.mean_sigma();
+        self.history.push(IterationStats { mean_sigma, max_change, terms });
+        self.converged = max_change <= s.tolerance;
+    }
 
-        let mean_sigma = mixture.mean_sigma();
-        history.push(IterationStats { mean_sigma, max_change, terms });
-        let poses: Vec<Pose> = transforms.iter().map(|rt| uncentred(rt, &centre)).collect();
-        let answer = progress(&Progress { iteration, poses: &poses, mean_sigma, max_change });
-        if max_change <= settings.tolerance {
-            converged = true;
-            break;
-        }
-        if answer == Control::Stop {
-            cancelled = true;
-            break;
+    /// The last iteration, with the views' poses in the caller's frame.
+    pub fn progress(&self) -> Progress {
+        let last = self.history.last().copied().unwrap_or(IterationStats {
+            mean_sigma: self.mixture.mean_sigma(),
+            max_change: f64::INFINITY,
+            terms: 0,
+        });
+        Progress {
+            iteration: self.iteration(),
+            poses: self.poses(),
+            mean_sigma: last.mean_sigma,
+            max_change: last.max_change,
         }
     }
 
-    for m in &mut mixture.means {
-        *m += centre;
+    /// `T_model_view` per view, in the caller's frame.
+    pub fn poses(&self) -> Vec<Pose> {
+        self.transforms.iter().map(|rt| uncentred(rt, &self.centre)).collect()
     }
-    Ok(Registration {
-        poses: transforms.iter().map(|rt| uncentred(rt, &centre)).collect(),
-        mixture,
-        iterations: history.len(),
-        converged,
-        cancelled,
-        unsupported,
-        history,
-    })
+
+    /// Stops after the current iteration (unless it has converged: that takes precedence).
+    pub fn cancel(&mut self) {
+        self.cancelled = !self.converged;
+    }
+
+    /// The outcome, in the caller's frame.
+    pub fn into_registration(mut self) -> Registration {
+        let poses = self.poses();
+        for m in &mut self.mixture.means {
+            *m += self.centre;
+        }
+        Registration {
+            poses,
+            mixture: self.mixture,
+            iterations: self.history.len(),
+            converged: self.converged,
+            cancelled: self.cancelled,
+            unsupported: self.unsupported,
+            history: self.history,
+        }
+    }
+}
+
+/// A contiguous slice of the views (centred points) and the E-step's buffers: one per thread
+/// or worker. Its statistics depend only on its own views and the mixture, never on the split.
+pub struct Shard {
+    views: Vec<Vec<Vector3<f64>>>,
+    dense: bool,
+    scratch: estep::Scratch,
+    dense_terms: Vec<f64>,
+}
+
+impl Shard {
+    /// `dense`: the exact reference E-step ([`Settings::dense`]).
+    pub fn new(views: Vec<Vec<Vector3<f64>>>, dense: bool) -> Self {
+        Self { views, dense, scratch: estep::Scratch::new(), dense_terms: Vec::new() }
+    }
+
+    pub fn len(&self) -> usize {
+        self.views.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.views.is_empty()
+    }
+
+    /// Fills `stats` (one per view of the shard) from the views under `transforms` (likewise);
+    /// returns the Gaussian terms evaluated.
+    pub fn e_step(
+        &mut self,
+        mixture: &Mixture,
+        beta: f64,
+        transforms: &[(Matrix3<f64>, Vector3<f64>)],
+        stats: &mut [ViewStats],
+    ) -> u64 {
+        let mut terms = 0;
+        let grid = (!self.dense).then(|| grid::Grid::new(mixture, beta));
+        for ((view, st), (r, t)) in self.views.iter().zip(stats).zip(transforms) {
+            st.clear();
+            terms += match &grid {
+                Some(grid) => {
+                    estep::accumulate(view, r, t, mixture, grid, beta, st, &mut self.scratch)
+                }
+                None => estep::dense(view, r, t, mixture, beta, st, &mut self.dense_terms),
+            };
+        }
+        terms
+    }
 }
 
 fn validate(

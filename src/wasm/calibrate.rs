@@ -76,6 +76,15 @@ fn pose_of(name: &str, p: &XyzRpy) -> Result<Pose, JsError> {
 /// `onProgress(progress)` runs after every EM iteration; returning `false` cancels the run.
 #[wasm_bindgen]
 pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValue, JsError> {
+    let (rig, settings) = rig_and_settings(input)?;
+    let mut sink = ProgressSink::new(on_progress, calib::sensor_names(&rig));
+    let result = calib::calibrate(&rig, &settings, |p| sink.send(p));
+    sink.error()?;
+    output(&result.map_err(|e| JsError::new(&e.to_string()))?)
+}
+
+/// The rig and the settings `input` describes.
+pub(super) fn rig_and_settings(input: JsValue) -> Result<(Rig, calib::Settings), JsError> {
     let input: CalibrateInput = serde_wasm_bindgen::from_value(input)
         .map_err(|e| JsError::new(&format!("invalid calibrate input: {e}")))?;
     let mut views = Vec::with_capacity(input.views.len());
@@ -129,40 +138,64 @@ pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValu
             return Err(JsError::new("initialSigma must be a positive number, 'prior' or 'bbox'"));
         }
     };
+    Ok((rig, settings))
+}
 
-    let sensor_names = calib::sensor_names(&rig);
-    let mut callback_error = None;
-    let result = calib::calibrate(&rig, &settings, |p| {
-        let Some(f) = &on_progress else { return Control::Continue };
-        let progress = ProgressOutput {
+/// Passes the library's progress to the JS callback, if any: `false` from it cancels; an
+/// exception cancels too, and is reported by [`ProgressSink::error`].
+pub(super) struct ProgressSink {
+    callback: Option<Function>,
+    sensors: Vec<String>,
+    error: Option<JsValue>,
+}
+
+impl ProgressSink {
+    pub(super) fn new(callback: Option<Function>, sensors: Vec<String>) -> Self {
+        Self { callback, sensors, error: None }
+    }
+
+    pub(super) fn send(&mut self, p: &calib::Progress) -> Control {
+        let Some(f) = &self.callback else { return Control::Continue };
+        let answer = Self::value(&self.sensors, p)
+            .map_err(JsValue::from)
+            .and_then(|v| f.call1(&JsValue::NULL, &v));
+        match answer {
+            Ok(v) if v == JsValue::FALSE => Control::Stop,
+            Ok(_) => Control::Continue,
+            Err(e) => {
+                self.error = Some(e);
+                Control::Stop
+            }
+        }
+    }
+
+    /// `p` as JS sees it.
+    pub(super) fn value(sensors: &[String], p: &calib::Progress) -> Result<JsValue, JsError> {
+        to_js(&ProgressOutput {
             iteration: p.iteration,
             max_iterations: p.max_iterations,
             mean_sigma: p.mean_sigma,
             max_change: p.max_change,
             corrections: p.corrections.iter().map(to_row_major).collect(),
-            sensors: &sensor_names,
-        };
-        let answer =
-            to_js(&progress).map_err(JsValue::from).and_then(|v| f.call1(&JsValue::NULL, &v));
-        match answer {
-            Ok(v) if v == JsValue::FALSE => Control::Stop,
-            Ok(_) => Control::Continue,
-            Err(e) => {
-                callback_error = Some(e);
-                Control::Stop
+            sensors,
+        })
+    }
+
+    /// What the callback threw, if it did.
+    pub(super) fn error(&mut self) -> Result<(), JsError> {
+        match self.error.take() {
+            None => Ok(()),
+            Some(e) => {
+                let message =
+                    e.as_string().or_else(|| js_sys::Error::from(e).message().as_string());
+                Err(JsError::new(&format!("onProgress threw: {}", message.unwrap_or_default())))
             }
         }
-    });
-    if let Some(e) = callback_error {
-        let message = e.as_string().or_else(|| js_sys::Error::from(e).message().as_string());
-        return Err(JsError::new(&format!("onProgress threw: {}", message.unwrap_or_default())));
     }
-    let calibration = result.map_err(|e| JsError::new(&e.to_string()))?;
-    output(&calibration)
 }
 
 /// The library's [`Report`], with the target's bulk arrays as `Float32Array`s for transfer.
-fn output(c: &Calibration) -> Result<JsValue, JsError> {
+pub(super) fn output(c: &Calibration) -> Result<JsValue, JsError> {
     let report = Report::from(c);
     let value = to_js(&report)?;
     let t = &report.target;

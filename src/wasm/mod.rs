@@ -5,6 +5,7 @@
 
 mod calibrate;
 mod files;
+mod session;
 mod simulate;
 mod synthetic;
 
@@ -18,6 +19,7 @@ use crate::se3::{Pose, xyz_rpy};
 
 pub use calibrate::calibrate;
 pub use files::parse_cloud;
+pub use session::{CalibrationSession, JrmpcShard};
 pub use simulate::simulate_rig;
 pub use synthetic::synthetic_rig;
 
