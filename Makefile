@@ -10,7 +10,7 @@ WASM_BINDGEN_VERSION := $(shell awk '/^name = "wasm-bindgen"$$/{getline; gsub(/[
 WASM_OUT := target/$(WASM_TARGET)/release/gmmcalib.wasm
 PORT ?= 5173
 
-.PHONY: serve build wasm test test-rust test-wasm test-browser lint bench bench-wasm setup-rust setup-node setup-browser clean
+.PHONY: serve build wasm test test-rust test-wasm test-browser lint bench bench-browser bench-wasm setup-rust setup-node setup-browser clean
 
 serve: wasm setup-node
 	@echo "gmmcalib: open http://localhost:$(PORT)/"
@@ -41,6 +41,10 @@ test-browser: build setup-browser
 bench: wasm
 	cargo run --release --bin bench
 	node www/bench/bench.mjs
+
+# The page in Chromium timing a calibration on 1 and 2 workers (issue 8); slow at paper scale.
+bench-browser: build setup-browser
+	cd www && node bench/browser.mjs
 
 wasm: setup-rust
 	cargo build --lib --release --target $(WASM_TARGET)

@@ -118,6 +118,8 @@ pub struct NoteReport {
 pub struct HistoryReport {
     pub mean_sigma: Vec<f64>,
     pub max_change: Vec<f64>,
+    /// Gaussian terms the E-step evaluated.
+    pub terms: Vec<u64>,
 }
 
 impl From<&Calibration> for Report {
@@ -168,6 +170,7 @@ impl From<&Calibration> for Report {
             history: HistoryReport {
                 mean_sigma: c.history.iter().map(|h| h.mean_sigma).collect(),
                 max_change: c.history.iter().map(|h| h.max_change).collect(),
+                terms: c.history.iter().map(|h| h.terms).collect(),
             },
         }
     }

@@ -195,6 +195,13 @@ async function calibrateInput(method) {
   return { input, transfer: views.map((v) => v.points.buffer) };
 }
 
+// Workers sharing the registration: one per core (the page's own thread mostly waits), at
+// most 4; a single core runs it in the calibration worker alone.
+function workerCount(setting) {
+  const n = setting === 'auto' ? Math.min(navigator.hardwareConcurrency || 1, 4) : Number(setting);
+  return Number.isInteger(n) && n >= 1 ? n : 1;
+}
+
 function setRunning(running) {
   state.running = running;
   $('cancel').disabled = !running;
@@ -209,16 +216,17 @@ async function runCalibration() {
   const methods = state.settings.method === 'all' ? METHODS : [state.settings.method];
   const results = [];
   const nominal = nominalPoses();
+  const started = performance.now();
   try {
     for (const method of methods) {
       const label = methods.length > 1 ? `${method} (${results.length + 1}/${methods.length}): ` : '';
-      const started = performance.now();
+      const methodStarted = performance.now();
       setStatus(`${label}starting…`);
       const { input, transfer } = await calibrateInput(method);
-      const result = await client.request('calibrate', { input }, {
+      const result = await client.request('calibrate', { input, workers: workerCount(state.settings.workers) }, {
         transfer,
         onProgress: (p) => {
-          const elapsed = (performance.now() - started) / 1000;
+          const elapsed = (performance.now() - methodStarted) / 1000;
           const eta = (elapsed / p.iteration) * (p.maxIterations - p.iteration);
           $('progress').value = (results.length + p.iteration / p.maxIterations) / methods.length;
           setStatus(`${label}iteration ${p.iteration}/${p.maxIterations}, σ ${(p.meanSigma * 100).toFixed(2)} cm, about ${eta.toFixed(1)} s left`);
@@ -230,7 +238,9 @@ async function runCalibration() {
     $('progress').value = 1;
     await showResults(results);
     const r = results[0];
-    setStatus(`Done: ${methods.length > 1 ? `${methods.length} methods` : `${r.iterations} iterations${r.converged ? ' (converged)' : ''}`}.`);
+    const seconds = ((performance.now() - started) / 1000).toFixed(1);
+    const on = r.workers > 1 ? ` on ${r.workers} workers` : '';
+    setStatus(`Done: ${methods.length > 1 ? `${methods.length} methods` : `${r.iterations} iterations${r.converged ? ' (converged)' : ''}`} in ${seconds} s${on}.`);
   } catch (error) {
     $('progress').value = 0;
     setStatus(error.cancelled ? 'Cancelled.' : 'Failed.');
@@ -269,7 +279,7 @@ async function showResults(results) {
 
 // --- controls ---------------------------------------------------------------------------------
 
-const SETTING_INPUTS = ['method', 'edge', 'components', 'iterations', 'initialSigma'];
+const SETTING_INPUTS = ['method', 'edge', 'components', 'iterations', 'initialSigma', 'workers'];
 
 function syncSettingsInputs() {
   for (const key of SETTING_INPUTS) $(key).value = state.settings[key];

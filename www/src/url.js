@@ -7,6 +7,7 @@ export const DEFAULTS = Object.freeze({
   iterations: 100,
   edge: 0.5, // cube edge of the target prior (m)
   initialSigma: 'bbox', // bbox | prior
+  workers: 'auto', // auto | 1 | 2 | 4 | 8: workers sharing JRMPC's E-step
   demo: '', // preset of a demo to load on open: '' | paper | os1-128
   frames: 4,
   seed: 1,

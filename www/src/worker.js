@@ -1,8 +1,11 @@
 // All heavy work happens here, off the main thread: the wasm module is loaded once and each
 // request {type, id, ...} is answered with {type: 'result' | 'error', id, ...}. Typed arrays in
 // results are transferred, not copied.
-import init, { calibrate, parseCloud, simulateRig } from '../pkg/gmmcalib.js';
+import init, * as wasm from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
+import { calibrateSharded } from './shard-pool.js';
+
+const { calibrate, parseCloud, simulateRig } = wasm;
 
 const ready = init({ module_or_path: wasmUrl });
 
@@ -15,11 +18,16 @@ function buffersOf(value, found = []) {
 const handlers = {
   parse: ({ bytes, name }) => parseCloud(new Uint8Array(bytes), name),
   simulate: ({ options }) => simulateRig(options),
-  calibrate: ({ input }, id) =>
-    calibrate(input, (progress) => {
+  // `workers` > 1 shares JRMPC's E-step with that many workers in all (this one included).
+  calibrate: ({ input, workers = 1 }, id) => {
+    const onProgress = (progress) => {
       self.postMessage({ type: 'progress', id, progress });
       return true;
-    }),
+    };
+    const sharded = workers > 1 && ['gmm', 'jrmpc', undefined].includes(input.method);
+    if (sharded) return calibrateSharded(wasm, input, workers, onProgress);
+    return { ...calibrate(input, onProgress), workers: 1 };
+  },
 };
 
 self.onmessage = async ({ data }) => {
@@ -28,7 +36,7 @@ self.onmessage = async ({ data }) => {
     await ready;
     const handler = handlers[type];
     if (!handler) throw new Error(`unknown request type '${type}'`);
-    const result = handler(data, id);
+    const result = await handler(data, id);
     self.postMessage({ type: 'result', id, result }, [...new Set(buffersOf(result))]);
   } catch (error) {
     // A trap inside wasm (a panic, out of memory) leaves the instance unusable: ask for a new

@@ -1,0 +1,49 @@
+// The browser bench (issue 8): times a JRMPC calibration in headless Chromium, through the page
+// as a user runs it (a GMMCalib folder through the file input, Calibrate), on 1 and on 2
+// workers, at the sample and the paper scale of bench.mjs. Prints the page's own wall time
+// (click to result, views copied to the worker included), the Gaussian terms evaluated and
+// dense-equivalent terms per second. Run `make bench-browser` (builds www/dist first).
+// Pass --quick for the sample scale only.
+import { serveDist, launch, openPage, waitForStatus } from '../e2e/harness.js';
+import { gmmcalibFolder, syntheticRig } from '../e2e/rigfiles.js';
+
+const quick = process.argv.includes('--quick');
+const jobs = [
+  { name: 'sample scale: 10 views x 1300 points, K=444', frames: 5, pointsPerView: 1300, components: 444 },
+  { name: 'paper scale: 212 views x 1850 points, K=400', frames: 106, pointsPerView: 1850, components: 400 },
+];
+
+const server = await serveDist();
+const browser = await launch();
+console.log(`gmmcalib browser bench (${browser.version()}, headless; the machine may be shared)`);
+try {
+  for (const job of quick ? jobs.slice(0, 1) : jobs) {
+    const rig = syntheticRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
+    const files = gmmcalibFolder(rig, 'rig', `method: jrmpc\ncomponents: ${job.components}\niterations: 100\n`);
+    const points = rig.views.reduce((n, v) => n + v.points.length / 3, 0);
+    console.log(`jrmpc ${job.name} (${points} points)`);
+    const seconds = {};
+    for (const workers of [1, 2]) {
+      const { page, problems } = await openPage(browser, `${server.url}#workers=${workers}`);
+      await page.getByTestId('file-input').setInputFiles(files);
+      await waitForStatus(page, /scans of 2 sensors loaded/, 120_000);
+      await page.getByTestId('calibrate').click();
+      await waitForStatus(page, /^Done/, 900_000);
+      const status = await page.getByTestId('status').textContent();
+      const result = JSON.parse(await page.getByTestId('result-json').textContent());
+      if (problems.length) throw new Error(problems.join('\n'));
+      if (result.workers !== workers) throw new Error(`ran on ${result.workers} workers, asked for ${workers}`);
+      seconds[workers] = Number(status.match(/in ([\d.]+) s/)[1]);
+      const terms = result.history.terms.reduce((a, b) => a + b, 0);
+      const dense = points * job.components * result.iterations;
+      console.log(`  ${workers} worker${workers > 1 ? 's' : ' '} ${seconds[workers].toFixed(1).padStart(7)} s  ` +
+        `${(terms / 1e6).toFixed(1).padStart(7)} M terms evaluated (${(100 * terms / dense).toFixed(1)} % of dense, ` +
+        `${result.iterations} iterations)  ${(dense / seconds[workers] / 1e6).toFixed(0).padStart(5)} M dense-equivalent terms/s`);
+      await page.close();
+    }
+    console.log(`  2 workers over 1: ${(seconds[1] / seconds[2]).toFixed(2)}x`);
+  }
+} finally {
+  await browser.close();
+  server.close();
+}
