@@ -6,7 +6,7 @@
 //! the components a point can reach come from the [`Grid`] (with a bound on the neglected
 //! mass), the points of a view are sorted by grid cell so each run of points shares one
 //! contiguous block of components, and the terms are evaluated in SIMD lanes with a
-//! polynomial exp, in block coordinates (about the block's cell).
+//! polynomial exp in f32, in block coordinates (about the block's cell); sums in f64.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -23,7 +23,7 @@ pub struct Scratch {
     sums: Vec<[f64; 5]>,
     block: Block,
     entries: Vec<usize>,
-    a: Vec<f64>,
+    a: Vec<f32>,
     acc: Accumulators,
 }
 
@@ -186,9 +186,10 @@ mod tests {
         assert!(terms < (points.len() * k) as u64, "the grid skips components");
         let mut exact = ViewStats::zeros(k);
         dense(&points, &rotation, &translation, &mixture, beta, &mut exact, &mut Vec::new());
-        // Each point's skipped terms hold at most 1e-8 of its posterior denominator, so its
-        // posteriors move by at most 1e-8 in all: summed over components, the statistics
-        // move by at most 1e-8 of the point count (times |v|, |v|^2 for s1, s2).
+        // Each point's skipped terms hold at most 1e-8 of its posterior denominator, and each
+        // term it evaluates carries f32's relative error (about 1e-7), so its posteriors move
+        // by at most about 1e-7 in all: summed over components, the statistics move by at
+        // most that much of the point count (times |v|, |v|^2 for s1, s2). Measured: 6e-9.
         let n = points.len() as f64;
         let v1: f64 = points.iter().map(|v| v.norm()).sum();
         let v2: f64 = points.iter().map(|v| v.norm_squared()).sum();
@@ -196,6 +197,6 @@ mod tests {
         let d_s1: f64 = (0..k).map(|c| (fast.s1[c] - exact.s1[c]).norm()).sum();
         let d_s2: f64 = (0..k).map(|c| (fast.s2[c] - exact.s2[c]).abs()).sum();
         println!("{:.1e} {:.1e} {:.1e}", d_lambda / n, d_s1 / v1, d_s2 / v2);
-        assert!(d_lambda <= 1e-8 * n && d_s1 <= 1e-8 * v1 && d_s2 <= 1e-8 * v2);
+        assert!(d_lambda <= 1e-7 * n && d_s1 <= 1e-7 * v1 && d_s2 <= 1e-7 * v2);
     }
 }

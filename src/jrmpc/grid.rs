@@ -46,7 +46,7 @@ pub struct Grid {
     y: Vec<f64>,
     z: Vec<f64>,
     half_q: Vec<f64>,
-    scale: Vec<f64>,
+    scale: Vec<f32>,
     /// Entries `wide..` are visited by every point.
     wide: usize,
     /// Largest exponent `Q_k d^2 / 2` worth evaluating.
@@ -119,7 +119,7 @@ impl Grid {
             y: order.iter().map(|&c| means[c].y).collect(),
             z: order.iter().map(|&c| means[c].z).collect(),
             half_q: field(&|c| 0.5 / mixture.variances[c]),
-            scale: field(&|c| scale[c]),
+            scale: order.iter().map(|&c| scale[c] as f32).collect(),
             wide: keyed.len(),
             order,
             cutoff,

@@ -3,56 +3,47 @@
 //! Plain loops with no reduction inside, over structure-of-arrays columns, which LLVM turns
 //! into SIMD (SSE2 natively, simd128 under wasm32 with `+simd128`); a polynomial exp instead of
 //! libm's; no fused multiply-add and lane sums reduced in a fixed order, so results do not
-//! depend on how the loops were vectorised. f64 throughout: the reference's calibrations move by 1e-5 rad
-//! when every term carries a relative error of 1e-7 (f32), so f32 cannot meet the 1e-4 rad
-//! bound after 100 iterations on rigs that have not converged.
+//! depend on how the loops were vectorised.
+//!
+//! Exponents are f64, the exps f32 (four lanes where f64 has two, and a degree-6 polynomial
+//! where f64 needs 10), the sums f64. The f32 exp's relative error of about 1e-7 per term moves
+//! the calibrations of tests/jrmpc.rs by at most 8e-6 rad against the exact dense path (the
+//! bound is 1e-4). Distances in f32 as well would be faster still, but moved them by up to
+//! 5e-4 rad: an f32 coordinate's rounding, a few sigma from the cell centre, shifts a narrow
+//! component's exponent systematically for every point of the cell.
 
 /// Elements per chunk of the lane sums; blocks are padded to a multiple of it.
 pub const LANES: usize = 4;
 
-/// Largest exponent evaluated (`exp(-700)` is still a normal f64).
-const MAX_EXPONENT: f64 = 700.0;
+/// Largest exponent evaluated in f32 (`exp(-87)` is still a normal f32); terms beyond it are 0,
+/// as they are beyond the grid's cutoff. That cutoff is about 20-45 in practice; where it is
+/// higher the terms dropped here are below `1.7e-38 p_k Q_k^1.5` each.
+const MAX_EXPONENT_F32: f32 = 87.0;
 
 /// Posteriors below this are dropped: products with them could be subnormal, which costs x86
 /// a hundred cycles each.
 const TINY: f64 = 1e-280;
 
-/// Coefficients of `e^r` on `|r| <= ln 2 / 2`, degree 10 down to 0: a minimax fit of the
-/// relative error (Remez, in 50-digit arithmetic), 3e-16 with the coefficients in f64, as
-/// close as the degree-12 Taylor series it replaced, for two multiply-adds less.
-const EXP_POLY: [f64; 11] = [
-    2.748_844_619_412_401_3e-7,
-    2.763_976_818_338_151_3e-6,
-    2.480_191_768_015_792e-5,
-    1.984_117_138_442_271e-4,
-    1.388_888_849_914_629_6e-3,
-    8.333_333_384_665_614e-3,
-    4.166_666_666_842_598e-2,
-    1.666_666_666_655_774_2e-1,
-    4.999_999_999_999_728_6e-1,
-    1.000_000_000_000_006_4,
-    1.0,
-];
-
-/// `exp(-x)` for `x >= 0`, to about 2 ulp: `2^n e^r` with `n` rounded by the 1.5 * 2^52 trick
-/// (no SSE4.1 `round` needed), `r` split off in two parts (Cody-Waite) and `e^r` by
-/// [`EXP_POLY`].
+/// `exp(-x)` in f32 for `0 <= x <= 87`, to about 1 ulp (Cephes' expf): `2^n e^r`, `n` rounded
+/// by the 1.5 * 2^23 trick, `r` split off in two parts, `e^r = 1 + r + r^2 P(r)`.
 #[inline(always)]
-pub fn exp_neg(x: f64) -> f64 {
-    const MAGIC: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52: adding it rounds to an integer
-    const LN2_HI: f64 = 6.931_471_803_691_238e-1;
-    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
-    let y = -(if x < MAX_EXPONENT { x } else { MAX_EXPONENT });
-    let t = y * std::f64::consts::LOG2_E + MAGIC;
+pub fn exp_neg_f32(x: f32) -> f32 {
+    const MAGIC: f32 = 12_582_912.0; // 1.5 * 2^23
+    const LN2_HI: f32 = 0.693_359_4;
+    const LN2_LO: f32 = -2.121_944_4e-4;
+    const P: [f32; 6] =
+        [1.987_569_1e-4, 1.398_199_9e-3, 8.333_452e-3, 4.166_579_6e-2, 1.666_666_5e-1, 0.5];
+    let y = -(if x < MAX_EXPONENT_F32 { x } else { MAX_EXPONENT_F32 });
+    let t = y * std::f32::consts::LOG2_E + MAGIC;
     let n = t - MAGIC;
     let r = y - n * LN2_HI - n * LN2_LO;
-    let mut e_r = EXP_POLY[0];
-    for c in &EXP_POLY[1..] {
-        e_r = e_r * r + c;
+    let mut p = P[0];
+    for c in &P[1..] {
+        p = p * r + c;
     }
-    // t's bit pattern is 0x4338_0000_0000_0000 + n; 2^n is (n + 1023) in the exponent field.
-    let n = t.to_bits() as i64 - 0x4338_0000_0000_0000;
-    e_r * f64::from_bits(((n + 1023) << 52) as u64)
+    let e_r = p * (r * r) + r + 1.0;
+    let n = t.to_bits() as i32 - 0x4B40_0000;
+    e_r * f32::from_bits(((n + 127) << 23) as u32)
 }
 
 /// Components of one block, structure of arrays, padded to a multiple of [`LANES`]; means
@@ -67,7 +58,7 @@ pub struct Block {
     /// `Q_k / 2`.
     pub half_q: Vec<f64>,
     /// `p_k Q_k^1.5`; 0 in padding.
-    pub scale: Vec<f64>,
+    pub scale: Vec<f32>,
     /// Entries.
     pub len: usize,
     /// Entries with the padding.
@@ -75,8 +66,8 @@ pub struct Block {
 }
 
 impl Block {
-    fn columns(&mut self) -> [&mut Vec<f64>; 5] {
-        [&mut self.x, &mut self.y, &mut self.z, &mut self.half_q, &mut self.scale]
+    fn columns(&mut self) -> [&mut Vec<f64>; 4] {
+        [&mut self.x, &mut self.y, &mut self.z, &mut self.half_q]
     }
 
     /// Empties the block, with room for `capacity` entries.
@@ -86,6 +77,9 @@ impl Block {
             if v.len() < room {
                 v.resize(room, 0.0);
             }
+        }
+        if self.scale.len() < room {
+            self.scale.resize(room, 0.0);
         }
         self.len = 0;
         self.padded = 0;
@@ -97,6 +91,7 @@ impl Block {
         for v in self.columns() {
             v[len..padded].fill(0.0);
         }
+        self.scale[len..padded].fill(0.0);
         self.padded = padded;
     }
 }
@@ -105,20 +100,26 @@ impl Block {
 /// and returns their sum. Terms whose exponent exceeds `cutoff` are 0 (see [`Grid`]).
 ///
 /// [`Grid`]: super::grid::Grid
-pub fn terms(block: &Block, p: [f64; 3], cutoff: f64, a: &mut [f64]) -> f64 {
+pub fn terms(block: &Block, p: [f64; 3], cutoff: f64, a: &mut [f32]) -> f64 {
     let n = block.padded;
     let (x, y, z) = (&block.x[..n], &block.y[..n], &block.z[..n]);
     let (hq, s, a) = (&block.half_q[..n], &block.scale[..n], &mut a[..n]);
+    // Exponents in f64 (written to `a`), then the exps in f32 lanes, twice as many.
+    let cutoff = cutoff.min(f64::from(MAX_EXPONENT_F32));
     for i in 0..n {
         let (dx, dy, dz) = (x[i] - p[0], y[i] - p[1], z[i] - p[2]);
         let e = hq[i] * (dx * dx + dy * dy + dz * dz);
-        let v = s[i] * exp_neg(e);
-        a[i] = if e <= cutoff { v } else { 0.0 };
+        a[i] = if e <= cutoff { e as f32 } else { f32::INFINITY };
+    }
+    for i in 0..n {
+        let e = a[i];
+        let v = s[i] * exp_neg_f32(e);
+        a[i] = if e < f32::INFINITY { v } else { 0.0 };
     }
     let mut partial = [0.0f64; LANES];
     for chunk in a.chunks_exact(LANES) {
         for l in 0..LANES {
-            partial[l] += chunk[l];
+            partial[l] += f64::from(chunk[l]);
         }
     }
     partial.iter().sum()
@@ -146,14 +147,14 @@ impl Accumulators {
     }
 
     /// Adds the point at `p` (block coordinates) whose terms are `a`.
-    pub fn add(&mut self, block: &Block, p: [f64; 3], a: &[f64], norm: f64) {
+    pub fn add(&mut self, block: &Block, p: [f64; 3], a: &[f32], norm: f64) {
         let n = a.len();
         let (bx, by, bz) = (&block.x[..n], &block.y[..n], &block.z[..n]);
         let (l, x, y, z) =
             (&mut self.lambda[..n], &mut self.x[..n], &mut self.y[..n], &mut self.z[..n]);
         let u2 = &mut self.u2[..n];
         for i in 0..n {
-            let alpha = a[i] * norm;
+            let alpha = f64::from(a[i]) * norm;
             let alpha = if alpha >= TINY { alpha } else { 0.0 };
             let (ux, uy, uz) = (bx[i] - p[0], by[i] - p[1], bz[i] - p[2]);
             l[i] += alpha;
@@ -170,15 +171,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn exp_neg_is_accurate_over_the_whole_range() {
+    fn exp_neg_f32_is_accurate_to_f32() {
         let mut worst = 0.0f64;
-        for i in 0..=700_000 {
-            let x = i as f64 * 1e-3 + 1e-7 * (i % 7) as f64;
-            let exact = (-x).exp();
-            worst = worst.max((exp_neg(x) - exact).abs() / exact);
+        for i in 0..=870_000 {
+            let x = i as f32 * 1e-4;
+            let exact = (-f64::from(x)).exp();
+            worst = worst.max((f64::from(exp_neg_f32(x)) - exact).abs() / exact);
         }
-        assert!(worst < 1e-15, "relative error {worst}");
-        assert!(exp_neg(1e6) > 0.0 && exp_neg(1e6) < 1e-300);
-        assert_eq!(exp_neg(0.0), 1.0);
+        assert!(worst < 2.5e-7, "relative error {worst}");
+        assert_eq!(exp_neg_f32(0.0), 1.0);
+        assert!(exp_neg_f32(1e6) > 0.0 && exp_neg_f32(1e6) < 1e-37);
     }
 }
