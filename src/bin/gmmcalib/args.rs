@@ -6,7 +6,8 @@ use std::path::PathBuf;
 pub const USAGE: &str = "\
 usage: gmmcalib calibrate --config CONFIG.yaml --data DIR
                           [--method gmm|jrmpc|p2p|p2l|gicp|all] [--reference NAME]
-                          [--iterations N] [--components K] [--json OUT.json]
+                          [--iterations N] [--components K] [--threads T]
+                          [--json OUT.json]
        gmmcalib simulate --out DIR [--preset paper|os1-128] [--frames F] [--seed S]
                           [--max-angle-deg 3] [--max-translation 0.1]
        gmmcalib experiment --out DIR [--preset paper|os1-128] [--trials N] [--frames F]
@@ -15,7 +16,8 @@ usage: gmmcalib calibrate --config CONFIG.yaml --data DIR
 
   calibrate: DIR holds one folder per sensor (sensor_1, sensor_2, ...), each with frames
   1.pcd, 2.pcd, ... (.pcd, .ply or .bin); frames pair across sensors by file stem. Flags
-  override CONFIG.yaml.
+  override CONFIG.yaml. --threads: threads sharing JRMPC's E-step (default: the available
+  cores; the result does not depend on it).
   simulate: writes the digital twin in that layout (DIR/config.yaml with miscalibrated nominal
   extrinsics, DIR/data/sensor_N/F.pcd) plus DIR/truth.json; the first sensor is the reference
   and keeps its true mount.
@@ -40,6 +42,8 @@ pub struct CalibrateArgs {
     pub reference: Option<String>,
     pub iterations: Option<usize>,
     pub components: Option<usize>,
+    /// Threads sharing JRMPC's E-step; default: the available cores.
+    pub threads: Option<usize>,
     pub json: Option<PathBuf>,
 }
 
@@ -139,6 +143,7 @@ fn calibrate(flags: Vec<(String, String)>) -> Result<Command, String> {
             "--reference" => out.reference = Some(value),
             "--iterations" => out.iterations = Some(positive(&flag, &value)?),
             "--components" => out.components = Some(positive(&flag, &value)?),
+            "--threads" => out.threads = Some(positive(&flag, &value)?),
             "--json" => out.json = Some(PathBuf::from(value)),
             _ => return Err(unknown(&flag)),
         }

@@ -77,6 +77,9 @@ mod cli {
         if let Some(sigma) = cfg.initial_sigma {
             settings.initial_sigma = sigma;
         }
+        settings.jrmpc.threads = a.threads.unwrap_or_else(|| {
+            std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+        });
 
         // 2. Views, and the rig they make with the config.
         let views = dataset::read_views(&a.data)?;
