@@ -18,13 +18,14 @@ function buffersOf(value, found = []) {
 const handlers = {
   parse: ({ bytes, name }) => parseCloud(new Uint8Array(bytes), name),
   simulate: ({ options }) => simulateRig(options),
-  // `workers` > 1 shares JRMPC's E-step with that many workers in all (this one included).
+  // `workers` > 1 shares JRMPC's E-step with that many workers in all (this one included),
+  // where a worker can start workers of its own.
   calibrate: ({ input, workers = 1 }, id) => {
     const onProgress = (progress) => {
       self.postMessage({ type: 'progress', id, progress });
       return true;
     };
-    const sharded = workers > 1 && ['gmm', 'jrmpc', undefined].includes(input.method);
+    const sharded = workers > 1 && typeof Worker === 'function' && ['gmm', 'jrmpc', undefined].includes(input.method);
     if (sharded) return calibrateSharded(wasm, input, workers, onProgress);
     return { ...calibrate(input, onProgress), workers: 1 };
   },
