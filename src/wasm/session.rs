@@ -163,8 +163,9 @@ impl JrmpcShard {
     /// `points`: a session's `shardPoints`; `sizes`: the points of each of those views.
     #[wasm_bindgen(constructor)]
     pub fn new(points: &[f64], sizes: &[u32]) -> Result<JrmpcShard, JsError> {
-        let total: usize = sizes.iter().map(|&n| n as usize).sum();
-        if total * 3 != points.len() {
+        // u64: a sum of u32 sizes may not fit wasm32's usize.
+        let total: u64 = sizes.iter().map(|&n| u64::from(n)).sum();
+        if total * 3 != points.len() as u64 {
             return Err(JsError::new(&format!(
                 "shard: {} coordinates for {total} points",
                 points.len()
