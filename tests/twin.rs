@@ -227,6 +227,10 @@ fn study() {
     if std::env::var("TWIN_BEV").is_ok_and(|b| b == "0") {
         settings.bev = None;
     }
+    // TWIN_PLANES=0: no plane adjustment after the refinement.
+    if std::env::var("TWIN_PLANES").is_ok_and(|p| p == "0") {
+        settings.planes = None;
+    }
     if let Ok(level) = std::env::var("TWIN_LEVEL") {
         settings.level_ground = Some(level == "1");
     }
