@@ -7,6 +7,7 @@
 mod common;
 
 use std::f64::consts::PI;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use gmmcalib::calib::{self, Method, Rig, View};
 use gmmcalib::jrmpc::Control;
@@ -16,6 +17,9 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
 use common::{for_seeds, median};
+
+/// Time spent in `calibrate` over a study (µs).
+static CALIBRATION_MICROS: AtomicU64 = AtomicU64::new(0);
 
 /// The error `C_est^-1 C_true` of every non-reference sensor's correction.
 type Errors = Vec<Pose>;
@@ -68,7 +72,14 @@ fn trial(
         roi: preset.roi,
         reference: None,
     };
+    let clock = std::time::Instant::now();
     let result = calib::calibrate(&rig, settings, |_| Control::Continue).expect("calibration");
+    CALIBRATION_MICROS.fetch_add(clock.elapsed().as_micros() as u64, Ordering::Relaxed);
+    if std::env::var("TWIN_NOTES").is_ok_and(|n| n == "1") {
+        for note in result.plane_adjustment.iter().chain(&result.kept_jrmpc) {
+            println!("seed {seed} start {start}: {}: {}", note.sensor, note.reason);
+        }
+    }
     preset.sensors[1..]
         .iter()
         .zip(&nominal[1..])
@@ -227,6 +238,17 @@ fn study() {
     if std::env::var("TWIN_BEV").is_ok_and(|b| b == "0") {
         settings.bev = None;
     }
+    // TWIN_PLANES=0: no plane adjustment after the refinement; or
+    // TWIN_PLANES=edge_m,assign_m,robust_m,iterations.
+    if let Ok(planes) = std::env::var("TWIN_PLANES") {
+        if planes == "0" {
+            settings.planes = None;
+        } else if let Some(p) = settings.planes.as_mut() {
+            let v: Vec<f64> = planes.split(',').map(|x| x.parse().unwrap()).collect();
+            (p.edge_distance, p.assign_distance, p.robust_scale) = (v[0], v[1], v[2]);
+            p.iterations = v[3] as usize;
+        }
+    }
     if let Ok(level) = std::env::var("TWIN_LEVEL") {
         settings.level_ground = Some(level == "1");
     }
@@ -297,4 +319,6 @@ fn study() {
     println!("rotation (deg): {}", summary(&angles));
     println!("translation (mm): {}", summary(&shifts));
     println!("within 0.1 deg & 1 cm: {good} of {}", all.len());
+    let seconds = CALIBRATION_MICROS.load(Ordering::Relaxed) as f64 * 1e-6;
+    println!("calibration: {:.2} s each (trials run in parallel)", seconds / jobs.len() as f64);
 }

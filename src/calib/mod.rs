@@ -7,7 +7,8 @@
 //!    - `jrmpc`: register all views jointly to one floating mixture, starting from the target
 //!      prior at the ROI centroid; `C_ref_s(f) = T_ref,f^-1 T_s,f`;
 //!    - `gmm` (default): `jrmpc`, then GICP of each frame onto the reference's
-//!      same frame from the JRMPC correction (README, "Why refine");
+//!      same frame from the JRMPC correction (README, "Why refine"), then one joint plane
+//!      adjustment of every sensor over all frames (`planes`);
 //!    - `p2p`, `p2l`, `gicp`: ICP of each frame onto the reference's, from the nominal;
 //! 4. average over frames (chordal mean rotation, mean translation) with per-axis spread,
 //!    leaving out and reporting frames far from the others;
@@ -17,6 +18,7 @@ mod average;
 mod bev;
 mod error;
 mod level;
+mod planes;
 mod refine;
 mod settings;
 
@@ -28,6 +30,7 @@ use average::{average, robust_average};
 pub use bev::{BevAlignment, BevSettings};
 pub use error::CalibError;
 pub use level::{GroundSettings, Levelling, Plane};
+pub use planes::PlaneSettings;
 pub use refine::RefineSettings;
 pub use settings::{InitialSigma, Method, Settings};
 
@@ -107,6 +110,9 @@ pub struct Calibration {
     pub skipped: Vec<FrameNote>,
     /// `gmm` frames whose refinement was rejected; they keep the JRMPC correction.
     pub kept_jrmpc: Vec<FrameNote>,
+    /// `gmm`'s plane adjustment, per non-reference sensor: the motion it applied to every
+    /// frame, or why the refinement was kept (frame `all`); empty when it is off.
+    pub plane_adjustment: Vec<FrameNote>,
     /// Per sensor, the ground found and the levelling applied; empty when levelling is off.
     pub levelling: Vec<Levelling>,
     pub history: Vec<jrmpc::IterationStats>,
@@ -369,6 +375,15 @@ impl Prepared {
                 }
             }
         }
+        let plane_adjustment = match (&settings.planes, settings.method) {
+            (Some(plane_settings), Method::Gmm) => {
+                let ground = reference_ground.map(|(plane, _)| plane);
+                let outcomes =
+                    planes::adjust(&clouds, pairs, *r, &mut per_frame, ground, plane_settings);
+                outcomes.iter().map(|o| planes::note(o, &sensors[o.sensor])).collect()
+            }
+            _ => Vec::new(),
+        };
 
         // 4. Average over frames.
         let reference_nominal = nominals[*r];
@@ -424,6 +439,7 @@ impl Prepared {
             cancelled,
             skipped,
             kept_jrmpc,
+            plane_adjustment,
             levelling: levelling.clone(),
             history,
         })

@@ -6,6 +6,7 @@ use std::str::FromStr;
 use super::CalibError;
 use super::bev::BevSettings;
 use super::level::GroundSettings;
+use super::planes::PlaneSettings;
 use super::refine::RefineSettings;
 use crate::icp::{self, IcpSettings};
 use crate::jrmpc::{self, Prior};
@@ -90,6 +91,8 @@ pub struct Settings {
     pub icp: IcpSettings,
     /// For `gmm`'s refinement.
     pub refine: RefineSettings,
+    /// For `gmm`'s joint plane adjustment after the refinement; `None`: off.
+    pub planes: Option<PlaneSettings>,
     /// Level each sensor's ground onto the reference's before cropping (README, "Where the
     /// bias comes from"); `None`: only for `gmm` (the paper's methods run as published).
     pub level_ground: Option<bool>,
@@ -118,6 +121,7 @@ impl Default for Settings {
             jrmpc: jrmpc::Settings::default(),
             icp: IcpSettings::default(),
             refine: RefineSettings::default(),
+            planes: Some(PlaneSettings::default()),
             level_ground: None,
             ground: GroundSettings::default(),
             bev: Some(BevSettings::default()),
