@@ -21,6 +21,9 @@ pub struct Report {
     pub skipped: Vec<NoteReport>,
     /// `gmm` frames whose refinement was rejected; they keep the JRMPC correction.
     pub kept_jrmpc: Vec<NoteReport>,
+    /// `gmm`'s plane adjustment per non-reference sensor (frame `all`): the motion applied, or
+    /// why the refinement was kept; empty when it is off.
+    pub plane_adjustment: Vec<NoteReport>,
     /// Per sensor, the ground found and the levelling applied before cropping (`gmm`; empty
     /// when levelling is off).
     pub levelling: Vec<LevellingReport>,
@@ -150,6 +153,7 @@ impl From<&Calibration> for Report {
             },
             skipped: notes(&c.skipped),
             kept_jrmpc: notes(&c.kept_jrmpc),
+            plane_adjustment: notes(&c.plane_adjustment),
             levelling: c
                 .levelling
                 .iter()

@@ -43,6 +43,7 @@ pub fn summary(c: &Calibration) -> String {
     }
     notes(&mut out, "skipped", &c.skipped);
     notes(&mut out, "refinement rejected, kept the JRMPC correction", &c.kept_jrmpc);
+    notes(&mut out, "plane adjustment", &c.plane_adjustment);
     out
 }
 
