@@ -50,6 +50,10 @@ test('demo: simulate, calibrate, and land within the bound of the truth', async 
     assert.ok(Math.abs(fit.edge - 0.5) < 0.05 && fit.rms < 0.03 && Math.abs(fit.centre[0] - 12.3) < 0.1, JSON.stringify(fit));
   }
   assert.match(await page.locator('#results').textContent(), /3 targets: edge 0\.\d{3} m/);
+  // The joint plane adjustment moved the second sensor, and the page says by how much.
+  assert.equal(result.planeAdjustment.length, 1, JSON.stringify(result.planeAdjustment));
+  assert.match(result.planeAdjustment[0].reason, /^plane adjustment: moved/);
+  assert.match(await page.locator('#results').textContent(), /front_right\/all: plane adjustment: moved \d\.\d{4} deg/);
 
   // Truth from the twin directly (Node), not from the page.
   const { truth } = simulateRig({ preset: 'paper', frames: 1, seed: 1 });

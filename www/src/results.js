@@ -80,7 +80,8 @@ export function renderResults(container, results, truth) {
     <p>method ${r.method}, reference ${esc(r.reference)}, ${r.iterations} iterations${r.converged ? ', converged' : ''}${r.cancelled ? ', cancelled' : ''}; ${fit}</p>
     ${r.sensors.map((s) => sensorHtml(s, r.reference, truth)).join('')}
     ${levellingHtml(r.levelling)}
-    ${notesHtml('views left out', r.skipped)}${notesHtml('refinement rejected, kept the JRMPC correction', r.keptJrmpc)}`;
+    ${notesHtml('views left out', r.skipped)}${notesHtml('refinement rejected, kept the JRMPC correction', r.keptJrmpc)}
+    ${notesHtml('joint plane adjustment (every frame)', r.planeAdjustment ?? [])}`;
 }
 
 // Convergence: mean sigma (m, left axis, log) and max transform change (right axis, log).
