@@ -21,8 +21,16 @@ const handlers = {
   // `workers` > 1 shares JRMPC's E-step with that many workers in all (this one included),
   // where a worker can start workers of its own.
   calibrate: ({ input, workers = 1 }, id) => {
+    // At most 10 progress messages a second (and always the last): the page redraws on each,
+    // and on two cores that work competes with the calculation (sample scale on 2 workers:
+    // 1.2 s with every iteration shown, 0.9 s with this).
+    let postedAt = -Infinity;
     const onProgress = (progress) => {
-      self.postMessage({ type: 'progress', id, progress });
+      const now = performance.now();
+      if (now - postedAt >= 100 || progress.iteration === progress.maxIterations) {
+        postedAt = now;
+        self.postMessage({ type: 'progress', id, progress });
+      }
       return true;
     };
     const sharded = workers > 1 && typeof Worker === 'function' && ['gmm', 'jrmpc', undefined].includes(input.method);
