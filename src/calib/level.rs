@@ -8,7 +8,7 @@
 //! that and nothing else (the shortest rotation between the two normals, about a point on the
 //! plane under the ROI), so yaw and the in-plane translation are left to the registration.
 
-use nalgebra::{Matrix3, Point3, SymmetricEigen, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Point3, SymmetricEigen, U3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -143,13 +143,7 @@ pub fn fit_ground(
 /// points' extent (m) along the in-plane direction of lesser spread (the side of a uniformly
 /// covered rectangle).
 fn least_squares_plane(points: &[&Vector3<f64>]) -> Option<(Plane, f64)> {
-    let n = points.len() as f64;
-    let centroid = points.iter().fold(Vector3::zeros(), |s, p| s + *p) / n;
-    let covariance = points.iter().fold(Matrix3::zeros(), |s, p| {
-        let d = *p - centroid;
-        s + d * d.transpose()
-    }) / n;
-    let eig = SymmetricEigen::try_new(covariance, f64::EPSILON, 1000)?;
+    let (centroid, eig) = principal_axes(points.iter().copied())?;
     let normal = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
     let normal = if normal.z < 0.0 { -normal } else { normal };
     let mut spread: Vec<f64> = eig.eigenvalues.iter().copied().collect();
@@ -159,6 +153,23 @@ fn least_squares_plane(points: &[&Vector3<f64>]) -> Option<(Plane, f64)> {
         .iter()
         .all(|c| c.is_finite())
         .then(|| (Plane { normal, offset: -normal.dot(&centroid) }, extent))
+}
+
+/// The centroid of `points` (at least one) and the eigen-decomposition of their covariance
+/// about it: the least-squares plane's normal is the eigenvector of the smallest eigenvalue.
+pub(super) fn principal_axes<'a, I>(points: I) -> Option<(Vector3<f64>, SymmetricEigen<f64, U3>)>
+where
+    I: IntoIterator<Item = &'a Vector3<f64>>,
+    I::IntoIter: Clone + ExactSizeIterator,
+{
+    let points = points.into_iter();
+    let n = points.len() as f64;
+    let centroid = points.clone().fold(Vector3::zeros(), |s, p| s + p) / n;
+    let covariance = points.fold(Matrix3::zeros(), |s, p| {
+        let d = p - centroid;
+        s + d * d.transpose()
+    }) / n;
+    Some((centroid, SymmetricEigen::try_new(covariance, f64::EPSILON, 1000)?))
 }
 
 /// The smallest rigid motion taking `from` onto `to`: the shortest rotation between the

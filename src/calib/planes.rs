@@ -19,12 +19,12 @@
 
 use std::collections::HashMap;
 
-use nalgebra::{DMatrix, DVector, Matrix3, SymmetricEigen, UnitQuaternion, Vector3};
+use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
 use super::average::robust_average;
-use super::level::Plane;
+use super::level::{Plane, principal_axes};
 use crate::se3::{Pose, rotation_about};
 
 /// The plane adjustment's settings.
@@ -298,10 +298,7 @@ fn fit_plane(points: &[Vector3<f64>]) -> Option<FramePlane> {
     if points.len() < 3 {
         return None;
     }
-    let centre = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
-    let scatter: Matrix3<f64> =
-        points.iter().map(|p| (p - centre) * (p - centre).transpose()).sum();
-    let eigen = SymmetricEigen::new(scatter);
+    let (centre, eigen) = principal_axes(points)?;
     let k = eigen.eigenvalues.imin();
     let mut normal: Vector3<f64> = eigen.eigenvectors.column(k).into_owned();
     if normal.z < -1e-3 || (normal.z.abs() <= 1e-3 && normal.dot(&centre) > 0.0) {
