@@ -311,14 +311,24 @@ impl Prepared {
         registration: Option<jrmpc::Registration>,
         mut progress: impl FnMut(&Progress) -> Control,
     ) -> Result<Calibration, CalibError> {
-        let Self { settings, sensors, reference, r, nominals, levelling, applied, .. } = &self;
-        let (usable, pairs) = (&self.usable, &self.pairs);
-        let mut skipped = self.skipped.clone();
+        let Self {
+            settings,
+            sensors,
+            reference,
+            r,
+            nominals,
+            levelling,
+            applied,
+            usable,
+            mut skipped,
+            pairs,
+            ground,
+        } = self;
         let mut kept_jrmpc = Vec::new();
         // The caller sees corrections of the nominal pre-alignment, levelling included.
         let mut progress = |p: &Progress| {
             let corrections: Vec<Pose> =
-                p.corrections.iter().zip(applied).map(|(c, l)| c * l).collect();
+                p.corrections.iter().zip(&applied).map(|(c, l)| c * l).collect();
             progress(&Progress { corrections: &corrections, ..*p })
         };
 
@@ -338,7 +348,7 @@ impl Prepared {
             None => vec![Vec::new(); sensors.len()],
         };
         let reference_ground = levelling
-            .get(*r)
+            .get(r)
             .and_then(|l| l.ground)
             .map(|plane| (plane, settings.ground.normal_band));
         let plan = match settings.method {
@@ -360,7 +370,7 @@ impl Prepared {
         };
         if let Some(plan) = plan {
             let report =
-                refine::per_frame(&clouds, pairs, *r, &mut per_frame, &plan, &mut progress)?;
+                refine::per_frame(&clouds, &pairs, r, &mut per_frame, &plan, &mut progress)?;
             for failure in report {
                 let (sensor, frame, _) = &usable[failure.view];
                 let note = FrameNote {
@@ -377,16 +387,16 @@ impl Prepared {
         }
         let plane_adjustment = match (&settings.planes, settings.method) {
             (Some(plane_settings), Method::Gmm) => {
-                let ground = reference_ground.map(|(plane, _)| plane);
+                let plane = reference_ground.map(|(plane, _)| plane);
                 let outcomes =
-                    planes::adjust(&clouds, pairs, *r, &mut per_frame, ground, plane_settings);
+                    planes::adjust(&clouds, &pairs, r, &mut per_frame, plane, plane_settings);
                 outcomes.iter().map(|o| planes::note(o, &sensors[o.sensor])).collect()
             }
             _ => Vec::new(),
         };
 
         // 4. Average over frames.
-        let reference_nominal = nominals[*r];
+        let reference_nominal = nominals[r];
         let mut results = Vec::with_capacity(sensors.len());
         for (s, name) in sensors.iter().enumerate() {
             let corrections: Vec<Pose> = per_frame[s].iter().map(|(_, c)| c * applied[s]).collect();
@@ -420,8 +430,8 @@ impl Prepared {
         // 5. Plausibility of the reconstruction.
         let (target, iterations, converged, cancelled, history) = match registration {
             Some(reg) => {
-                let reference_views: Vec<usize> = pairs[*r].iter().map(|&(v, _)| v).collect();
-                let target = reconstruction(&reg, &reference_views, self.ground, &settings.prior);
+                let reference_views: Vec<usize> = pairs[r].iter().map(|&(v, _)| v).collect();
+                let target = reconstruction(&reg, &reference_views, ground, &settings.prior);
                 (target, reg.iterations, reg.converged, reg.cancelled, reg.history)
             }
             None => {
@@ -431,7 +441,7 @@ impl Prepared {
         };
         Ok(Calibration {
             method: settings.method,
-            reference: reference.clone(),
+            reference,
             sensors: results,
             target,
             iterations,
@@ -440,7 +450,7 @@ impl Prepared {
             skipped,
             kept_jrmpc,
             plane_adjustment,
-            levelling: levelling.clone(),
+            levelling,
             history,
         })
     }
