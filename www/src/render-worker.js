@@ -31,29 +31,18 @@ let renderer = null;
 let pending = false;
 const nextFrame = self.requestAnimationFrame?.bind(self) ?? ((draw) => setTimeout(draw, 16));
 
-// During a run the view follows every iteration's estimate, but at most this often: the
-// calculation's workers need the cores more than the preview needs 60 frames a second (without
-// a GPU, drawing every frame took a third of a sample-scale run's time).
-const PREVIEW_INTERVAL_MS = 100;
-let lastFrame = -Infinity;
-
 function render() {
   if (pending || !renderer) return;
   pending = true;
-  const wait = budget.preview ? lastFrame + PREVIEW_INTERVAL_MS - performance.now() : 0;
-  if (wait > 0) setTimeout(() => nextFrame(draw), wait);
-  else nextFrame(draw);
-}
-
-function draw() {
-  pending = false;
-  const started = performance.now();
-  lastFrame = started;
-  const points = drawRanges();
-  renderer.render(scene, camera);
-  // The browser hands the frame over (and, in software compositing, reads it back) when this
-  // callback returns; a task queued now runs after that, so `ms` is the whole frame.
-  setTimeout(() => self.postMessage({ type: 'frame', points, ms: performance.now() - started }));
+  nextFrame(() => {
+    pending = false;
+    const started = performance.now();
+    const points = drawRanges();
+    renderer.render(scene, camera);
+    // The browser hands the frame over (and, in software compositing, reads it back) when this
+    // callback returns; a task queued now runs after that, so `ms` is the whole frame.
+    setTimeout(() => self.postMessage({ type: 'frame', points, ms: performance.now() - started }));
+  });
 }
 
 // Sets each visible cloud's draw range for the budget; returns the points drawn.

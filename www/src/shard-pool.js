@@ -93,7 +93,7 @@ export async function calibrateSharded(wasm, input, workers, onProgress) {
       if (onProgress(session.mStep(outputs)) === false) session.cancel();
     }
     const result = session.finish(onProgress);
-    result.workers = slices.length;
+    result.workers = Math.max(1, slices.length); // the ICP methods: no views to split
     return result;
   } finally {
     for (const remote of remotes) remote.terminate();

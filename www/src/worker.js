@@ -19,7 +19,8 @@ const handlers = {
   parse: ({ bytes, name }) => parseCloud(new Uint8Array(bytes), name),
   simulate: ({ options }) => simulateRig(options),
   // `workers` > 1 shares JRMPC's E-step with that many workers in all (this one included),
-  // where a worker can start workers of its own.
+  // where a worker can start workers of its own (the ICP methods have no E-step: the session
+  // runs them here).
   calibrate: ({ input, workers = 1 }, id) => {
     // At most 10 progress messages a second (and always the last): the page redraws on each,
     // and on two cores that work competes with the calculation (sample scale on 2 workers:
@@ -33,8 +34,7 @@ const handlers = {
       }
       return true;
     };
-    const sharded = workers > 1 && typeof Worker === 'function' && ['gmm', 'jrmpc', undefined].includes(input.method);
-    if (sharded) return calibrateSharded(wasm, input, workers, onProgress);
+    if (workers > 1 && typeof Worker === 'function') return calibrateSharded(wasm, input, workers, onProgress);
     return { ...calibrate(input, onProgress), workers: 1 };
   },
 };

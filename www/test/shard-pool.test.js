@@ -33,6 +33,11 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.deepEqual(driven.history, direct.history);
   assert.deepEqual(Array.from(driven.target.means), Array.from(direct.target.means));
   assert.equal(progress.filter((p) => p.maxIterations === 30).length, direct.iterations);
+  // An ICP method has no E-step to share: the session runs it where it is, on one worker.
+  const icp = () => ({ ...input(), method: 'p2l' });
+  const icpDriven = await calibrateSharded(wasm, icp(), 2, () => true);
+  assert.deepEqual(icpDriven.sensors, wasm.calibrate(icp()).sensors);
+  assert.equal(icpDriven.workers, 1);
 
   const session = new wasm.CalibrationSession(input());
   assert.throws(() => session.mStep([new Float64Array(7)]), /not a whole number of views/);
