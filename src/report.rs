@@ -72,6 +72,15 @@ pub struct SensorReport {
     /// Roll, pitch, yaw (rad) of the corrected extrinsic.
     pub rpy: [f64; 3],
     pub spread: SpreadReport,
+    /// `gmm`: one-sigma uncertainty from the plane adjustment; null otherwise.
+    pub precision: Option<PrecisionReport>,
+}
+
+/// One sigma: rotation about the vehicle's x, y, z axes (rad), and the sensor's position (m).
+#[derive(Clone, Debug, Serialize)]
+pub struct PrecisionReport {
+    pub rotation: [f64; 3],
+    pub position: [f64; 3],
 }
 
 /// Per-axis spread of the per-frame corrections (m, rad) over `frames` frames.
@@ -191,6 +200,9 @@ impl From<&SensorResult> for SensorReport {
             xyz,
             rpy,
             spread: SpreadReport { xyz: s.spread.xyz, rpy: s.spread.rpy, frames: s.spread.frames },
+            precision: s
+                .precision
+                .map(|p| PrecisionReport { rotation: p.rotation, position: p.position }),
         }
     }
 }

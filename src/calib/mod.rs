@@ -22,6 +22,8 @@ mod planes;
 mod refine;
 mod settings;
 
+use nalgebra::Vector3;
+
 use crate::cloud::{Aabb, Cloud};
 use crate::jrmpc::{self, Control};
 use crate::se3::Pose;
@@ -30,7 +32,7 @@ use average::{average, robust_average};
 pub use bev::{BevAlignment, BevSettings};
 pub use error::CalibError;
 pub use level::{GroundSettings, Levelling, Plane};
-pub use planes::PlaneSettings;
+pub use planes::{PlaneSettings, Precision};
 pub use refine::RefineSettings;
 pub use settings::{InitialSigma, Method, Settings};
 
@@ -75,6 +77,8 @@ pub struct SensorResult {
     /// `T_ref_s`: maps points from this sensor's frame into the reference sensor's frame.
     pub relative: Pose,
     pub spread: Spread,
+    /// `gmm`: the plane adjustment's one-sigma uncertainty, when it applied its motion.
+    pub precision: Option<Precision>,
 }
 
 /// The reconstructed target: the final mixture, mapped into the reference sensor's pre-aligned
@@ -385,11 +389,28 @@ impl Prepared {
                 }
             }
         }
+        let mut precision = vec![None; sensors.len()];
         let plane_adjustment = match (&settings.planes, settings.method) {
             (Some(plane_settings), Method::Gmm) => {
                 let plane = reference_ground.map(|(plane, _)| plane);
-                let outcomes =
-                    planes::adjust(&clouds, &pairs, r, &mut per_frame, plane, plane_settings);
+                // The clouds are pre-aligned: each sensor sits at its levelled nominal.
+                let origins: Vec<Vector3<f64>> = applied
+                    .iter()
+                    .zip(&nominals)
+                    .map(|(a, n)| (a * n).translation.vector)
+                    .collect();
+                let outcomes = planes::adjust(
+                    &clouds,
+                    &origins,
+                    &pairs,
+                    r,
+                    &mut per_frame,
+                    plane,
+                    plane_settings,
+                );
+                for o in outcomes.iter().filter(|o| o.accepted) {
+                    precision[o.sensor] = o.precision;
+                }
                 outcomes.iter().map(|o| planes::note(o, &sensors[o.sensor])).collect()
             }
             _ => Vec::new(),
@@ -424,6 +445,7 @@ impl Prepared {
                 extrinsic,
                 relative: reference_nominal.inverse() * extrinsic,
                 spread,
+                precision: precision[s],
             });
         }
 

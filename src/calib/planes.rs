@@ -19,7 +19,7 @@
 
 use std::collections::HashMap;
 
-use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Point3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -87,6 +87,20 @@ pub struct Outcome {
     /// Points of this sensor used (all frames).
     pub points: usize,
     pub accepted: bool,
+    /// What the points allow: the spread of the motion's estimate.
+    pub precision: Option<Precision>,
+}
+
+/// One-sigma uncertainty of a sensor's calibration as the plane adjustment measures it: the
+/// inverse of its normal equations, scaled by the residuals' variance. That is the spread the
+/// point noise leaves (the twin's errors follow it; README, "How precise"), not a bound on
+/// errors the plane model cannot see (a target that moved, a wrong nominal beyond reach).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Precision {
+    /// Rotation about the vehicle's x, y, z axes (rad).
+    pub rotation: [f64; 3],
+    /// The sensor's position along x, y, z (m).
+    pub position: [f64; 3],
 }
 
 /// One point used: its sensor, its (frame-)plane, its position in the vehicle frame.
@@ -112,10 +126,12 @@ impl FramePlane {
 }
 
 /// Adjusts `corrections` (per sensor, per frame pair `(reference view, sensor view)`, as
-/// `refine::per_frame` leaves them) by one motion per non-reference sensor. `ground` is the
+/// `refine::per_frame` leaves them) by one motion per non-reference sensor. `origins` are the
+/// sensors' positions in the clouds' frame (for [`Precision::position`]); `ground` is the
 /// reference's ground plane in the vehicle frame; without it nothing is done.
 pub fn adjust(
     clouds: &[&[[f32; 3]]],
+    origins: &[Vector3<f64>],
     pairs: &[Vec<(usize, usize)>],
     reference: usize,
     corrections: &mut [Vec<((usize, usize), Pose)>],
@@ -165,18 +181,20 @@ pub fn adjust(
         let seed = settings.seed.wrapping_add(f as u64);
         frame_observations(&points, &ground, settings, seed, &mut planes, &mut observations);
     }
-    let motions = solve(&observations, &mut planes, sensors, reference, settings);
+    let solution = solve(&observations, &mut planes, sensors, reference, settings);
     let mut outcomes = Vec::new();
     for s in (0..sensors).filter(|&s| s != reference && means[s].is_some()) {
         let points = observations.iter().filter(|o| o.sensor == s).count();
-        let motion = motions[s];
+        let motion = solution.motions[s];
+        let origin = motion * means[s].unwrap_or_else(Pose::identity) * Point3::from(origins[s]);
+        let precision = solution.precision(s, &origin.coords);
         let (angle, shift) = (motion.rotation.angle(), motion.translation.vector.norm());
         let accepted =
             points > 0 && angle <= settings.max_departure.0 && shift <= settings.max_departure.1;
         if accepted {
             corrections[s].iter_mut().for_each(|(_, c)| *c = motion * *c);
         }
-        outcomes.push(Outcome { sensor: s, motion, points, accepted });
+        outcomes.push(Outcome { sensor: s, motion, points, accepted, precision });
     }
     outcomes
 }
@@ -433,95 +451,246 @@ fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
 }
 
 /// Gauss-Newton with Cauchy weights over one motion per non-reference sensor (rotation about
-/// the points' centroid, then a shift) and every plane's normal and offset. Returns each
-/// sensor's motion (identity for the reference and for sensors without observations).
+/// `pivot`, the points' centroid, then a shift) and every plane's normal and offset. Each
+/// point touches one plane and one motion, so the planes are eliminated plane by plane (Schur
+/// complement) and only the motions' system is solved densely: the cost grows with the
+/// frames, not with their cube.
+struct Solution {
+    /// Per sensor (identity for the reference and for sensors without observations).
+    motions: Vec<Pose>,
+    pivot: Vector3<f64>,
+    /// Covariance of the motions' unknowns `[rotation vector, shift]` per non-reference
+    /// sensor, in `slot` order: the inverse of the reduced system at the solution, scaled by
+    /// the residuals' variance.
+    covariance: Option<DMatrix<f64>>,
+    slot: Vec<Option<usize>>,
+}
+
+/// The normal equations at one linearisation, planes apart: `a`, `g_a` for the motions, and
+/// per plane its own 3x3 block `d`, gradient `g_d` and coupling `b` (motions x 3).
+struct Normal {
+    a: DMatrix<f64>,
+    g_a: DVector<f64>,
+    b: Vec<DMatrix<f64>>,
+    d: Vec<Matrix3<f64>>,
+    g_d: Vec<Vector3<f64>>,
+}
+
 fn solve(
     observations: &[Observation],
     planes: &mut [FramePlane],
     sensors: usize,
     reference: usize,
     settings: &PlaneSettings,
-) -> Vec<Pose> {
-    let mut motions = vec![Pose::identity(); sensors];
-    if observations.is_empty() || planes.is_empty() {
-        return motions;
+) -> Solution {
+    let mut slot = Vec::with_capacity(sensors);
+    let mut next = 0;
+    for s in 0..sensors {
+        slot.push((s != reference).then(|| {
+            next += 6;
+            next - 6
+        }));
     }
-    let pivot =
-        observations.iter().map(|o| o.point).sum::<Vector3<f64>>() / observations.len() as f64;
-    // Unknowns: 6 per non-reference sensor (rotation vector, shift), then 3 per plane.
-    let slot: Vec<Option<usize>> = {
-        let mut next = 0;
-        (0..sensors)
-            .map(|s| {
-                (s != reference).then(|| {
-                    next += 1;
-                    6 * (next - 1)
-                })
-            })
-            .collect()
+    let mut solution = Solution {
+        motions: vec![Pose::identity(); sensors],
+        pivot: Vector3::zeros(),
+        covariance: None,
+        slot,
     };
-    let pose_unknowns = 6 * (sensors - 1);
-    let n = pose_unknowns + 3 * planes.len();
+    if observations.is_empty() || planes.is_empty() {
+        return solution;
+    }
+    solution.pivot =
+        observations.iter().map(|o| o.point).sum::<Vector3<f64>>() / observations.len() as f64;
+    let Solution { motions, pivot, slot, .. } = &mut solution;
     let scale2 = settings.robust_scale * settings.robust_scale;
     for _ in 0..settings.iterations {
-        let mut h = DMatrix::<f64>::zeros(n, n);
-        let mut g = DVector::<f64>::zeros(n);
-        let bases: Vec<(Vector3<f64>, Vector3<f64>)> =
-            planes.iter().map(|p| tangent_basis(&p.normal)).collect();
-        for o in observations {
-            let p = motions[o.sensor] * nalgebra::Point3::from(o.point);
-            let p = p.coords;
-            let plane = &planes[o.plane];
-            let r = plane.distance(&p);
-            let w = 1.0 / (1.0 + r * r / scale2);
-            let (u, v) = bases[o.plane];
-            let mut jac: Vec<(usize, f64)> = Vec::with_capacity(9);
-            let q = p - plane.centre;
-            let k = pose_unknowns + 3 * o.plane;
-            jac.push((k, u.dot(&q)));
-            jac.push((k + 1, v.dot(&q)));
-            jac.push((k + 2, 1.0));
-            if let Some(base) = slot[o.sensor] {
-                let rot = (p - pivot).cross(&plane.normal);
-                for i in 0..3 {
-                    jac.push((base + i, rot[i]));
-                    jac.push((base + 3 + i, plane.normal[i]));
-                }
-            }
-            for &(i, ji) in &jac {
-                g[i] += w * ji * r;
-                for &(j, jj) in &jac {
-                    h[(i, j)] += w * ji * jj;
-                }
-            }
-        }
-        // A little damping: directions the data leave free stay where they are.
-        let damping = 1e-9 * (0..n).map(|i| h[(i, i)]).fold(0.0, f64::max).max(1e-12);
-        for i in 0..n {
-            h[(i, i)] += damping;
-        }
-        let Some(step) = h.cholesky().map(|c| c.solve(&(-g))) else {
+        let at = Linearisation::new(planes, motions, slot, *pivot, scale2);
+        let normal = normal_equations(observations, &at);
+        let Some((step, plane_steps)) = reduced_step(&normal) else {
             break;
         };
         for (s, base) in slot.iter().enumerate() {
             let Some(base) = *base else { continue };
             let omega = Vector3::new(step[base], step[base + 1], step[base + 2]);
             let shift = Vector3::new(step[base + 3], step[base + 4], step[base + 5]);
-            motions[s] = rotation_about(UnitQuaternion::from_scaled_axis(omega), &pivot, &shift)
-                * motions[s];
+            motions[s] =
+                rotation_about(UnitQuaternion::from_scaled_axis(omega), pivot, &shift) * motions[s];
         }
-        for (k, plane) in planes.iter_mut().enumerate() {
-            let (u, v) = bases[k];
-            let i = pose_unknowns + 3 * k;
-            plane.normal = (plane.normal + u * step[i] + v * step[i + 1]).normalize();
-            plane.offset += step[i + 2];
+        for (plane, delta) in planes.iter_mut().zip(&plane_steps) {
+            let (u, v) = tangent_basis(&plane.normal);
+            plane.normal = (plane.normal + u * delta.x + v * delta.y).normalize();
+            plane.offset += delta.z;
         }
-        let largest = (0..pose_unknowns).map(|i| step[i].abs()).fold(0.0, f64::max);
-        if largest < 1e-9 {
+        if step.amax() < 1e-9 {
             break;
         }
     }
-    motions
+    let at = Linearisation::new(planes, motions, slot, *pivot, scale2);
+    let covariance = covariance(observations, &at);
+    solution.covariance = covariance;
+    solution
+}
+
+impl Solution {
+    /// Sensor `s`'s precision, its position `origin` (vehicle frame): a motion
+    /// `(omega, shift)` about the pivot moves the sensor by `shift + omega x (origin - pivot)`.
+    fn precision(&self, s: usize, origin: &Vector3<f64>) -> Option<Precision> {
+        let (base, covariance) = (self.slot[s]?, self.covariance.as_ref()?);
+        let block = covariance.fixed_view::<6, 6>(base, base).into_owned();
+        let mut to_sensor = nalgebra::Matrix6::<f64>::identity();
+        to_sensor.fixed_view_mut::<3, 3>(3, 0).copy_from(&(-(origin - self.pivot).cross_matrix()));
+        let spread = to_sensor * block * to_sensor.transpose();
+        let sigma = |i: usize| spread[(i, i)].max(0.0).sqrt();
+        Some(Precision { rotation: [0, 1, 2].map(sigma), position: [3, 4, 5].map(sigma) })
+    }
+}
+
+/// One observation linearised: its Cauchy weight and residual, its Jacobian on its plane's
+/// `(u, v, offset)` and, unless it is the reference's, on its sensor's motion at `base`.
+struct Term {
+    plane: usize,
+    weight: f64,
+    residual: f64,
+    j_d: Vector3<f64>,
+    j_a: Option<(usize, [f64; 6])>,
+}
+
+/// The linearisation of every observation at the current motions and planes.
+struct Linearisation<'a> {
+    planes: &'a [FramePlane],
+    bases: Vec<(Vector3<f64>, Vector3<f64>)>,
+    motions: &'a [Pose],
+    slot: &'a [Option<usize>],
+    pivot: Vector3<f64>,
+    scale2: f64,
+}
+
+impl<'a> Linearisation<'a> {
+    fn new(
+        planes: &'a [FramePlane],
+        motions: &'a [Pose],
+        slot: &'a [Option<usize>],
+        pivot: Vector3<f64>,
+        scale2: f64,
+    ) -> Self {
+        let bases = planes.iter().map(|p| tangent_basis(&p.normal)).collect();
+        Self { planes, bases, motions, slot, pivot, scale2 }
+    }
+
+    fn term(&self, o: &Observation) -> Term {
+        let p = (self.motions[o.sensor] * Point3::from(o.point)).coords;
+        let plane = &self.planes[o.plane];
+        let r = plane.distance(&p);
+        let (u, v) = self.bases[o.plane];
+        let q = p - plane.centre;
+        let j_a = self.slot[o.sensor].map(|base| {
+            let rot = (p - self.pivot).cross(&plane.normal);
+            (base, [rot.x, rot.y, rot.z, plane.normal.x, plane.normal.y, plane.normal.z])
+        });
+        Term {
+            plane: o.plane,
+            weight: 1.0 / (1.0 + r * r / self.scale2),
+            residual: r,
+            j_d: Vector3::new(u.dot(&q), v.dot(&q), 1.0),
+            j_a,
+        }
+    }
+}
+
+fn normal_equations(observations: &[Observation], at: &Linearisation) -> Normal {
+    let unknowns = 6 * (at.motions.len() - 1);
+    let planes = at.planes.len();
+    let mut normal = Normal {
+        a: DMatrix::zeros(unknowns, unknowns),
+        g_a: DVector::zeros(unknowns),
+        b: vec![DMatrix::zeros(unknowns, 3); planes],
+        d: vec![Matrix3::zeros(); planes],
+        g_d: vec![Vector3::zeros(); planes],
+    };
+    for o in observations {
+        let Term { plane: k, weight: w, residual: r, j_d, j_a } = at.term(o);
+        normal.d[k] += w * j_d * j_d.transpose();
+        normal.g_d[k] += w * r * j_d;
+        if let Some((base, j_a)) = j_a {
+            for (i, &ji) in j_a.iter().enumerate() {
+                normal.g_a[base + i] += w * ji * r;
+                for (j, &jj) in j_a.iter().enumerate() {
+                    normal.a[(base + i, base + j)] += w * ji * jj;
+                }
+                for c in 0..3 {
+                    normal.b[k][(base + i, c)] += w * ji * j_d[c];
+                }
+            }
+        }
+    }
+    normal
+}
+
+/// The motions' covariance at the solution, `S^-1 (sum w^2 r^2 j j^T) S^-1` with `j` each
+/// observation's Jacobian once its plane is eliminated (`j_a - B D^-1 j_d`): the sandwich
+/// form, because the residuals' variance differs from point to point (range noise moves a
+/// point along its beam, so a face seen head-on scatters more than the ground at a grazing
+/// angle) and one variance for all would misjudge every axis.
+fn covariance(observations: &[Observation], at: &Linearisation) -> Option<DMatrix<f64>> {
+    let normal = normal_equations(observations, at);
+    let (s, (_, inverses)) = reduced(&normal)?;
+    let s_inverse = s.try_inverse()?;
+    let coupling: Vec<_> = normal.b.iter().zip(&inverses).map(|(b, inverse)| b * inverse).collect();
+    let unknowns = s_inverse.nrows();
+    let mut meat = DMatrix::<f64>::zeros(unknowns, unknowns);
+    for o in observations {
+        let term = at.term(o);
+        let mut j = -(&coupling[term.plane] * term.j_d);
+        if let Some((base, j_a)) = term.j_a {
+            for (i, ji) in j_a.iter().enumerate() {
+                j[base + i] += ji;
+            }
+        }
+        let scale = (term.weight * term.residual).powi(2);
+        meat.syger(scale, &j, &j, 1.0);
+    }
+    Some(&s_inverse * meat * &s_inverse)
+}
+
+/// The motions' reduced system `S = A - sum B D^-1 B^T`, right-hand side
+/// `-g_a + sum B D^-1 g_d`, and each plane's `D^-1`, with a little damping: directions the data
+/// leave free stay where they are. `None` when a block is singular.
+#[allow(clippy::type_complexity)]
+fn reduced(normal: &Normal) -> Option<(DMatrix<f64>, (DVector<f64>, Vec<Matrix3<f64>>))> {
+    let largest = (0..normal.a.nrows())
+        .map(|i| normal.a[(i, i)])
+        .chain(normal.d.iter().flat_map(|d| [d[(0, 0)], d[(1, 1)], d[(2, 2)]]))
+        .fold(0.0, f64::max);
+    let damping = 1e-9 * largest.max(1e-12);
+    let mut s = normal.a.clone();
+    for i in 0..s.nrows() {
+        s[(i, i)] += damping;
+    }
+    let mut rhs = -&normal.g_a;
+    let mut inverses = Vec::with_capacity(normal.d.len());
+    for ((b, d), g_d) in normal.b.iter().zip(&normal.d).zip(&normal.g_d) {
+        let inverse = (d + Matrix3::identity() * damping).try_inverse()?;
+        let b_inv = b * inverse;
+        s -= &b_inv * b.transpose();
+        rhs += &b_inv * g_d;
+        inverses.push(inverse);
+    }
+    Some((s, (rhs, inverses)))
+}
+
+/// One Gauss-Newton step: the motions' unknowns, then each plane's `(u, v, offset)`.
+fn reduced_step(normal: &Normal) -> Option<(DVector<f64>, Vec<Vector3<f64>>)> {
+    let (s, (rhs, inverses)) = reduced(normal)?;
+    let step = if s.nrows() == 0 { DVector::zeros(0) } else { s.cholesky()?.solve(&rhs) };
+    let plane_steps = normal
+        .b
+        .iter()
+        .zip(&inverses)
+        .zip(&normal.g_d)
+        .map(|((b, inverse), g_d)| inverse * (-g_d - b.transpose() * &step))
+        .collect();
+    Some((step, plane_steps))
 }
 
 /// Two unit vectors orthogonal to `n` and to each other.
@@ -565,6 +734,9 @@ mod tests {
         pts.iter().map(|p| p + p.normalize() * normal.sample(&mut rng)).collect()
     }
 
+    /// Both sensors of these scenes sit at the origin.
+    const ORIGINS: [Vector3<f64>; 2] = [Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.0, 0.0, 0.0)];
+
     fn as_f32(points: &[Vector3<f64>]) -> Vec<[f32; 3]> {
         points.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect()
     }
@@ -600,8 +772,15 @@ mod tests {
             pairs[1].iter().map(|&p| (p, Pose::identity())).collect::<Vec<_>>(),
         ];
         let ground = Plane { normal: Vector3::z(), offset: 0.0 };
-        let outcomes =
-            adjust(&refs, &pairs, 0, &mut corrections, Some(ground), &PlaneSettings::default());
+        let outcomes = adjust(
+            &refs,
+            &ORIGINS,
+            &pairs,
+            0,
+            &mut corrections,
+            Some(ground),
+            &PlaneSettings::default(),
+        );
         assert_eq!(outcomes.len(), 1);
         assert!(outcomes[0].accepted, "{outcomes:?}");
         for (_, c) in &corrections[1] {
@@ -657,7 +836,8 @@ mod tests {
         let settings =
             PlaneSettings { max_departure: (0.03f64.to_radians(), 0.02), ..Default::default() };
         let ground = Plane { normal: Vector3::z(), offset: 0.0 };
-        let outcomes = adjust(&refs, &pairs, 0, &mut corrections, Some(ground), &settings);
+        let outcomes =
+            adjust(&refs, &ORIGINS, &pairs, 0, &mut corrections, Some(ground), &settings);
         assert!(!outcomes[0].accepted, "{outcomes:?}");
         assert!((outcomes[0].motion.rotation.angle() - 0.001).abs() < 1e-4, "{outcomes:?}");
         assert_eq!(corrections[1][0].1, Pose::identity());

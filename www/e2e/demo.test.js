@@ -54,6 +54,11 @@ test('demo: simulate, calibrate, and land within the bound of the truth', async 
   assert.equal(result.planeAdjustment.length, 1, JSON.stringify(result.planeAdjustment));
   assert.match(result.planeAdjustment[0].reason, /^plane adjustment: moved/);
   assert.match(await page.locator('#results').textContent(), /front_right\/all: plane adjustment: moved \d\.\d{4} deg/);
+  // A precision is claimed for the adjusted sensor only (the truth must be near: below).
+  const [reference, adjusted] = result.sensors;
+  assert.equal(reference.precision, null);
+  assert.ok(adjusted.precision.position.every((v) => v > 0 && v < 0.01), JSON.stringify(adjusted.precision));
+  assert.match(await page.locator('#results .precision').first().textContent(), /^precision \(1 sigma\): position [\d.]+, [\d.]+, [\d.]+ mm/);
 
   // Truth from the twin directly (Node), not from the page.
   const { truth } = simulateRig({ preset: 'paper', frames: 1, seed: 1 });
@@ -61,6 +66,12 @@ test('demo: simulate, calibrate, and land within the bound of the truth', async 
     const e = errorOf(s.extrinsic, truth[s.name]);
     console.log(`demo ${s.name}: ${e.deg.toFixed(3)} deg / ${e.mm.toFixed(1)} mm from the truth`);
     assert.ok(e.deg < DEMO_ERROR_BOUND.deg && e.mm < DEMO_ERROR_BOUND.mm, `${s.name}: ${e.deg} deg / ${e.mm} mm`);
+    if (s.precision) {
+      // Within four sigma of the claim.
+      const sigmaMm = Math.hypot(...s.precision.position) * 1000;
+      console.log(`demo ${s.name}: claimed precision ${sigmaMm.toFixed(1)} mm (1 sigma, position)`);
+      assert.ok(e.mm < 4 * sigmaMm, `${s.name}: ${e.mm} mm from the truth, claimed ${sigmaMm} mm`);
+    }
     // The page shows the same error.
     const shown = await page.locator(`.truth[data-sensor="${s.name}"] b`).textContent();
     assert.equal(shown, `${e.deg.toFixed(3)} deg / ${e.mm.toFixed(1)} mm`);

@@ -1,6 +1,7 @@
 // The results panel: per sensor the correction and calibrated extrinsic (4x4, xyz, rpy in deg
-// and rad, quaternion), the spread over frames and, for a demo, the error against the truth;
-// the target's plausibility; a convergence plot; with several methods, one comparison table.
+// and rad, quaternion), the spread over frames, gmm's precision and, for a demo, the error
+// against the truth; the target's plausibility; a convergence plot; with several methods, one
+// comparison table.
 import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from './transforms.js';
 
 const IDENTITY = matrixFromXyzRpy([0, 0, 0], [0, 0, 0]);
@@ -31,9 +32,13 @@ function poseHtml(title, m) {
 function sensorHtml(s, reference, truth) {
   const error = errorVsTruth(s, truth);
   const spread = `spread over ${s.spread.frames} frames: xyz ${f(s.spread.xyz.map((v) => v * 1000), 1)} mm, rpy ${f(s.spread.rpy.map(degrees), 3)} deg`;
+  // gmm's plane adjustment: the spread its points allow (one sigma), null for other methods.
+  const precision = s.precision
+    ? `<p class="precision">precision (1 sigma): position ${f(s.precision.position.map((v) => v * 1000), 1)} mm, rotation about x, y, z ${f(s.precision.rotation.map(degrees), 4)} deg</p>`
+    : '';
   const errorText = error ? `<p class="truth" data-sensor="${esc(s.name)}">error vs truth: <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></p>` : '';
   return `<section class="sensor"><h3>${esc(s.name)}${s.name === reference ? ' (reference)' : ''}</h3>
-    ${errorText}<p>${spread}</p>
+    ${errorText}${precision}<p>${spread}</p>
     <div class="poses">${poseHtml(`correction C_${esc(reference)}_${esc(s.name)}`, s.correction)}${poseHtml(`extrinsic T_vehicle_${esc(s.name)}`, s.extrinsic)}</div></section>`;
 }
 

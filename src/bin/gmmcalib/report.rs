@@ -30,6 +30,14 @@ pub fn summary(c: &Calibration) -> String {
             deg3(s.spread.rpy),
             s.spread.frames
         );
+        if let Some(p) = &s.precision {
+            let _ = writeln!(
+                out,
+                "  precision   xyz {} m   rot {} deg   (1 sigma, plane adjustment)",
+                m3(p.position),
+                deg3(p.rotation)
+            );
+        }
     }
     for fit in &c.target.fits {
         let [x, y, z] = fit.centre;
