@@ -14,6 +14,10 @@ use super::grid::Grid;
 use super::kernel::{self, Accumulators, Block};
 use super::model::{Mixture, ViewStats};
 
+/// Points evaluated together against a block: 2 measured 3 % faster than 1 natively and 5 %
+/// in wasm; 3 and 4 no faster than 2.
+const GROUP: usize = 2;
+
 /// Buffers reused across views and iterations.
 pub struct Scratch {
     keyed: Vec<([i64; 3], usize)>,
@@ -23,7 +27,8 @@ pub struct Scratch {
     sums: Vec<[f64; 5]>,
     block: Block,
     entries: Vec<usize>,
-    a: Vec<f32>,
+    /// Terms of the points of a group.
+    a: [Vec<f32>; GROUP],
     acc: Accumulators,
 }
 
@@ -35,7 +40,7 @@ impl Scratch {
             sums: Vec::new(),
             block: Block::default(),
             entries: Vec::new(),
-            a: Vec::new(),
+            a: std::array::from_fn(|_| Vec::new()),
             acc: Accumulators::default(),
         }
     }
@@ -68,15 +73,26 @@ pub fn accumulate(
     let mut terms = 0u64;
     for run in keyed.chunk_by(|a, b| a.0 == b.0) {
         grid.gather(run[0].0, block, entries);
-        a.resize(block.padded, 0.0);
+        a.iter_mut().for_each(|a| a.resize(block.padded, 0.0));
         acc.reset(block.padded);
-        for &(_, i) in run {
+        let local = |i: usize| {
             let p = transformed[i] - block.origin;
-            let p = [p.x, p.y, p.z];
-            let total = kernel::terms(block, p, grid.cutoff, a);
-            if total > 0.0 {
-                acc.add(block, p, a, 1.0 / (total + beta));
-            }
+            [p.x, p.y, p.z]
+        };
+        let norm = |total: f64| if total > 0.0 { 1.0 / (total + beta) } else { 0.0 };
+        // A few points at a time: the block's columns and the accumulators pass through the
+        // registers once for all of them.
+        let mut groups = run.chunks_exact(GROUP);
+        for group in &mut groups {
+            let p: [[f64; 3]; GROUP] = std::array::from_fn(|j| local(group[j].1));
+            let totals = kernel::terms(block, p, grid.cutoff, a);
+            acc.add(block, p, a, totals.map(norm));
+        }
+        for &(_, i) in groups.remainder() {
+            let (p, one): (_, &mut [Vec<f32>; 1]) =
+                ([local(i)], (&mut a[..1]).try_into().expect("one"));
+            let totals = kernel::terms(block, p, grid.cutoff, one);
+            acc.add(block, p, one, totals.map(norm));
         }
         for (e, &entry) in entries[..block.len].iter().enumerate() {
             let sum = &mut sums[entry];

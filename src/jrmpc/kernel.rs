@@ -96,22 +96,44 @@ impl Block {
     }
 }
 
-/// Writes `a_k = p_k Q_k^1.5 exp(-Q_k |p - x_k|^2 / 2)` for every entry of `block` into `a`
-/// and returns their sum. Terms whose exponent exceeds `cutoff` are 0 (see [`Grid`]).
+/// Writes `a_k = p_k Q_k^1.5 exp(-Q_k |p - x_k|^2 / 2)` for every entry of `block` into `a`,
+/// for each of `N` points `p` at once (each component's columns are loaded once for all of
+/// them), and returns each point's sum. Terms whose exponent exceeds `cutoff` are 0 (see
+/// [`Grid`]).
 ///
 /// [`Grid`]: super::grid::Grid
-pub fn terms(block: &Block, p: [f64; 3], cutoff: f64, a: &mut [f32]) -> f64 {
+pub fn terms<const N: usize>(
+    block: &Block,
+    p: [[f64; 3]; N],
+    cutoff: f64,
+    a: &mut [Vec<f32>; N],
+) -> [f64; N] {
     let n = block.padded;
     let (x, y, z) = (&block.x[..n], &block.y[..n], &block.z[..n]);
-    let (hq, s, a) = (&block.half_q[..n], &block.scale[..n], &mut a[..n]);
+    let (hq, s) = (&block.half_q[..n], &block.scale[..n]);
+    let mut a = a.each_mut().map(|a| &mut a[..n]);
     // Exponents in f64 (written to `a`), then the exps in f32 lanes, twice as many.
     let cutoff = cutoff.min(f64::from(MAX_EXPONENT_F32));
     for i in 0..n {
-        let (dx, dy, dz) = (x[i] - p[0], y[i] - p[1], z[i] - p[2]);
-        let e = hq[i] * (dx * dx + dy * dy + dz * dz);
-        a[i] = if e <= cutoff { e as f32 } else { f32::INFINITY };
+        for (a, p) in a.iter_mut().zip(&p) {
+            let (dx, dy, dz) = (x[i] - p[0], y[i] - p[1], z[i] - p[2]);
+            let e = hq[i] * (dx * dx + dy * dy + dz * dz);
+            a[i] = if e <= cutoff { e as f32 } else { f32::INFINITY };
+        }
     }
-    for i in 0..n {
+    let mut totals = [0.0; N];
+    for (total, a) in totals.iter_mut().zip(a) {
+        *total = exps(s, a);
+    }
+    totals
+}
+
+/// Turns the exponents `a` into terms `s_k exp(-a_k)` (0 past the cutoff) and returns their
+/// sum.
+#[inline(always)]
+fn exps(s: &[f32], a: &mut [f32]) -> f64 {
+    let a = &mut a[..s.len()];
+    for i in 0..s.len() {
         let e = a[i];
         let v = s[i] * exp_neg_f32(e);
         a[i] = if e < f32::INFINITY { v } else { 0.0 };
@@ -146,22 +168,34 @@ impl Accumulators {
         }
     }
 
-    /// Adds the point at `p` (block coordinates) whose terms are `a`.
-    pub fn add(&mut self, block: &Block, p: [f64; 3], a: &[f32], norm: f64) {
-        let n = a.len();
+    /// Adds `N` points at `p` (block coordinates) whose terms are `a`, with their posterior
+    /// normalisers `norm`; each accumulator is loaded and stored once for all of them.
+    pub fn add<const N: usize>(
+        &mut self,
+        block: &Block,
+        p: [[f64; 3]; N],
+        a: &[Vec<f32>; N],
+        norm: [f64; N],
+    ) {
+        let n = block.padded;
         let (bx, by, bz) = (&block.x[..n], &block.y[..n], &block.z[..n]);
         let (l, x, y, z) =
             (&mut self.lambda[..n], &mut self.x[..n], &mut self.y[..n], &mut self.z[..n]);
         let u2 = &mut self.u2[..n];
+        let a = a.each_ref().map(|a| &a[..n]);
         for i in 0..n {
-            let alpha = f64::from(a[i]) * norm;
-            let alpha = if alpha >= TINY { alpha } else { 0.0 };
-            let (ux, uy, uz) = (bx[i] - p[0], by[i] - p[1], bz[i] - p[2]);
-            l[i] += alpha;
-            x[i] += alpha * ux;
-            y[i] += alpha * uy;
-            z[i] += alpha * uz;
-            u2[i] += alpha * (ux * ux + uy * uy + uz * uz);
+            let (mut sl, mut sx, mut sy, mut sz, mut su2) = (l[i], x[i], y[i], z[i], u2[i]);
+            for j in 0..N {
+                let alpha = f64::from(a[j][i]) * norm[j];
+                let alpha = if alpha >= TINY { alpha } else { 0.0 };
+                let (ux, uy, uz) = (bx[i] - p[j][0], by[i] - p[j][1], bz[i] - p[j][2]);
+                sl += alpha;
+                sx += alpha * ux;
+                sy += alpha * uy;
+                sz += alpha * uz;
+                su2 += alpha * (ux * ux + uy * uy + uz * uz);
+            }
+            (l[i], x[i], y[i], z[i], u2[i]) = (sl, sx, sy, sz, su2);
         }
     }
 }
