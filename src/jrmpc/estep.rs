@@ -18,13 +18,14 @@ use super::model::{Mixture, ViewStats};
 /// in wasm; 3 and 4 no faster than 2.
 const GROUP: usize = 2;
 
-/// Buffers reused across views and iterations.
+/// Buffers reused across iterations.
 pub struct Scratch {
-    keyed: Vec<([i64; 3], usize)>,
+    /// Per point: (cell, view, index into `transformed`).
+    keyed: Vec<([i64; 3], u32, u32)>,
     transformed: Vec<Vector3<f64>>,
-    /// Per grid entry, the view's sums `[lambda, u_x, u_y, u_z, u2]` (see [`Accumulators`]),
-    /// `u = x_k - p` in the mixture's frame.
-    sums: Vec<[f64; 5]>,
+    /// Per view, per grid entry, the view's sums `[lambda, u_x, u_y, u_z, u2]` (see
+    /// [`Accumulators`]), `u = x_k - p` in the mixture's frame.
+    sums: Vec<Vec<[f64; 5]>>,
     block: Block,
     entries: Vec<usize>,
     /// Terms of the points of a group.
@@ -46,74 +47,86 @@ impl Scratch {
     }
 }
 
-/// Adds one view's statistics to `stats` (which the caller clears); the view's current
-/// transform is `(rotation, translation)`. Returns the number of Gaussian terms evaluated.
-#[allow(clippy::too_many_arguments)]
+/// Adds each view's statistics to its `stats` (which the caller clears); view `v`'s current
+/// transform is `transforms[v]` (rotation, translation). All views' points are sorted by grid
+/// cell together, so a cell's block of components is gathered once for every view with
+/// points in it; each view's sums still grow in the same order as on its own, so the result
+/// does not depend on which views share a call. Returns the number of Gaussian terms
+/// evaluated.
 pub fn accumulate(
-    points: &[Vector3<f64>],
-    rotation: &Matrix3<f64>,
-    translation: &Vector3<f64>,
+    views: &[Vec<Vector3<f64>>],
+    transforms: &[(Matrix3<f64>, Vector3<f64>)],
     mixture: &Mixture,
     grid: &Grid,
     beta: f64,
-    stats: &mut ViewStats,
+    stats: &mut [ViewStats],
     scratch: &mut Scratch,
 ) -> u64 {
     let Scratch { keyed, transformed, sums, block, entries, a, acc } = scratch;
     keyed.clear();
     transformed.clear();
-    for (i, v) in points.iter().enumerate() {
-        let p = rotation * v + translation;
-        keyed.push((grid.cell_key(&p), i));
-        transformed.push(p);
+    for (v, (points, (rotation, translation))) in views.iter().zip(transforms).enumerate() {
+        for p in points {
+            let p = rotation * p + translation;
+            keyed.push((grid.cell_key(&p), v as u32, transformed.len() as u32));
+            transformed.push(p);
+        }
     }
     keyed.sort_unstable();
-    sums.clear();
-    sums.resize(grid.order.len(), [0.0; 5]);
+    sums.resize_with(views.len(), Vec::new);
+    for sum in sums.iter_mut() {
+        sum.clear();
+        sum.resize(grid.order.len(), [0.0; 5]);
+    }
     let mut terms = 0u64;
-    for run in keyed.chunk_by(|a, b| a.0 == b.0) {
-        grid.gather(run[0].0, block, entries);
+    for cell in keyed.chunk_by(|a, b| a.0 == b.0) {
+        grid.gather(cell[0].0, block, entries);
         a.iter_mut().for_each(|a| a.resize(block.padded, 0.0));
-        acc.reset(block.padded);
-        let local = |i: usize| {
-            let p = transformed[i] - block.origin;
+        let local = |i: u32| {
+            let p = transformed[i as usize] - block.origin;
             [p.x, p.y, p.z]
         };
         let norm = |total: f64| if total > 0.0 { 1.0 / (total + beta) } else { 0.0 };
-        // A few points at a time: the block's columns and the accumulators pass through the
-        // registers once for all of them.
-        let mut groups = run.chunks_exact(GROUP);
-        for group in &mut groups {
-            let p: [[f64; 3]; GROUP] = std::array::from_fn(|j| local(group[j].1));
-            let totals = kernel::terms(block, p, grid.cutoff, a);
-            acc.add(block, p, a, totals.map(norm));
+        for run in cell.chunk_by(|a, b| a.1 == b.1) {
+            acc.reset(block.padded);
+            // A few points at a time: the block's columns and the accumulators pass through
+            // the registers once for all of them.
+            let mut groups = run.chunks_exact(GROUP);
+            for group in &mut groups {
+                let p: [[f64; 3]; GROUP] = std::array::from_fn(|j| local(group[j].2));
+                let totals = kernel::terms(block, p, grid.cutoff, a);
+                acc.add(block, p, a, totals.map(norm));
+            }
+            for &(_, _, i) in groups.remainder() {
+                let (p, one): (_, &mut [Vec<f32>; 1]) =
+                    ([local(i)], (&mut a[..1]).try_into().expect("one"));
+                let totals = kernel::terms(block, p, grid.cutoff, one);
+                acc.add(block, p, one, totals.map(norm));
+            }
+            let view_sums = &mut sums[run[0].1 as usize];
+            for (e, &entry) in entries[..block.len].iter().enumerate() {
+                let sum = &mut view_sums[entry];
+                sum[0] += acc.lambda[e];
+                sum[1] += acc.x[e];
+                sum[2] += acc.y[e];
+                sum[3] += acc.z[e];
+                sum[4] += acc.u2[e];
+            }
         }
-        for &(_, i) in groups.remainder() {
-            let (p, one): (_, &mut [Vec<f32>; 1]) =
-                ([local(i)], (&mut a[..1]).try_into().expect("one"));
-            let totals = kernel::terms(block, p, grid.cutoff, one);
-            acc.add(block, p, one, totals.map(norm));
-        }
-        for (e, &entry) in entries[..block.len].iter().enumerate() {
-            let sum = &mut sums[entry];
-            sum[0] += acc.lambda[e];
-            sum[1] += acc.x[e];
-            sum[2] += acc.y[e];
-            sum[3] += acc.z[e];
-            sum[4] += acc.u2[e];
-        }
-        terms += (run.len() * block.len) as u64;
+        terms += (cell.len() * block.len) as u64;
     }
     // Back to sums over untransformed points: with `m = R^T (x_k - t)` the mean in the view's
     // frame, `v = m - R^T u`.
-    let r_t = rotation.transpose();
-    for (sum, &c) in sums.iter().zip(&grid.order) {
-        let [l, ux, uy, uz, u2] = *sum;
-        let m = r_t * (mixture.means[c] - translation);
-        let u = r_t * Vector3::new(ux, uy, uz);
-        stats.lambda[c] += l;
-        stats.s1[c] += l * m - u;
-        stats.s2[c] += l * m.norm_squared() - 2.0 * m.dot(&u) + u2;
+    for ((view_sums, (rotation, translation)), stats) in sums.iter().zip(transforms).zip(stats) {
+        let r_t = rotation.transpose();
+        for (sum, &c) in view_sums.iter().zip(&grid.order) {
+            let [l, ux, uy, uz, u2] = *sum;
+            let m = r_t * (mixture.means[c] - translation);
+            let u = r_t * Vector3::new(ux, uy, uz);
+            stats.lambda[c] += l;
+            stats.s1[c] += l * m - u;
+            stats.s2[c] += l * m.norm_squared() - 2.0 * m.dot(&u) + u2;
+        }
     }
     terms
 }
@@ -190,13 +203,12 @@ mod tests {
         let mut fast = ViewStats::zeros(k);
         let grid = Grid::new(&mixture, beta);
         let terms = accumulate(
-            &points,
-            &rotation,
-            &translation,
+            std::slice::from_ref(&points),
+            &[(rotation, translation)],
             &mixture,
             &grid,
             beta,
-            &mut fast,
+            std::slice::from_mut(&mut fast),
             &mut Scratch::new(),
         );
         assert!(terms < (points.len() * k) as u64, "the grid skips components");

@@ -392,18 +392,17 @@ impl Shard {
         transforms: &[(Matrix3<f64>, Vector3<f64>)],
         stats: &mut [ViewStats],
     ) -> u64 {
-        let mut terms = 0;
-        let grid = (!self.dense).then(|| grid::Grid::new(mixture, beta));
-        for ((view, st), (r, t)) in self.views.iter().zip(stats).zip(transforms) {
-            st.clear();
-            terms += match &grid {
-                Some(grid) => {
-                    estep::accumulate(view, r, t, mixture, grid, beta, st, &mut self.scratch)
-                }
-                None => estep::dense(view, r, t, mixture, beta, st, &mut self.dense_terms),
-            };
+        stats.iter_mut().for_each(ViewStats::clear);
+        if self.dense {
+            let views = self.views.iter().zip(stats).zip(transforms);
+            return views
+                .map(|((view, st), (r, t))| {
+                    estep::dense(view, r, t, mixture, beta, st, &mut self.dense_terms)
+                })
+                .sum();
         }
-        terms
+        let grid = grid::Grid::new(mixture, beta);
+        estep::accumulate(&self.views, transforms, mixture, &grid, beta, stats, &mut self.scratch)
     }
 }
 
