@@ -21,7 +21,10 @@ const GROUP: usize = 2;
 /// Buffers reused across iterations.
 pub struct Scratch {
     /// Per point: (cell, view, index into `transformed`).
-    keyed: Vec<([i64; 3], u32, u32)>,
+    keyed: Vec<Keyed>,
+    /// The counting sort's buffers.
+    sorted: Vec<Keyed>,
+    counts: Vec<u32>,
     transformed: Vec<Vector3<f64>>,
     /// Per view, per grid entry, the view's sums `[lambda, u_x, u_y, u_z, u2]` (see
     /// [`Accumulators`]), `u = x_k - p` in the mixture's frame.
@@ -37,6 +40,8 @@ impl Scratch {
     pub fn new() -> Self {
         Self {
             keyed: Vec::new(),
+            sorted: Vec::new(),
+            counts: Vec::new(),
             transformed: Vec::new(),
             sums: Vec::new(),
             block: Block::default(),
@@ -62,7 +67,7 @@ pub fn accumulate(
     stats: &mut [ViewStats],
     scratch: &mut Scratch,
 ) -> u64 {
-    let Scratch { keyed, transformed, sums, block, entries, a, acc } = scratch;
+    let Scratch { keyed, sorted, counts, transformed, sums, block, entries, a, acc } = scratch;
     keyed.clear();
     transformed.clear();
     for (v, (points, (rotation, translation))) in views.iter().zip(transforms).enumerate() {
@@ -72,7 +77,7 @@ pub fn accumulate(
             transformed.push(p);
         }
     }
-    keyed.sort_unstable();
+    sort_by_cell(keyed, sorted, counts);
     sums.resize_with(views.len(), Vec::new);
     for sum in sums.iter_mut() {
         sum.clear();
@@ -131,6 +136,47 @@ pub fn accumulate(
     terms
 }
 
+/// A point: its cell, its view, its index into the transformed points.
+type Keyed = ([i64; 3], u32, u32);
+
+/// Sorts `keyed`, pushed in view-and-index order, as `sort_unstable` would (by cell, then
+/// view and index): a counting sort over the cells of the points' bounding box, which keeps
+/// the pushed order within a cell, when that box has at most a few cells per point; a
+/// comparison sort otherwise.
+fn sort_by_cell(keyed: &mut Vec<Keyed>, sorted: &mut Vec<Keyed>, counts: &mut Vec<u32>) {
+    let Some(first) = keyed.first() else { return };
+    let (lo, hi) = keyed.iter().fold((first.0, first.0), |(lo, hi), k| {
+        (std::array::from_fn(|i| lo[i].min(k.0[i])), std::array::from_fn(|i| hi[i].max(k.0[i])))
+    });
+    let dims: [usize; 3] = std::array::from_fn(|i| (hi[i] - lo[i]) as usize + 1);
+    let cells = dims[0].checked_mul(dims[1]).and_then(|c| c.checked_mul(dims[2]));
+    let Some(cells) = cells.filter(|&c| c <= (4 * keyed.len()).max(1 << 16)) else {
+        keyed.sort_unstable();
+        return;
+    };
+    // Lexicographic like the tuples: the last coordinate varies fastest.
+    let linear = |k: &[i64; 3]| {
+        let [x, y, z] = std::array::from_fn(|i| (k[i] - lo[i]) as usize);
+        z + dims[2] * (y + dims[1] * x)
+    };
+    counts.clear();
+    counts.resize(cells + 1, 0);
+    for k in keyed.iter() {
+        counts[linear(&k.0) + 1] += 1;
+    }
+    for c in 1..counts.len() {
+        counts[c] += counts[c - 1];
+    }
+    sorted.clear();
+    sorted.resize(keyed.len(), ([0; 3], 0, 0));
+    for k in keyed.iter() {
+        let slot = &mut counts[linear(&k.0)];
+        sorted[*slot as usize] = *k;
+        *slot += 1;
+    }
+    std::mem::swap(keyed, sorted);
+}
+
 /// The reference: every point against every component, in f64. Returns the terms evaluated.
 pub fn dense(
     points: &[Vector3<f64>],
@@ -168,6 +214,31 @@ pub fn dense(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_counting_sort_sorts_like_the_comparison_sort() {
+        // Points as `accumulate` pushes them (views in order, indices rising) in a compact
+        // cloud of cells (counting sort), then with one far point (comparison sort).
+        for far in [false, true] {
+            let mut keyed: Vec<Keyed> = (0..5000u32)
+                .map(|i| {
+                    let f = f64::from(i);
+                    let cell = [(f * 0.37).sin(), (f * 0.11).cos(), (f * 0.05).sin()]
+                        .map(|c| (c * 15.0).floor() as i64);
+                    (cell, i / 1000, i)
+                })
+                .collect();
+            if far {
+                keyed.push(([1 << 40, -3, 5], 4, 5000));
+            }
+            let mut expected = keyed.clone();
+            expected.sort_unstable();
+            let (mut sorted, mut counts) = (Vec::new(), Vec::new());
+            sort_by_cell(&mut keyed, &mut sorted, &mut counts);
+            assert_eq!(keyed, expected);
+            assert_eq!(counts.is_empty(), far, "the far point falls back to the comparison sort");
+        }
+    }
 
     #[test]
     fn fast_path_matches_the_dense_sum() {
