@@ -111,11 +111,9 @@ pub fn accumulate(
             let view_sums = &mut sums[run[0].1 as usize];
             for (e, &entry) in entries[..block.len].iter().enumerate() {
                 let sum = &mut view_sums[entry];
-                sum[0] += acc.lambda[e];
-                sum[1] += acc.x[e];
-                sum[2] += acc.y[e];
-                sum[3] += acc.z[e];
-                sum[4] += acc.u2[e];
+                for (total, add) in sum.iter_mut().zip(acc.about_mean(block, e)) {
+                    *total += add;
+                }
             }
         }
         terms += (cell.len() * block.len) as u64;
