@@ -11,7 +11,8 @@
 //!    noise widths; points near two planes (an edge) or near none are dropped;
 //! 4. Gauss-Newton over one 6-dof motion per non-reference sensor, shared by all its frames,
 //!    and every plane's normal and offset, the reference fixed; residuals are point-to-plane
-//!    distances with Cauchy weights.
+//!    distances with Cauchy weights;
+//! 5. the covariance at the solution gives each sensor's [`Precision`].
 //!
 //! Planes are per frame, so a target that moves between frames costs nothing (for a static
 //! scene the relative pose is as well determined: each plane compares the sensors' samples of
@@ -450,19 +451,15 @@ fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
     )
 }
 
-/// Gauss-Newton with Cauchy weights over one motion per non-reference sensor (rotation about
-/// `pivot`, the points' centroid, then a shift) and every plane's normal and offset. Each
-/// point touches one plane and one motion, so the planes are eliminated plane by plane (Schur
-/// complement) and only the motions' system is solved densely: the cost grows with the
-/// frames, not with their cube.
+/// What [`solve`] found.
 struct Solution {
     /// Per sensor (identity for the reference and for sensors without observations).
     motions: Vec<Pose>,
     pivot: Vector3<f64>,
     /// Covariance of the motions' unknowns `[rotation vector, shift]` per non-reference
-    /// sensor, in `slot` order: the inverse of the reduced system at the solution, scaled by
-    /// the residuals' variance.
+    /// sensor (see [`covariance`]); `None` without observations or when singular.
     covariance: Option<DMatrix<f64>>,
+    /// Each sensor's first unknown (`None` for the reference).
     slot: Vec<Option<usize>>,
 }
 
@@ -476,6 +473,11 @@ struct Normal {
     g_d: Vec<Vector3<f64>>,
 }
 
+/// Gauss-Newton with Cauchy weights over one motion per non-reference sensor (rotation about
+/// `pivot`, the points' centroid, then a shift) and every plane's normal and offset. Each
+/// point touches one plane and one motion, so the planes are eliminated plane by plane (Schur
+/// complement) and only the motions' system is solved densely: the cost grows with the
+/// frames, not with their cube.
 fn solve(
     observations: &[Observation],
     planes: &mut [FramePlane],
@@ -527,8 +529,7 @@ fn solve(
         }
     }
     let at = Linearisation::new(planes, motions, slot, *pivot, scale2);
-    let covariance = covariance(observations, &at);
-    solution.covariance = covariance;
+    solution.covariance = covariance(observations, &at);
     solution
 }
 
