@@ -3,6 +3,8 @@
 
 use std::collections::HashMap;
 
+use nalgebra::Vector3;
+
 use crate::se3::Pose;
 
 /// An axis-aligned box (metres), bounds inclusive.
@@ -10,6 +12,29 @@ use crate::se3::Pose;
 pub struct Aabb {
     pub min: [f64; 3],
     pub max: [f64; 3],
+}
+
+/// Lower and upper corners of the box around `points`; infinite (lower above upper) when
+/// there are none.
+pub fn bounds<'a>(
+    points: impl IntoIterator<Item = &'a Vector3<f64>>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    points.into_iter().fold(
+        (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+    )
+}
+
+/// Mean of `points` (summed in f64, in order); `None` when there are none.
+pub fn centroid<'a>(points: impl IntoIterator<Item = &'a [f32; 3]>) -> Option<[f64; 3]> {
+    let (mut sum, mut n) = ([0.0f64; 3], 0usize);
+    for p in points {
+        for i in 0..3 {
+            sum[i] += f64::from(p[i]);
+        }
+        n += 1;
+    }
+    (n > 0).then(|| sum.map(|s| s / n as f64))
 }
 
 impl Aabb {
@@ -105,16 +130,7 @@ impl Cloud {
 
     /// Mean of the points in f64, `None` when empty.
     pub fn centroid(&self) -> Option<[f64; 3]> {
-        if self.is_empty() {
-            return None;
-        }
-        let mut sum = [0.0f64; 3];
-        for p in &self.points {
-            for i in 0..3 {
-                sum[i] += p[i] as f64;
-            }
-        }
-        Some(sum.map(|s| s / self.len() as f64))
+        centroid(&self.points)
     }
 
     /// One point per occupied voxel of edge `voxel` (m): the centroid of the points in it

@@ -274,8 +274,8 @@ impl Prepared {
         let settings = &self.settings;
         let clouds: Vec<&[[f32; 3]]> =
             self.usable.iter().map(|(_, _, c)| c.points.as_slice()).collect();
-        let all = Cloud::from_points(clouds.iter().flat_map(|c| c.iter().copied()).collect());
-        let centre = all.centroid().unwrap_or([0.0; 3]);
+        let centre =
+            crate::cloud::centroid(clouds.iter().flat_map(|c| c.iter())).unwrap_or([0.0; 3]);
         let means = settings.prior.means(settings.components, centre, settings.seed);
         let jrmpc_settings = jrmpc::Settings {
             initial_sigma: match settings.initial_sigma {

@@ -26,6 +26,7 @@ use rand_pcg::Pcg64;
 
 use super::average::robust_average;
 use super::level::{Plane, principal_axes};
+use crate::cloud::bounds;
 use crate::se3::{Pose, rotation_about};
 
 /// The plane adjustment's settings.
@@ -442,13 +443,6 @@ fn clusters(points: &[(usize, Vector3<f64>)], indices: &[usize], gap: f64) -> Ve
         groups.push(members);
     }
     groups
-}
-
-fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
-    points.iter().fold(
-        (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
-    )
 }
 
 /// What [`solve`] found.

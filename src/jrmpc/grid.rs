@@ -22,6 +22,7 @@ use nalgebra::Vector3;
 
 use super::kernel::Block;
 use super::model::Mixture;
+use crate::cloud::bounds;
 
 /// Largest share of a point's posterior denominator the skipped components may hold.
 pub const NEGLECTED: f64 = 1e-8;
@@ -79,10 +80,7 @@ impl Grid {
         let reach = sigma_binned * (2.0 * cull).sqrt();
 
         let means = &mixture.means;
-        let (lo, hi) = binned.iter().fold(
-            (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)),
-            |(lo, hi), &c| (lo.inf(&means[c]), hi.sup(&means[c])),
-        );
+        let (lo, hi) = bounds(binned.iter().map(|&c| &means[c]));
         let (origin, extent) =
             if binned.is_empty() { (Vector3::zeros(), Vector3::zeros()) } else { (lo, hi - lo) };
         let mut cell = (reach / SUBDIVIDE).max(1e-6);

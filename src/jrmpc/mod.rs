@@ -453,10 +453,7 @@ fn common_centroid(views: &[&[[f32; 3]]]) -> Vector3<f64> {
 }
 
 fn bounding_box_diagonal_sq<'a>(points: impl Iterator<Item = &'a Vector3<f64>>) -> f64 {
-    let (lo, hi) = points.fold(
-        (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
-    );
+    let (lo, hi) = crate::cloud::bounds(points);
     (hi - lo).norm_squared()
 }
 
