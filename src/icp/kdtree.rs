@@ -1,7 +1,7 @@
 //! A kd-tree over f32 points for nearest and k-nearest queries by Euclidean distance.
 //!
 //! Flat and implicit (no node structs, no pointers): the points are stored in an order such that
-//! every range `[lo, hi)` of more than [`LEAF_SIZE`] points is split at its median
+//! every range `[lo, hi)` of more than `LEAF_SIZE` (8) points is split at its median
 //! `mid = lo + (hi - lo) / 2` along `axes[mid]`; points in `[lo, mid)` have a coordinate `<=` the
 //! median's on that axis, points in `(mid, hi)` `>=`. Smaller ranges are leaves, scanned linearly.
 //! Queries and distances are f64; ties are broken by the smaller original index, so results are

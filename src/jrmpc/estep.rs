@@ -4,9 +4,10 @@
 //!
 //! Two paths. [`dense`] evaluates every term in f64: the reference. [`accumulate`] is what runs:
 //! the components a point can reach come from the [`Grid`] (with a bound on the neglected
-//! mass), the points of a view are sorted by grid cell so each run of points shares one
-//! contiguous block of components, and the terms are evaluated in SIMD lanes with a
-//! polynomial exp in f32, in block coordinates (about the block's cell); sums in f64.
+//! mass), the points of a shard's views are sorted by grid cell (a counting sort) so each
+//! cell's points share one contiguous block of components, gathered once for all views, and
+//! the terms are evaluated in SIMD lanes with a polynomial exp in f32, two points at a time,
+//! in block coordinates (about the block's cell); sums in f64.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -27,7 +28,7 @@ pub struct Scratch {
     counts: Vec<u32>,
     transformed: Vec<Vector3<f64>>,
     /// Per view, per grid entry, the view's sums `[lambda, u_x, u_y, u_z, u2]` (see
-    /// [`Accumulators`]), `u = x_k - p` in the mixture's frame.
+    /// [`Accumulators::about_mean`]), `u = x_k - p` in the mixture's frame.
     sums: Vec<Vec<[f64; 5]>>,
     block: Block,
     entries: Vec<usize>,
