@@ -629,7 +629,7 @@ fn normal_equations(observations: &[Observation], at: &Linearisation) -> Normal 
 /// angle) and one variance for all would misjudge every axis.
 fn covariance(observations: &[Observation], at: &Linearisation) -> Option<DMatrix<f64>> {
     let normal = normal_equations(observations, at);
-    let (s, (_, inverses)) = reduced(&normal)?;
+    let Reduced { s, inverses, .. } = reduced(&normal)?;
     let s_inverse = s.try_inverse()?;
     let coupling: Vec<_> = normal.b.iter().zip(&inverses).map(|(b, inverse)| b * inverse).collect();
     let unknowns = s_inverse.nrows();
@@ -648,11 +648,19 @@ fn covariance(observations: &[Observation], at: &Linearisation) -> Option<DMatri
     Some(&s_inverse * meat * &s_inverse)
 }
 
-/// The motions' reduced system `S = A - sum B D^-1 B^T`, right-hand side
-/// `-g_a + sum B D^-1 g_d`, and each plane's `D^-1`, with a little damping: directions the data
-/// leave free stay where they are. `None` when a block is singular.
-#[allow(clippy::type_complexity)]
-fn reduced(normal: &Normal) -> Option<(DMatrix<f64>, (DVector<f64>, Vec<Matrix3<f64>>))> {
+/// The motions' system once every plane is eliminated.
+struct Reduced {
+    /// `S = A - sum B D^-1 B^T`.
+    s: DMatrix<f64>,
+    /// `-g_a + sum B D^-1 g_d`.
+    rhs: DVector<f64>,
+    /// Each plane's `D^-1`.
+    inverses: Vec<Matrix3<f64>>,
+}
+
+/// Eliminates the planes from `normal`, with a little damping: directions the data leave free
+/// stay where they are. `None` when a block is singular.
+fn reduced(normal: &Normal) -> Option<Reduced> {
     let largest = (0..normal.a.nrows())
         .map(|i| normal.a[(i, i)])
         .chain(normal.d.iter().flat_map(|d| [d[(0, 0)], d[(1, 1)], d[(2, 2)]]))
@@ -671,12 +679,12 @@ fn reduced(normal: &Normal) -> Option<(DMatrix<f64>, (DVector<f64>, Vec<Matrix3<
         rhs += &b_inv * g_d;
         inverses.push(inverse);
     }
-    Some((s, (rhs, inverses)))
+    Some(Reduced { s, rhs, inverses })
 }
 
 /// One Gauss-Newton step: the motions' unknowns, then each plane's `(u, v, offset)`.
 fn reduced_step(normal: &Normal) -> Option<(DVector<f64>, Vec<Vector3<f64>>)> {
-    let (s, (rhs, inverses)) = reduced(normal)?;
+    let Reduced { s, rhs, inverses } = reduced(normal)?;
     let step = if s.nrows() == 0 { DVector::zeros(0) } else { s.cholesky()?.solve(&rhs) };
     let plane_steps = normal
         .b
