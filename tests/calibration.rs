@@ -206,3 +206,35 @@ fn bad_rigs_are_typed_errors() {
     }
     assert_eq!(calibrate(&rig), Some(CalibError::NoCommonFrames("sensor_2".into())));
 }
+
+/// Threads share JRMPC's views and the refinement's frame pairs: the calibration, its notes
+/// and the progress it reports are the same on one thread as on three.
+#[test]
+fn threads_change_nothing_but_the_time() {
+    let spec = RigSpec { sensors: 3, frames: 7, seed: 4, ..RigSpec::default() };
+    let rig = rig_of(&synth::generate(&spec));
+    let calibrate = |threads: usize| {
+        let mut settings = Settings::default();
+        settings.jrmpc.threads = threads;
+        let mut seen = Vec::new();
+        let result = calib::calibrate(&rig, &settings, |p| {
+            seen.push((p.iteration, p.max_iterations, p.corrections.to_vec()));
+            Control::Continue
+        })
+        .expect("calibration");
+        (result, seen)
+    };
+    let (one, one_seen) = calibrate(1);
+    let (three, three_seen) = calibrate(3);
+    for (a, b) in one.sensors.iter().zip(&three.sensors) {
+        assert_eq!((a.correction, a.precision), (b.correction, b.precision), "{}", a.name);
+    }
+    let reasons = |notes: &[calib::FrameNote]| -> Vec<String> {
+        notes.iter().map(|n| format!("{}/{}: {}", n.sensor, n.frame, n.reason)).collect()
+    };
+    assert_eq!(reasons(&one.skipped), reasons(&three.skipped));
+    assert_eq!(reasons(&one.kept_jrmpc), reasons(&three.kept_jrmpc));
+    assert_eq!(reasons(&one.plane_adjustment), reasons(&three.plane_adjustment));
+    assert!(one_seen.len() > 100, "JRMPC's iterations and every frame pair report progress");
+    assert_eq!(one_seen, three_seen);
+}

@@ -373,8 +373,17 @@ impl Prepared {
             Method::Jrmpc => None,
         };
         if let Some(plan) = plan {
-            let report =
-                refine::per_frame(&clouds, &pairs, r, &mut per_frame, &plan, &mut progress)?;
+            // The same threads as JRMPC's (native; the browser shares JRMPC alone).
+            let threads = settings.jrmpc.threads;
+            let report = refine::per_frame(
+                &clouds,
+                &pairs,
+                r,
+                &mut per_frame,
+                &plan,
+                threads,
+                &mut progress,
+            )?;
             for failure in report {
                 let (sensor, frame, _) = &usable[failure.view];
                 let note = FrameNote {

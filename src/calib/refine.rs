@@ -75,53 +75,67 @@ pub struct Plan<'a> {
 /// For each sensor and frame pair `(reference view, sensor view)`, registers the sensor's view
 /// onto the reference's from the current correction (identity when `corrections[s]` is empty,
 /// i.e. the nominal pre-alignment) and replaces it. Frames that fail are dropped and returned.
+///
+/// With `threads` > 1 (native only) the pairs run on that many threads, a batch at a time; the
+/// results are the same as on one, and `progress` still sees every pair in order (a stop takes
+/// effect after the batch).
 pub fn per_frame(
     clouds: &[&[[f32; 3]]],
     pairs: &[Vec<(usize, usize)>],
     reference: usize,
     corrections: &mut [Vec<((usize, usize), Pose)>],
     plan: &Plan,
+    threads: usize,
     progress: &mut impl FnMut(&Progress) -> Control,
 ) -> Result<Vec<Failure>, super::CalibError> {
-    let Plan { method, settings, match_distances, max_departure, ground } = *plan;
-    let total: usize =
-        pairs.iter().enumerate().filter(|(s, _)| *s != reference).map(|(_, p)| p.len()).sum();
-    let mut done = 0;
-    let mut failures = Vec::new();
+    let threads = if cfg!(target_arch = "wasm32") { 1 } else { threads.max(1) };
+    // Every pair to register, in order: (sensor, reference view, view, start).
+    let jobs: Vec<(usize, usize, usize, Pose)> = pairs
+        .iter()
+        .enumerate()
+        .filter(|(s, _)| *s != reference)
+        .flat_map(|(s, frames)| {
+            let corrections = &corrections[s];
+            frames.iter().map(move |&(r, v)| {
+                let start = corrections
+                    .iter()
+                    .find(|(p, _)| *p == (r, v))
+                    .map_or_else(Pose::identity, |(_, c)| *c);
+                (s, r, v, start)
+            })
+        })
+        .collect();
     // Targets are built once per reference view and shared by every sensor.
-    let mut targets: Vec<Option<icp::Target>> = (0..clouds.len()).map(|_| None).collect();
+    let mut needed: Vec<usize> = jobs.iter().map(|j| j.1).collect();
+    needed.sort_unstable();
+    needed.dedup();
+    let built = on_threads(&needed, threads, |&r| target(clouds[r], plan));
+    let mut targets: Vec<Option<Result<icp::Target, icp::IcpError>>> =
+        (0..clouds.len()).map(|_| None).collect();
+    for (r, t) in needed.iter().zip(built) {
+        targets[*r] = Some(t);
+    }
+
     let mut refined: Vec<Vec<((usize, usize), Pose)>> = vec![Vec::new(); pairs.len()];
-    for (s, frames) in pairs.iter().enumerate() {
-        if s == reference {
-            refined[s] = frames.iter().map(|&pair| (pair, Pose::identity())).collect();
-            continue;
-        }
-        for &(r, v) in frames {
-            let start = corrections[s]
-                .iter()
-                .find(|(p, _)| *p == (r, v))
-                .map_or_else(Pose::identity, |(_, c)| *c);
-            let target = match &targets[r] {
-                Some(t) => Ok(t),
-                None => icp::Target::new(clouds[r], method, settings).map(|mut t| {
-                    if let Some((plane, band)) = ground {
-                        t.set_normals(|p| {
-                            let p = Vector3::from(p.map(f64::from));
-                            (plane.distance(&p).abs() <= band).then_some(plane.normal)
-                        });
-                    }
-                    &*targets[r].insert(t)
-                }),
-            };
-            let result = target.and_then(|target| {
-                match_distances.iter().try_fold(start, |pose, &distance| {
-                    let stage =
-                        IcpSettings { max_correspondence_distance: distance, ..settings.clone() };
+    refined[reference] = pairs[reference].iter().map(|&pair| (pair, Pose::identity())).collect();
+    let mut failures = Vec::new();
+    let mut done = 0;
+    'batches: for batch in jobs.chunks(4 * threads) {
+        let aligned = on_threads(batch, threads, |&(_, r, v, start)| {
+            let target = targets[r].as_ref().expect("built above").as_ref().map_err(Clone::clone);
+            target.and_then(|target| {
+                plan.match_distances.iter().try_fold(start, |pose, &distance| {
+                    let stage = IcpSettings {
+                        max_correspondence_distance: distance,
+                        ..plan.settings.clone()
+                    };
                     target.align(clouds[v], &pose, &stage).map(|a| a.target_from_source)
                 })
-            });
+            })
+        });
+        for (&(s, r, v, start), result) in batch.iter().zip(aligned) {
             match result {
-                Ok(pose) => match departure_beyond(&start, &pose, max_departure) {
+                Ok(pose) => match departure_beyond(&start, &pose, plan.max_departure) {
                     None => refined[s].push(((r, v), pose)),
                     Some(reason) => {
                         failures.push(Failure { view: v, reason, kept_start: true });
@@ -130,7 +144,7 @@ pub fn per_frame(
                 },
                 Err(e) => failures.push(Failure {
                     view: v,
-                    reason: format!("{} failed: {e}", method.name()),
+                    reason: format!("{} failed: {e}", plan.method.name()),
                     kept_start: false,
                 }),
             }
@@ -144,18 +158,46 @@ pub fn per_frame(
                 .collect();
             let answer = progress(&Progress {
                 iteration: done,
-                max_iterations: total,
+                max_iterations: jobs.len(),
                 mean_sigma: 0.0,
                 max_change: 0.0,
                 corrections: &running,
             });
             if answer == Control::Stop {
-                break;
+                break 'batches;
             }
         }
     }
     corrections.iter_mut().zip(refined).for_each(|(c, r)| *c = r);
     Ok(failures)
+}
+
+/// The ICP target of reference view `cloud`, with the plan's ground normals.
+fn target(cloud: &[[f32; 3]], plan: &Plan) -> Result<icp::Target, icp::IcpError> {
+    let mut target = icp::Target::new(cloud, plan.method, plan.settings)?;
+    if let Some((plane, band)) = plan.ground {
+        target.set_normals(|p| {
+            let p = Vector3::from(p.map(f64::from));
+            (plane.distance(&p).abs() <= band).then_some(plane.normal)
+        });
+    }
+    Ok(target)
+}
+
+/// `f` of every item, in order, on up to `threads` threads (contiguous slices).
+fn on_threads<T: Sync, R: Send>(items: &[T], threads: usize, f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+    if threads <= 1 || items.len() <= 1 {
+        return items.iter().map(f).collect();
+    }
+    let per = items.len().div_ceil(threads);
+    let f = &f;
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = items
+            .chunks(per)
+            .map(|chunk| scope.spawn(move || chunk.iter().map(f).collect::<Vec<R>>()))
+            .collect();
+        handles.into_iter().flat_map(|h| h.join().expect("a refinement thread panicked")).collect()
+    })
 }
 
 /// Why `end` is too far from `start` to be trusted, if it is.

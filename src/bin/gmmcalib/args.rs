@@ -16,8 +16,8 @@ usage: gmmcalib calibrate --config CONFIG.yaml --data DIR
 
   calibrate: DIR holds one folder per sensor (sensor_1, sensor_2, ...), each with frames
   1.pcd, 2.pcd, ... (.pcd, .ply or .bin); frames pair across sensors by file stem. Flags
-  override CONFIG.yaml. --threads: threads sharing JRMPC's E-step (default: the available
-  cores; the result does not depend on it).
+  override CONFIG.yaml. --threads: threads sharing JRMPC's E-step and the refinement's frame
+  pairs (default: the available cores; the result does not depend on it).
   simulate: writes the digital twin in that layout (DIR/config.yaml with miscalibrated nominal
   extrinsics, DIR/data/sensor_N/F.pcd) plus DIR/truth.json; the first sensor is the reference
   and keeps its true mount.
