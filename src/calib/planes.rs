@@ -94,8 +94,8 @@ pub struct Outcome {
 }
 
 /// One-sigma uncertainty of a sensor's calibration as the plane adjustment measures it: the
-/// inverse of its normal equations, scaled by the residuals' variance. That is the spread the
-/// point noise leaves (the twin's errors follow it; README, "How precise"), not a bound on
+/// covariance of its motion at the solution, from the point-to-plane residuals (see
+/// [`covariance`]). That is the spread the point noise leaves (the twin's errors follow it; README, "How precise"), not a bound on
 /// errors the plane model cannot see (a target that moved, a wrong nominal beyond reach).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Precision {
@@ -502,7 +502,7 @@ fn solve(
     let scale2 = settings.robust_scale * settings.robust_scale;
     for _ in 0..settings.iterations {
         let at = Linearisation::new(planes, motions, slot, *pivot, scale2);
-        let normal = normal_equations(observations, &at);
+        let normal = normal_equations(&at.terms(observations), &at);
         let Some((step, plane_steps)) = reduced_step(&normal) else {
             break;
         };
@@ -573,6 +573,10 @@ impl<'a> Linearisation<'a> {
         Self { planes, bases, motions, slot, pivot, scale2 }
     }
 
+    fn terms(&self, observations: &[Observation]) -> Vec<Term> {
+        observations.iter().map(|o| self.term(o)).collect()
+    }
+
     fn term(&self, o: &Observation) -> Term {
         let p = (self.motions[o.sensor] * Point3::from(o.point)).coords;
         let plane = &self.planes[o.plane];
@@ -593,7 +597,8 @@ impl<'a> Linearisation<'a> {
     }
 }
 
-fn normal_equations(observations: &[Observation], at: &Linearisation) -> Normal {
+/// The normal equations of `terms`, linearised at `at`.
+fn normal_equations(terms: &[Term], at: &Linearisation) -> Normal {
     let unknowns = 6 * (at.motions.len() - 1);
     let planes = at.planes.len();
     let mut normal = Normal {
@@ -603,8 +608,7 @@ fn normal_equations(observations: &[Observation], at: &Linearisation) -> Normal 
         d: vec![Matrix3::zeros(); planes],
         g_d: vec![Vector3::zeros(); planes],
     };
-    for o in observations {
-        let Term { plane: k, weight: w, residual: r, j_d, j_a } = at.term(o);
+    for &Term { plane: k, weight: w, residual: r, j_d, j_a } in terms {
         normal.d[k] += w * j_d * j_d.transpose();
         normal.g_d[k] += w * r * j_d;
         if let Some((base, j_a)) = j_a {
@@ -628,14 +632,14 @@ fn normal_equations(observations: &[Observation], at: &Linearisation) -> Normal 
 /// point along its beam, so a face seen head-on scatters more than the ground at a grazing
 /// angle) and one variance for all would misjudge every axis.
 fn covariance(observations: &[Observation], at: &Linearisation) -> Option<DMatrix<f64>> {
-    let normal = normal_equations(observations, at);
+    let terms = at.terms(observations);
+    let normal = normal_equations(&terms, at);
     let Reduced { s, inverses, .. } = reduced(&normal)?;
     let s_inverse = s.try_inverse()?;
     let coupling: Vec<_> = normal.b.iter().zip(&inverses).map(|(b, inverse)| b * inverse).collect();
     let unknowns = s_inverse.nrows();
     let mut meat = DMatrix::<f64>::zeros(unknowns, unknowns);
-    for o in observations {
-        let term = at.term(o);
+    for term in &terms {
         let mut j = -(&coupling[term.plane] * term.j_d);
         if let Some((base, j_a)) = term.j_a {
             for (i, ji) in j_a.iter().enumerate() {
