@@ -132,7 +132,7 @@ fn spec_bounds() -> Bounds {
 /// Per axis (rotation about x, y, z; position x, y, z): the RMS error over `errors` against
 /// the RMS of the one-sigma precision claimed, as lines of text and as ratios (error over
 /// claim). Sensors without a claim are left out.
-fn precision_check(errors: &[&SensorError]) -> Vec<String> {
+fn precision_check(errors: &[&SensorError]) -> (Vec<String>, [f64; 6]) {
     let claimed: Vec<(&SensorError, Precision)> =
         errors.iter().filter_map(|e| Some((*e, e.precision?))).collect();
     let n = claimed.len().max(1) as f64;
@@ -141,25 +141,28 @@ fn precision_check(errors: &[&SensorError]) -> Vec<String> {
     };
     let mut lines =
         vec![format!("precision claimed by {} of {} calibrations", claimed.len(), errors.len())];
+    let mut ratios = [0.0; 6];
     for (i, axis) in ["x", "y", "z"].iter().enumerate() {
         let (error, claim) = (rms(&|c| c.0.rotation[i]), rms(&|c| c.1.rotation[i]));
+        ratios[i] = error / claim;
         lines.push(format!(
             "rotation about {axis}: RMS error {:.4} deg, claimed {:.4} deg (ratio {:.2})",
             error.to_degrees(),
             claim.to_degrees(),
-            error / claim
+            ratios[i]
         ));
     }
     for (i, axis) in ["x", "y", "z"].iter().enumerate() {
         let (error, claim) = (rms(&|c| c.0.position[i]), rms(&|c| c.1.position[i]));
+        ratios[3 + i] = error / claim;
         lines.push(format!(
             "position {axis}: RMS error {:.2} mm, claimed {:.2} mm (ratio {:.2})",
             error * 1e3,
             claim * 1e3,
-            error / claim
+            ratios[3 + i]
         ));
     }
-    lines
+    (lines, ratios)
 }
 
 fn summary(errors: &[f64]) -> String {
@@ -210,16 +213,12 @@ fn plane_adjustment_removes_most_of_the_error() {
 fn the_claimed_precision_is_the_spread_of_the_errors() {
     let errors = paper_trials(8, &calib::Settings::default());
     let errors: Vec<&SensorError> = errors.iter().flatten().collect();
-    for line in precision_check(&errors) {
+    let (lines, ratios) = precision_check(&errors);
+    for line in lines {
         println!("{line}");
     }
     assert!(errors.iter().all(|e| e.precision.is_some()), "every sensor has a precision");
-    let rms = |f: &dyn Fn(&SensorError) -> f64| {
-        (errors.iter().map(|e| f(e).powi(2)).sum::<f64>() / errors.len() as f64).sqrt()
-    };
-    let claim = |f: &dyn Fn(&Precision) -> f64| rms(&|e| f(&e.precision.unwrap()));
-    let yaw = rms(&|e| e.rotation.z) / claim(&|p| p.rotation[2]);
-    let y = rms(&|e| e.position.y) / claim(&|p| p.position[1]);
+    let (yaw, y) = (ratios[2], ratios[4]);
     assert!((0.5..=2.0).contains(&yaw) && (0.5..=2.0).contains(&y), "ratios {yaw} {y}");
 }
 
@@ -360,7 +359,7 @@ fn study() {
         trial(&preset, 5, seed, start, bounds, &settings)
     });
     let errors: Vec<&SensorError> = results.iter().flatten().collect();
-    for line in precision_check(&errors) {
+    for line in precision_check(&errors).0 {
         println!("{line}");
     }
     // Per error: |roll, pitch, yaw| (deg) and |x, y, z| (mm).
