@@ -105,24 +105,26 @@ pub fn per_frame(
             })
         })
         .collect();
-    // Targets are built once per reference view and shared by every sensor.
-    let mut needed: Vec<usize> = jobs.iter().map(|j| j.1).collect();
-    needed.sort_unstable();
-    needed.dedup();
-    let built = on_threads(&needed, threads, |&r| target(clouds[r], plan));
+    // Targets are built once per reference view, when a batch first needs it, and shared by
+    // every sensor.
     let mut targets: Vec<Option<Result<icp::Target, icp::IcpError>>> =
         (0..clouds.len()).map(|_| None).collect();
-    for (r, t) in needed.iter().zip(built) {
-        targets[*r] = Some(t);
-    }
-
     let mut refined: Vec<Vec<((usize, usize), Pose)>> = vec![Vec::new(); pairs.len()];
     refined[reference] = pairs[reference].iter().map(|&pair| (pair, Pose::identity())).collect();
     let mut failures = Vec::new();
     let mut done = 0;
     'batches: for batch in jobs.chunks(4 * threads) {
+        let mut needed: Vec<usize> =
+            batch.iter().map(|j| j.1).filter(|&r| targets[r].is_none()).collect();
+        needed.sort_unstable();
+        needed.dedup();
+        let built = on_threads(&needed, threads, |&r| target(clouds[r], plan));
+        for (&r, built) in needed.iter().zip(built) {
+            targets[r] = Some(built);
+        }
         let aligned = on_threads(batch, threads, |&(_, r, v, start)| {
-            let target = targets[r].as_ref().expect("built above").as_ref().map_err(Clone::clone);
+            let target =
+                targets[r].as_ref().expect("built for the batch").as_ref().map_err(Clone::clone);
             target.and_then(|target| {
                 plan.match_distances.iter().try_fold(start, |pose, &distance| {
                     let stage = IcpSettings {
