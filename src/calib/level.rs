@@ -11,13 +11,14 @@
 use nalgebra::{Matrix3, Point3, SymmetricEigen, U3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
+use serde::{Deserialize, Serialize};
 
 use super::bev::BevAlignment;
 use crate::cloud::{Aabb, is_valid_point};
 use crate::se3::{Pose, rotation_about};
 
 /// A plane `normal . p + offset = 0` with a unit normal pointing up (+z).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Plane {
     pub normal: Vector3<f64>,
     pub offset: f64,

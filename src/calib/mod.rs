@@ -19,7 +19,7 @@ mod bev;
 mod error;
 mod level;
 mod planes;
-mod refine;
+pub mod refine;
 mod settings;
 
 use nalgebra::Vector3;
@@ -33,7 +33,7 @@ pub use bev::{BevAlignment, BevSettings};
 pub use error::CalibError;
 pub use level::{GroundSettings, Levelling, Plane};
 pub use planes::{PlaneSettings, Precision};
-pub use refine::RefineSettings;
+pub use refine::{FrameCorrections, RefineSettings, Refinement};
 pub use settings::{InitialSigma, Method, Settings};
 
 /// One scan: points `x, y, z` in the sensor's own frame (m).
@@ -308,13 +308,81 @@ impl Prepared {
             .collect()
     }
 
+    /// The cropped, pre-aligned views, numbered as the refinement's jobs number them.
+    pub fn clouds(&self) -> Vec<&[[f32; 3]]> {
+        self.usable.iter().map(|(_, _, c)| c.points.as_slice()).collect()
+    }
+
+    /// Corrections of the pre-aligned clouds, one per sensor, as the caller sees them: of the
+    /// nominal pre-alignment, levelling included.
+    pub fn levelled(&self, corrections: &[Pose]) -> Vec<Pose> {
+        corrections.iter().zip(&self.applied).map(|(c, l)| c * l).collect()
+    }
+
+    /// Step 3's frame pairs, for the methods that register them: `gmm`'s refinement from
+    /// `registration`'s corrections, the ICP methods from the nominal; `None` for `jrmpc`.
+    /// [`Prepared::finish`] runs them here; a caller may run them itself, e.g. on several
+    /// workers, and hand them to [`Prepared::finish_with`].
+    pub fn refinement(&self, registration: Option<&jrmpc::Registration>) -> Option<Refinement> {
+        let settings = &self.settings;
+        let plan = match settings.method {
+            Method::Gmm => refine::Plan {
+                method: settings.refine.method,
+                settings: settings.refine.icp.clone(),
+                match_distances: settings.refine.match_distances.clone(),
+                max_departure: Some(settings.refine.max_departure),
+                ground: self.reference_ground(),
+            },
+            Method::Icp(method) => refine::Plan {
+                method,
+                settings: settings.icp.clone(),
+                match_distances: vec![settings.icp.max_correspondence_distance],
+                max_departure: None,
+                ground: None,
+            },
+            Method::Jrmpc => return None,
+        };
+        let starts = match registration {
+            Some(registration) => jrmpc_per_frame(&self.pairs, registration),
+            None => vec![Vec::new(); self.sensors.len()],
+        };
+        Some(Refinement::new(plan, &self.pairs, self.r, &starts))
+    }
+
+    /// The reference's levelled ground plane and the band whose points take its normal.
+    fn reference_ground(&self) -> Option<(Plane, f64)> {
+        let ground = self.levelling.get(self.r).and_then(|l| l.ground)?;
+        Some((ground, self.settings.ground.normal_band))
+    }
+
     /// Steps 3 (the per-frame corrections: from `registration` for the GMM methods, refined
-    /// for `gmm`; by ICP for the others), 4 and 5.
+    /// for `gmm`; by ICP for the others), 4 and 5. `progress` sees the refinement's pairs.
     pub fn finish(
         self,
         registration: Option<jrmpc::Registration>,
         mut progress: impl FnMut(&Progress) -> Control,
     ) -> Result<Calibration, CalibError> {
+        let mut refinement = self.refinement(registration.as_ref());
+        if let Some(refinement) = &mut refinement {
+            let all = 0..refinement.jobs().len();
+            // The same threads as JRMPC's (native).
+            let threads = self.settings.jrmpc.threads;
+            refinement.run(&self.clouds(), all, threads, &mut |p: &Progress| {
+                let corrections = self.levelled(p.corrections);
+                progress(&Progress { corrections: &corrections, ..*p })
+            });
+        }
+        self.finish_with(registration, refinement)
+    }
+
+    /// Steps 4 and 5, after step 3: `registration` for the GMM methods, and the frame pairs of
+    /// [`Prepared::refinement`] as far as they were registered.
+    pub fn finish_with(
+        self,
+        registration: Option<jrmpc::Registration>,
+        refinement: Option<Refinement>,
+    ) -> Result<Calibration, CalibError> {
+        let reference_ground = self.reference_ground();
         let Self {
             settings,
             sensors,
@@ -329,75 +397,28 @@ impl Prepared {
             ground,
         } = self;
         let mut kept_jrmpc = Vec::new();
-        // The caller sees corrections of the nominal pre-alignment, levelling included.
-        let mut progress = |p: &Progress| {
-            let corrections: Vec<Pose> =
-                p.corrections.iter().zip(&applied).map(|(c, l)| c * l).collect();
-            progress(&Progress { corrections: &corrections, ..*p })
-        };
-
-        // 3. Per-frame corrections by the chosen method.
         let clouds: Vec<&[[f32; 3]]> = usable.iter().map(|(_, _, c)| c.points.as_slice()).collect();
-        let mut per_frame: Vec<Vec<((usize, usize), Pose)>> = match &registration {
-            Some(registration) => pairs
-                .iter()
-                .map(|p| {
-                    p.iter()
-                        .map(|&(r, s)| {
-                            ((r, s), registration.poses[r].inverse() * registration.poses[s])
-                        })
-                        .collect()
-                })
-                .collect(),
-            None => vec![Vec::new(); sensors.len()],
-        };
-        let reference_ground = levelling
-            .get(r)
-            .and_then(|l| l.ground)
-            .map(|plane| (plane, settings.ground.normal_band));
-        let plan = match settings.method {
-            Method::Gmm => Some(refine::Plan {
-                method: settings.refine.method,
-                settings: &settings.refine.icp,
-                match_distances: &settings.refine.match_distances,
-                max_departure: Some(settings.refine.max_departure),
-                ground: reference_ground,
-            }),
-            Method::Icp(method) => Some(refine::Plan {
-                method,
-                settings: &settings.icp,
-                match_distances: std::slice::from_ref(&settings.icp.max_correspondence_distance),
-                max_departure: None,
-                ground: None,
-            }),
-            Method::Jrmpc => None,
-        };
-        if let Some(plan) = plan {
-            // The same threads as JRMPC's (native; the browser shares JRMPC alone).
-            let threads = settings.jrmpc.threads;
-            let report = refine::per_frame(
-                &clouds,
-                &pairs,
-                r,
-                &mut per_frame,
-                &plan,
-                threads,
-                &mut progress,
-            )?;
-            for failure in report {
-                let (sensor, frame, _) = &usable[failure.view];
-                let note = FrameNote {
-                    sensor: sensors[*sensor].clone(),
-                    frame: frame.clone(),
-                    reason: failure.reason,
-                };
-                if failure.kept_start {
-                    kept_jrmpc.push(note);
-                } else {
-                    skipped.push(note);
+        let mut per_frame = match (&refinement, &registration) {
+            (Some(refinement), _) => {
+                let (per_frame, failures) = refinement.corrections();
+                for failure in failures {
+                    let (sensor, frame, _) = &usable[failure.view];
+                    let note = FrameNote {
+                        sensor: sensors[*sensor].clone(),
+                        frame: frame.clone(),
+                        reason: failure.reason,
+                    };
+                    if failure.kept_start {
+                        kept_jrmpc.push(note);
+                    } else {
+                        skipped.push(note);
+                    }
                 }
+                per_frame
             }
-        }
+            (None, Some(registration)) => jrmpc_per_frame(&pairs, registration),
+            (None, None) => return Err(CalibError::InvalidSetting("no registration to finish")),
+        };
         let mut precision = vec![None; sensors.len()];
         let plane_adjustment = match (&settings.planes, settings.method) {
             (Some(plane_settings), Method::Gmm) => {
@@ -485,6 +506,18 @@ impl Prepared {
             history,
         })
     }
+}
+
+/// Per sensor, JRMPC's correction of each of its frame pairs: `T_ref,f^-1 T_s,f`.
+fn jrmpc_per_frame(
+    pairs: &[Vec<(usize, usize)>],
+    registration: &jrmpc::Registration,
+) -> Vec<FrameCorrections> {
+    let poses = &registration.poses;
+    pairs
+        .iter()
+        .map(|p| p.iter().map(|&(r, s)| ((r, s), poses[r].inverse() * poses[s])).collect())
+        .collect()
 }
 
 /// Step 2: each view pre-aligned by its sensor's pose and cropped to the ROI, as

@@ -136,7 +136,7 @@ pub fn adjust(
     origins: &[Vector3<f64>],
     pairs: &[Vec<(usize, usize)>],
     reference: usize,
-    corrections: &mut [Vec<((usize, usize), Pose)>],
+    corrections: &mut [super::FrameCorrections],
     ground: Option<Plane>,
     settings: &PlaneSettings,
 ) -> Vec<Outcome> {

@@ -7,14 +7,15 @@
 //! supplies the basin of convergence. The match distance shrinks over stages, so the first
 //! stage can still catch what JRMPC left and the last one ignores what does not overlap.
 
-use crate::icp::{self, IcpSettings};
-use crate::jrmpc::Control;
-use crate::se3::Pose;
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
 
 use super::Progress;
 use super::average::average;
 use super::level::Plane;
-use nalgebra::Vector3;
+use crate::icp::{self, IcpSettings};
+use crate::jrmpc::Control;
+use crate::se3::Pose;
 
 /// The refinement's settings.
 #[derive(Clone, Debug, PartialEq)]
@@ -51,6 +52,9 @@ impl Default for RefineSettings {
     }
 }
 
+/// One sensor's correction per frame pair `(reference view, sensor view)`.
+pub type FrameCorrections = Vec<((usize, usize), Pose)>;
+
 /// A frame whose registration failed (left out of the average) or whose refinement was
 /// rejected (the starting correction kept).
 pub struct Failure {
@@ -60,123 +64,34 @@ pub struct Failure {
     pub kept_start: bool,
 }
 
-/// How the frames are registered.
-pub struct Plan<'a> {
+/// How the frames are registered. Owned and serialisable, so a worker elsewhere (the page's
+/// shard workers) can register a share of the pairs exactly as here.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
     pub method: icp::Method,
-    pub settings: &'a IcpSettings,
+    pub settings: IcpSettings,
     /// One ICP stage per match distance (m), in order.
-    pub match_distances: &'a [f64],
+    pub match_distances: Vec<f64>,
     /// Rotation (rad) and translation (m) beyond which a result is rejected, if any.
     pub max_departure: Option<(f64, f64)>,
     /// The reference's ground plane and the band (m) around it whose points take its normal.
     pub ground: Option<(Plane, f64)>,
 }
 
-/// For each sensor and frame pair `(reference view, sensor view)`, registers the sensor's view
-/// onto the reference's from the current correction (identity when `corrections[s]` is empty,
-/// i.e. the nominal pre-alignment) and replaces it. Frames that fail are dropped and returned.
-///
-/// With `threads` > 1 (native only) the pairs run on that many threads, a batch at a time; the
-/// results are the same as on one, and `progress` still sees every pair in order (a stop takes
-/// effect after the batch).
-pub fn per_frame(
-    clouds: &[&[[f32; 3]]],
-    pairs: &[Vec<(usize, usize)>],
-    reference: usize,
-    corrections: &mut [Vec<((usize, usize), Pose)>],
-    plan: &Plan,
-    threads: usize,
-    progress: &mut impl FnMut(&Progress) -> Control,
-) -> Result<Vec<Failure>, super::CalibError> {
-    let threads = if cfg!(target_arch = "wasm32") { 1 } else { threads.max(1) };
-    // Every pair to register, in order: (sensor, reference view, view, start).
-    let jobs: Vec<(usize, usize, usize, Pose)> = pairs
-        .iter()
-        .enumerate()
-        .filter(|(s, _)| *s != reference)
-        .flat_map(|(s, frames)| {
-            let corrections = &corrections[s];
-            frames.iter().map(move |&(r, v)| {
-                let start = corrections
-                    .iter()
-                    .find(|(p, _)| *p == (r, v))
-                    .map_or_else(Pose::identity, |(_, c)| *c);
-                (s, r, v, start)
-            })
-        })
-        .collect();
-    // Targets are built once per reference view, when a batch first needs it, and shared by
-    // every sensor.
-    let mut targets: Vec<Option<Result<icp::Target, icp::IcpError>>> =
-        (0..clouds.len()).map(|_| None).collect();
-    let mut refined: Vec<Vec<((usize, usize), Pose)>> = vec![Vec::new(); pairs.len()];
-    refined[reference] = pairs[reference].iter().map(|&pair| (pair, Pose::identity())).collect();
-    let mut failures = Vec::new();
-    let mut done = 0;
-    'batches: for batch in jobs.chunks(4 * threads) {
-        let mut needed: Vec<usize> =
-            batch.iter().map(|j| j.1).filter(|&r| targets[r].is_none()).collect();
-        needed.sort_unstable();
-        needed.dedup();
-        let built = on_threads(&needed, threads, |&r| target(clouds[r], plan));
-        for (&r, built) in needed.iter().zip(built) {
-            targets[r] = Some(built);
-        }
-        let aligned = on_threads(batch, threads, |&(_, r, v, start)| {
-            let target =
-                targets[r].as_ref().expect("built for the batch").as_ref().map_err(Clone::clone);
-            target.and_then(|target| {
-                plan.match_distances.iter().try_fold(start, |pose, &distance| {
-                    let stage = IcpSettings {
-                        max_correspondence_distance: distance,
-                        ..plan.settings.clone()
-                    };
-                    target.align(clouds[v], &pose, &stage).map(|a| a.target_from_source)
-                })
-            })
-        });
-        for (&(s, r, v, start), result) in batch.iter().zip(aligned) {
-            match result {
-                Ok(pose) => match departure_beyond(&start, &pose, plan.max_departure) {
-                    None => refined[s].push(((r, v), pose)),
-                    Some(reason) => {
-                        failures.push(Failure { view: v, reason, kept_start: true });
-                        refined[s].push(((r, v), start));
-                    }
-                },
-                Err(e) => failures.push(Failure {
-                    view: v,
-                    reason: format!("{} failed: {e}", plan.method.name()),
-                    kept_start: false,
-                }),
-            }
-            done += 1;
-            let running: Vec<Pose> = refined
-                .iter()
-                .map(|c| {
-                    average(&c.iter().map(|(_, p)| *p).collect::<Vec<_>>())
-                        .map_or_else(Pose::identity, |(m, _)| m)
-                })
-                .collect();
-            let answer = progress(&Progress {
-                iteration: done,
-                max_iterations: jobs.len(),
-                mean_sigma: 0.0,
-                max_change: 0.0,
-                corrections: &running,
-            });
-            if answer == Control::Stop {
-                break 'batches;
-            }
-        }
-    }
-    corrections.iter_mut().zip(refined).for_each(|(c, r)| *c = r);
-    Ok(failures)
+/// One frame pair: sensor `sensor`'s view `view` onto the reference's view `reference_view`,
+/// from the correction `start`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Job {
+    pub sensor: usize,
+    pub reference_view: usize,
+    pub view: usize,
+    pub start: Pose,
 }
 
-/// The ICP target of reference view `cloud`, with the plan's ground normals.
-fn target(cloud: &[[f32; 3]], plan: &Plan) -> Result<icp::Target, icp::IcpError> {
-    let mut target = icp::Target::new(cloud, plan.method, plan.settings)?;
+/// The ICP target of reference view `cloud`, with the plan's ground normals. Build it once per
+/// reference view: every sensor's pair of that frame aligns onto it.
+pub fn target(cloud: &[[f32; 3]], plan: &Plan) -> Result<icp::Target, icp::IcpError> {
+    let mut target = icp::Target::new(cloud, plan.method, &plan.settings)?;
     if let Some((plane, band)) = plan.ground {
         target.set_normals(|p| {
             let p = Vector3::from(p.map(f64::from));
@@ -184,6 +99,205 @@ fn target(cloud: &[[f32; 3]], plan: &Plan) -> Result<icp::Target, icp::IcpError>
         });
     }
     Ok(target)
+}
+
+/// Registers `cloud` onto `target` from `start`: one ICP stage per match distance.
+pub fn align(
+    target: &icp::Target,
+    cloud: &[[f32; 3]],
+    start: &Pose,
+    plan: &Plan,
+) -> Result<Pose, icp::IcpError> {
+    plan.match_distances.iter().try_fold(*start, |pose, &distance| {
+        let stage = IcpSettings { max_correspondence_distance: distance, ..plan.settings.clone() };
+        target.align(cloud, &pose, &stage).map(|a| a.target_from_source)
+    })
+}
+
+/// The frame pairs of a calibration and their outcomes so far. The pairs may be registered
+/// here ([`Refinement::run`]) or anywhere else and [`Refinement::record`]ed, in any order:
+/// the corrections come out in pair order either way, so the result does not depend on who
+/// registered what.
+pub struct Refinement {
+    plan: Plan,
+    jobs: Vec<Job>,
+    /// Per job: the registered correction, or why registering failed.
+    outcomes: Vec<Option<Result<Pose, String>>>,
+    /// The reference's own pairs, which keep the identity.
+    reference: (usize, Vec<(usize, usize)>),
+    sensors: usize,
+    stopped: bool,
+}
+
+impl Refinement {
+    /// For each sensor and frame pair `(reference view, sensor view)`, a job from the current
+    /// correction (identity when `starts[s]` has none, i.e. the nominal pre-alignment).
+    pub fn new(
+        plan: Plan,
+        pairs: &[Vec<(usize, usize)>],
+        reference: usize,
+        starts: &[FrameCorrections],
+    ) -> Self {
+        let jobs: Vec<Job> = pairs
+            .iter()
+            .enumerate()
+            .filter(|(s, _)| *s != reference)
+            .flat_map(|(sensor, frames)| {
+                let starts = &starts[sensor];
+                frames.iter().map(move |&(reference_view, view)| Job {
+                    sensor,
+                    reference_view,
+                    view,
+                    start: starts
+                        .iter()
+                        .find(|(p, _)| *p == (reference_view, view))
+                        .map_or_else(Pose::identity, |(_, c)| *c),
+                })
+            })
+            .collect();
+        Self {
+            plan,
+            outcomes: vec![None; jobs.len()],
+            jobs,
+            reference: (reference, pairs[reference].clone()),
+            sensors: pairs.len(),
+            stopped: false,
+        }
+    }
+
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    /// Every pair to register, sensor by sensor, frame by frame.
+    pub fn jobs(&self) -> &[Job] {
+        &self.jobs
+    }
+
+    /// Job `job`'s outcome: its registered correction, or the registration's error. Out of
+    /// range or repeated jobs are ignored (the first outcome stands).
+    pub fn record(&mut self, job: usize, outcome: Result<Pose, String>) {
+        if let Some(slot @ None) = self.outcomes.get_mut(job) {
+            *slot = Some(outcome);
+        }
+    }
+
+    /// Registers the jobs `jobs` (indices into [`Refinement::jobs`]) not yet recorded, here,
+    /// and records them; `progress` sees every one. With `threads` > 1 (native only) they run
+    /// on that many threads, a batch at a time, with the same results; a stop takes effect
+    /// after the batch, and no later call registers anything.
+    pub fn run(
+        &mut self,
+        clouds: &[&[[f32; 3]]],
+        jobs: impl IntoIterator<Item = usize>,
+        threads: usize,
+        progress: &mut impl FnMut(&Progress) -> Control,
+    ) {
+        let threads = if cfg!(target_arch = "wasm32") { 1 } else { threads.max(1) };
+        let todo: Vec<usize> = jobs
+            .into_iter()
+            .filter(|&j| self.outcomes.get(j).is_some_and(Option::is_none))
+            .collect();
+        // Targets are built once per reference view, when a batch first needs it, and shared
+        // by every sensor.
+        let mut targets: Vec<Option<Result<icp::Target, icp::IcpError>>> =
+            (0..clouds.len()).map(|_| None).collect();
+        for batch in todo.chunks(4 * threads) {
+            if self.stopped {
+                return;
+            }
+            let mut needed: Vec<usize> = batch
+                .iter()
+                .map(|&j| self.jobs[j].reference_view)
+                .filter(|&r| targets[r].is_none())
+                .collect();
+            needed.sort_unstable();
+            needed.dedup();
+            let plan = &self.plan;
+            let built = on_threads(&needed, threads, |&r| target(clouds[r], plan));
+            for (&r, built) in needed.iter().zip(built) {
+                targets[r] = Some(built);
+            }
+            let jobs = &self.jobs;
+            let aligned = on_threads(batch, threads, |&j| {
+                let job = &jobs[j];
+                let target = targets[job.reference_view].as_ref().expect("built for the batch");
+                match target {
+                    Ok(target) => align(target, clouds[job.view], &job.start, plan),
+                    Err(e) => Err(e.clone()),
+                }
+            });
+            for (&j, result) in batch.iter().zip(aligned) {
+                self.record(j, result.map_err(|e| e.to_string()));
+                if self.stopped {
+                    continue; // the batch's work is kept; the caller has stopped listening
+                }
+                let running = self.running();
+                let answer = progress(&Progress {
+                    iteration: self.done(),
+                    max_iterations: self.jobs.len(),
+                    mean_sigma: 0.0,
+                    max_change: 0.0,
+                    corrections: &running,
+                });
+                if answer == Control::Stop {
+                    self.stopped = true;
+                }
+            }
+        }
+    }
+
+    /// Stops: no later [`Refinement::run`] registers anything.
+    pub fn stop(&mut self) {
+        self.stopped = true;
+    }
+
+    /// Jobs recorded.
+    pub fn done(&self) -> usize {
+        self.outcomes.iter().filter(|o| o.is_some()).count()
+    }
+
+    /// The mean correction per sensor over the frames recorded so far (identity for none).
+    pub fn running(&self) -> Vec<Pose> {
+        let (corrections, _) = self.corrections();
+        corrections
+            .iter()
+            .map(|c| {
+                average(&c.iter().map(|(_, p)| *p).collect::<Vec<_>>())
+                    .map_or_else(Pose::identity, |(m, _)| m)
+            })
+            .collect()
+    }
+
+    /// Per sensor, its recorded pairs' corrections, in pair order (the reference: identities),
+    /// and the frames that failed or were rejected. Jobs never recorded (after a stop) are
+    /// left out.
+    pub fn corrections(&self) -> (Vec<FrameCorrections>, Vec<Failure>) {
+        let mut refined: Vec<FrameCorrections> = vec![Vec::new(); self.sensors];
+        let (r, reference_pairs) = &self.reference;
+        refined[*r] = reference_pairs.iter().map(|&pair| (pair, Pose::identity())).collect();
+        let mut failures = Vec::new();
+        for (job, outcome) in self.jobs.iter().zip(&self.outcomes) {
+            let pair = (job.reference_view, job.view);
+            match outcome {
+                None => {}
+                Some(Ok(pose)) => match departure_beyond(&job.start, pose, self.plan.max_departure)
+                {
+                    None => refined[job.sensor].push((pair, *pose)),
+                    Some(reason) => {
+                        failures.push(Failure { view: job.view, reason, kept_start: true });
+                        refined[job.sensor].push((pair, job.start));
+                    }
+                },
+                Some(Err(e)) => failures.push(Failure {
+                    view: job.view,
+                    reason: format!("{} failed: {e}", self.plan.method.name()),
+                    kept_start: false,
+                }),
+            }
+        }
+        (refined, failures)
+    }
 }
 
 /// `f` of every item, in order, on up to `threads` threads (contiguous slices).

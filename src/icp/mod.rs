@@ -19,6 +19,8 @@ mod target;
 use std::fmt;
 use std::str::FromStr;
 
+use serde::{Deserialize, Serialize};
+
 pub use kdtree::{KdTree, Neighbour};
 pub use point::kabsch;
 pub use target::Target;
@@ -26,7 +28,7 @@ pub use target::Target;
 use crate::se3::Pose;
 
 /// The registration method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Method {
     /// Point-to-point: closed-form SVD step each iteration.
     PointToPoint,
@@ -68,7 +70,7 @@ impl FromStr for Method {
 }
 
 /// Registration settings; defaults follow small_gicp / fast_gicp.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IcpSettings {
     /// Source points farther than this (m) from every target point are left out. Default 1 m.
     pub max_correspondence_distance: f64,

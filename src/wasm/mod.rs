@@ -19,7 +19,7 @@ use crate::se3::{Pose, xyz_rpy};
 
 pub use calibrate::calibrate;
 pub use files::parse_cloud;
-pub use session::{CalibrationSession, JrmpcShard};
+pub use session::{CalibrationSession, JrmpcShard, align_frames};
 pub use simulate::simulate_rig;
 pub use synthetic::synthetic_rig;
 

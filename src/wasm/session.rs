@@ -1,27 +1,36 @@
-//! `CalibrationSession` and `JrmpcShard`: the calibration driven step by step from JS, so a
-//! pool of workers can share JRMPC's E-step (README, "Wasm API"). The session prepares the rig,
-//! owns EM's state and runs the M-step; each shard holds a contiguous slice of the views and
-//! returns their statistics, O(views x K) numbers, each iteration. The M-step takes every view's
-//! statistics in view order, so the result is the same as `calibrate`'s, bit for bit, however
-//! the views are split.
+//! `CalibrationSession`, `JrmpcShard` and `alignFrames`: the calibration driven step by step
+//! from JS, so a pool of workers can share JRMPC's E-step and then the frame pairs' ICP
+//! (README, "Wasm API"). The session prepares the rig, owns EM's state and runs the M-step;
+//! each shard holds a contiguous slice of the views and returns their statistics, O(views x K)
+//! numbers, each iteration. The M-step takes every view's statistics in view order, and the
+//! frame pairs' outcomes are kept in pair order, so the result is the same as `calibrate`'s,
+//! bit for bit, however the work is split.
 //!
 //! Wire formats (flat `Float64Array`s, so they transfer between workers without copies):
 //! - E-step input: `[beta, K, means (3K), variances (K), priors (K), then per view its rotation
 //!   (9, row-major) and translation (3)]`;
-//! - E-step output: `[terms, then per view lambda (K), s1 (3K), s2 (K)]`.
+//! - E-step output: `[terms, then per view lambda (K), s1 (3K), s2 (K)]`;
+//! - a pose (a frame pair's start or outcome): `[qx, qy, qz, qw, x, y, z]`, the rotation's
+//!   unit quaternion and the translation, exactly as the library holds them.
 
-use js_sys::{Array, Float64Array, Function, Uint32Array};
-use nalgebra::{Matrix3, Vector3};
+use js_sys::{Array, Float32Array, Float64Array, Function, Uint32Array};
+use nalgebra::{Matrix3, Quaternion, Translation3, UnitQuaternion, Vector3, Vector4};
 use wasm_bindgen::prelude::*;
 
 use super::calibrate::{ProgressSink, output, rig_and_settings};
+use super::to_js;
+use crate::calib::refine::{self, Plan, Refinement};
 use crate::calib::{self, Prepared};
-use crate::jrmpc::{Em, Mixture, Shard, ViewStats};
+use crate::cloud::Cloud;
+use crate::jrmpc::{Em, Mixture, Registration, Shard, ViewStats};
+use crate::se3::Pose;
 
 /// Numbers per view in the E-step input: a rotation and a translation.
 const TRANSFORM: usize = 12;
 /// Numbers per component in a view's statistics: lambda, s1 (3), s2.
 const STATS: usize = 5;
+/// Numbers per pose: a unit quaternion and a translation.
+const POSE: usize = 7;
 
 #[wasm_bindgen]
 pub struct CalibrationSession {
@@ -31,6 +40,8 @@ pub struct CalibrationSession {
     /// The views' centred points, handed out to the shards.
     points: Vec<Vec<Vector3<f64>>>,
     max_iterations: usize,
+    /// Once EM is over: its result (none for the ICP methods) and the frame pairs to register.
+    registered: Option<(Option<Registration>, Option<Refinement>)>,
 }
 
 #[wasm_bindgen]
@@ -47,7 +58,7 @@ impl CalibrationSession {
             (None, Vec::new())
         };
         let max_iterations = settings.jrmpc.max_iterations;
-        Ok(Self { prepared: Some(prepared), em, points, max_iterations })
+        Ok(Self { prepared: Some(prepared), em, points, max_iterations, registered: None })
     }
 
     /// Points per view (0 views for the ICP methods), for splitting the views among shards.
@@ -132,23 +143,201 @@ impl CalibrationSession {
         )
     }
 
-    /// Stops EM after the current iteration.
+    /// Stops EM after the current iteration, and the frame pairs after the current one.
     pub fn cancel(&mut self) {
         if let Some(em) = &mut self.em {
             em.cancel();
         }
+        if let Some((_, Some(refinement))) = &mut self.registered {
+            refinement.stop();
+        }
     }
 
-    /// The rest of the calibration (refinement, averaging, target fit): `calibrate`'s result.
-    /// `onProgress` sees the refinement's progress, as with `calibrate`.
-    pub fn finish(&mut self, on_progress: Option<Function>) -> Result<JsValue, JsError> {
-        let prepared = self.prepared.take().ok_or_else(finished)?;
-        let registration = self.em.take().map(Em::into_registration);
-        let mut sink = ProgressSink::new(on_progress, prepared.sensors().to_vec());
-        let result = prepared.finish(registration, |p| sink.send(p));
-        sink.error()?;
-        output(&result.map_err(|e| JsError::new(&e.to_string()))?)
+    /// Ends EM and returns the frame pairs to register (`gmm`'s refinement, the ICP methods),
+    /// or `null` (`jrmpc`): `{plan, jobs, starts}`, where `jobs` holds `referenceView, view`
+    /// per pair (the views of `viewPoints`) and `starts` a pose per pair. Register them here
+    /// (`alignFrames`, `refineFrames`) or elsewhere (`alignFrames` in another worker, then
+    /// `recordFrame`), in any order.
+    #[wasm_bindgen(js_name = frameJobs)]
+    pub fn frame_jobs(&mut self) -> Result<JsValue, JsError> {
+        let Some(refinement) = self.refinement()? else { return Ok(JsValue::NULL) };
+        let value = js_sys::Object::new();
+        let jobs: Vec<u32> = refinement
+            .jobs()
+            .iter()
+            .flat_map(|j| [j.reference_view as u32, j.view as u32])
+            .collect();
+        let starts: Vec<f64> =
+            refinement.jobs().iter().flat_map(|j| pose_to_flat(&j.start)).collect();
+        let fields = [
+            ("plan", to_js(refinement.plan())?),
+            ("jobs", Uint32Array::from(jobs.as_slice()).into()),
+            ("starts", Float64Array::from(starts.as_slice()).into()),
+        ];
+        for (key, field) in fields {
+            js_sys::Reflect::set(&value, &key.into(), &field).map_err(|_| internal())?;
+        }
+        Ok(value.into())
     }
+
+    /// View `view`'s cropped, pre-aligned points (flat `x, y, z`), as `alignFrames` takes them.
+    #[wasm_bindgen(js_name = viewPoints)]
+    pub fn view_points(&self, view: usize) -> Result<Float32Array, JsError> {
+        let prepared = self.prepared.as_ref().ok_or_else(finished)?;
+        let clouds = prepared.clouds();
+        let cloud = clouds
+            .get(view)
+            .ok_or_else(|| JsError::new(&format!("no view {view} of {}", clouds.len())))?;
+        Ok(Float32Array::from(cloud.as_flattened()))
+    }
+
+    /// Registers the frame pairs `jobs` (indices into `frameJobs().jobs`) here; `onProgress`
+    /// sees each, as with `calibrate`.
+    #[wasm_bindgen(js_name = refineFrames)]
+    pub fn refine_frames(
+        &mut self,
+        jobs: &[u32],
+        on_progress: Option<Function>,
+    ) -> Result<(), JsError> {
+        self.refinement()?;
+        let prepared = self.prepared.as_ref().ok_or_else(finished)?;
+        let Some((_, Some(refinement))) = &mut self.registered else { return Ok(()) };
+        let mut sink = ProgressSink::new(on_progress, prepared.sensors().to_vec());
+        refinement.run(&prepared.clouds(), jobs.iter().map(|&j| j as usize), 1, &mut |p| {
+            let corrections = prepared.levelled(p.corrections);
+            sink.send(&calib::Progress { corrections: &corrections, ..*p })
+        });
+        sink.error()
+    }
+
+    /// Records frame pair `job`'s outcome, registered elsewhere: a pose (see the wire formats)
+    /// or the error's message. Returns the progress (`calibrate`'s shape).
+    #[wasm_bindgen(js_name = recordFrame)]
+    pub fn record_frame(&mut self, job: usize, outcome: JsValue) -> Result<JsValue, JsError> {
+        let outcome = match (outcome.as_string(), outcome.dyn_ref::<Float64Array>()) {
+            (Some(message), _) => Err(message),
+            (None, Some(pose)) => Ok(pose_from_flat(&pose.to_vec())?),
+            (None, None) => return Err(JsError::new("recordFrame: a pose or a message")),
+        };
+        self.refinement()?;
+        let prepared = self.prepared.as_ref().ok_or_else(finished)?;
+        let Some((_, Some(refinement))) = &mut self.registered else {
+            return Err(JsError::new("this method has no frame pairs"));
+        };
+        if job >= refinement.jobs().len() {
+            return Err(JsError::new(&format!(
+                "no frame pair {job} of {}",
+                refinement.jobs().len()
+            )));
+        }
+        refinement.record(job, outcome);
+        ProgressSink::value(
+            prepared.sensors(),
+            &calib::Progress {
+                iteration: refinement.done(),
+                max_iterations: refinement.jobs().len(),
+                mean_sigma: 0.0,
+                max_change: 0.0,
+                corrections: &prepared.levelled(&refinement.running()),
+            },
+        )
+    }
+
+    /// The rest of the calibration (the frame pairs not registered yet, averaging, target
+    /// fit): `calibrate`'s result. `onProgress` sees those pairs, as with `calibrate`.
+    pub fn finish(&mut self, on_progress: Option<Function>) -> Result<JsValue, JsError> {
+        let all: Vec<u32> = match self.refinement()? {
+            Some(refinement) => (0..refinement.jobs().len() as u32).collect(),
+            None => Vec::new(),
+        };
+        self.refine_frames(&all, on_progress)?;
+        let prepared = self.prepared.take().ok_or_else(finished)?;
+        let (registration, refinement) = self.registered.take().ok_or_else(finished)?;
+        output(
+            &prepared
+                .finish_with(registration, refinement)
+                .map_err(|e| JsError::new(&e.to_string()))?,
+        )
+    }
+}
+
+impl CalibrationSession {
+    /// The frame pairs, EM ended first if it has not been.
+    fn refinement(&mut self) -> Result<Option<&Refinement>, JsError> {
+        if self.registered.is_none() {
+            let prepared = self.prepared.as_ref().ok_or_else(finished)?;
+            let registration = self.em.take().map(Em::into_registration);
+            let refinement = prepared.refinement(registration.as_ref());
+            self.registered = Some((registration, refinement));
+        }
+        Ok(self.registered.as_ref().and_then(|(_, r)| r.as_ref()))
+    }
+}
+
+/// Registers each of `sources` (flat points, like `viewPoints`) onto `target` from its pose in
+/// `starts`, by `plan` (`frameJobs().plan`): per source, its pose or the error's message.
+/// The target is built once, so pass every pair of one reference view together.
+#[wasm_bindgen(js_name = alignFrames)]
+pub fn align_frames(
+    plan: JsValue,
+    target: &[f32],
+    sources: Array,
+    starts: &[f64],
+) -> Result<Array, JsError> {
+    let plan: Plan = serde_wasm_bindgen::from_value(plan)
+        .map_err(|e| JsError::new(&format!("alignFrames: invalid plan: {e}")))?;
+    if starts.len() != POSE * sources.length() as usize {
+        return Err(JsError::new(&format!(
+            "alignFrames: {} numbers of starts for {} sources",
+            starts.len(),
+            sources.length()
+        )));
+    }
+    let target = Cloud::from_flat(target).ok_or_else(|| {
+        JsError::new(&format!("alignFrames: the target's {} numbers are not points", target.len()))
+    })?;
+    let built = refine::target(&target.points, &plan);
+    let outcomes = Array::new();
+    for (i, (source, start)) in sources.iter().zip(starts.chunks_exact(POSE)).enumerate() {
+        let source = cloud_of(&source, &format!("source {i}"))?;
+        let start = pose_from_flat(start)?;
+        let outcome: JsValue = match &built {
+            Ok(target) => match refine::align(target, &source.points, &start, &plan) {
+                Ok(pose) => Float64Array::from(pose_to_flat(&pose).as_slice()).into(),
+                Err(e) => e.to_string().into(),
+            },
+            Err(e) => e.to_string().into(),
+        };
+        outcomes.push(&outcome);
+    }
+    Ok(outcomes)
+}
+
+fn cloud_of(value: &JsValue, what: &str) -> Result<Cloud, JsError> {
+    let flat = value
+        .dyn_ref::<Float32Array>()
+        .ok_or_else(|| JsError::new(&format!("alignFrames: the {what} is not a Float32Array")))?
+        .to_vec();
+    Cloud::from_flat(&flat).ok_or_else(|| {
+        JsError::new(&format!("alignFrames: the {what}'s {} numbers are not points", flat.len()))
+    })
+}
+
+fn pose_to_flat(pose: &Pose) -> [f64; POSE] {
+    let (q, t) = (pose.rotation.coords, pose.translation.vector);
+    [q.x, q.y, q.z, q.w, t.x, t.y, t.z]
+}
+
+/// The pose `pose_to_flat` wrote; anything else (wrong length, not finite, not a unit
+/// quaternion) is an error.
+fn pose_from_flat(flat: &[f64]) -> Result<Pose, JsError> {
+    let bad = || JsError::new("a pose is 7 finite numbers: a unit quaternion and a translation");
+    let &[x, y, z, w, tx, ty, tz] = flat else { return Err(bad()) };
+    let q = Quaternion::from(Vector4::new(x, y, z, w));
+    if !flat.iter().all(|v| v.is_finite()) || (q.norm() - 1.0).abs() > 1e-9 {
+        return Err(bad());
+    }
+    Ok(Pose::from_parts(Translation3::new(tx, ty, tz), UnitQuaternion::new_unchecked(q)))
 }
 
 /// Some views' points, and their E-step: one per worker.
@@ -252,4 +441,8 @@ fn no_em() -> JsError {
 
 fn finished() -> JsError {
     JsError::new("the session has finished")
+}
+
+fn internal() -> JsError {
+    JsError::new("internal: cannot build the frame jobs")
 }

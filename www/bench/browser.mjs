@@ -1,6 +1,7 @@
-// The browser bench (issue 8): times a JRMPC calibration in headless Chromium, through the page
-// as a user runs it (a GMMCalib folder through the file input, Calibrate), on 1 and on 2
-// workers, at the sample and the paper scale of bench.mjs. Prints the page's own wall time
+// The browser bench (issue 8): times a calibration in headless Chromium, through the page as a
+// user runs it (a GMMCalib folder through the file input, Calibrate), on 1 and on 2 workers, at
+// the sample and the paper scale of bench.mjs: `jrmpc` (EM alone), then `gmm` (the default:
+// EM, then the frame pairs' GICP and the plane adjustment). Prints the page's own wall time
 // (click to result, views copied to the worker included), the Gaussian terms evaluated and
 // dense-equivalent terms per second. Run `make bench-browser` (builds www/dist first).
 // Pass --quick for the sample scale only.
@@ -17,11 +18,11 @@ const server = await serveDist();
 const browser = await launch();
 console.log(`gmmcalib browser bench (${browser.version()}, headless; the machine may be shared)`);
 try {
-  for (const job of quick ? jobs.slice(0, 1) : jobs) {
+  for (const [job, method] of (quick ? jobs.slice(0, 1) : jobs).flatMap((j) => [[j, 'jrmpc'], [j, 'gmm']])) {
     const rig = syntheticRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
-    const files = gmmcalibFolder(rig, 'rig', `method: jrmpc\ncomponents: ${job.components}\niterations: 100\n`);
+    const files = gmmcalibFolder(rig, 'rig', `method: ${method}\ncomponents: ${job.components}\niterations: 100\n`);
     const points = rig.views.reduce((n, v) => n + v.points.length / 3, 0);
-    console.log(`jrmpc ${job.name} (${points} points)`);
+    console.log(`${method} ${job.name} (${points} points)`);
     const seconds = {};
     for (const workers of [1, 2]) {
       const { page, problems } = await openPage(browser, `${server.url}#workers=${workers}`);

@@ -1,8 +1,9 @@
-// JRMPC's E-step over a pool of workers (issue 8): the calibration worker drives a wasm
-// CalibrationSession, keeps the first slice of the views itself and hands the others to shard
-// workers (shard-worker.js). Each iteration every shard returns its views' statistics (O(views
-// x K) numbers, transferred, not copied) and the session's M-step takes them in view order, so
-// the result is `calibrate`'s, bit for bit, for any number of workers.
+// A calibration over a pool of workers (issue 8): the calibration worker drives a wasm
+// CalibrationSession and shares two stages with pool workers (shard-worker.js). JRMPC's E-step:
+// it keeps the first slice of the views and each pool worker holds another; every iteration
+// each returns its views' statistics (O(views x K) numbers, transferred, not copied) and the
+// session's M-step takes them in view order. Then the frame pairs' ICP, a reference view's
+// pairs at a time. The result is `calibrate`'s, bit for bit, for any number of workers.
 
 // Contiguous slices of views with about equal points: [{first, count}], at most `parts`, none
 // empty. The E-step costs about the same per point, so equal points balance the workers.
@@ -29,30 +30,29 @@ export function splitViews(sizes, parts) {
   return slices;
 }
 
-// A shard worker as promises: init(points, sizes), then eStep(input, first) -> Float64Array.
-class RemoteShard {
+// A pool worker (shard-worker.js) as promises: init(points, sizes), then eStep(input, first)
+// -> Float64Array; align(plan, target, sources, starts) -> an outcome per source.
+class RemoteWorker {
   #worker;
-  #pending = null; // {resolve, reject} of the one request in flight
+  #pending = []; // {resolve, reject} of the requests in flight: the worker answers in order
 
   constructor() {
     this.#worker = new Worker(new URL('./shard-worker.js', import.meta.url), { type: 'module' });
     this.#worker.onmessage = ({ data }) => {
-      const request = this.#pending;
-      this.#pending = null;
+      const request = this.#pending.shift();
       if (data.type === 'error') request?.reject(new Error(`a calculation worker failed: ${data.message}`));
       else request?.resolve(data.output);
     };
     this.#worker.onerror = (event) => {
       event.preventDefault();
-      const request = this.#pending;
-      this.#pending = null;
-      request?.reject(new Error(`a calculation worker crashed: ${event.message || 'unknown error'}`));
+      const message = `a calculation worker crashed: ${event.message || 'unknown error'}`;
+      for (const request of this.#pending.splice(0)) request.reject(new Error(message));
     };
   }
 
   #request(message, transfer) {
     return new Promise((resolve, reject) => {
-      this.#pending = { resolve, reject };
+      this.#pending.push({ resolve, reject });
       this.#worker.postMessage(message, transfer);
     });
   }
@@ -65,39 +65,103 @@ class RemoteShard {
     return this.#request({ type: 'eStep', input, first }, []);
   }
 
+  align(plan, target, sources, starts) {
+    return this.#request({ type: 'align', plan, target, sources, starts }, [target.buffer, ...sources.map((s) => s.buffer)]);
+  }
+
   terminate() {
     this.#worker.terminate();
   }
 }
 
-// `calibrate(input, onProgress)` with the E-step shared by `workers` workers (this one
-// included). `wasm` is the initialised module (CalibrationSession, JrmpcShard).
-export async function calibrateSharded(wasm, input, workers, onProgress) {
-  const session = new wasm.CalibrationSession(input);
-  const remotes = [];
-  let local = null;
+// Lets the event loop run (other workers' replies) without setTimeout's 4 ms clamp.
+const yieldToEvents = () => new Promise((resolve) => {
+  const channel = new MessageChannel();
+  channel.port1.onmessage = () => {
+    channel.port1.close(); // an open port would keep Node's event loop alive
+    resolve();
+  };
+  channel.port2.postMessage(null);
+});
+
+// JRMPC's EM with the E-step shared: this worker keeps the first slice of the views, each remote
+// one more (remotes beyond the slices idle).
+async function shareEm(wasm, session, remotes, onProgress) {
+  const sizes = session.viewSizes();
+  const slices = splitViews(Array.from(sizes), remotes.length + 1);
+  if (slices.length === 0) return; // an ICP method: no EM
+  const shardOf = ({ first, count }) => [session.shardPoints(first, count), sizes.slice(first, first + count)];
+  const local = new wasm.JrmpcShard(...shardOf(slices[0]));
   try {
-    const sizes = session.viewSizes();
-    const slices = splitViews(Array.from(sizes), workers);
-    const shardOf = ({ first, count }) => [session.shardPoints(first, count), sizes.slice(first, first + count)];
-    if (slices.length > 0) local = new wasm.JrmpcShard(...shardOf(slices[0]));
-    await Promise.all(slices.slice(1).map((slice) => {
-      const remote = new RemoteShard();
-      remotes.push(remote);
-      return remote.init(...shardOf(slice));
-    }));
+    await Promise.all(slices.slice(1).map((slice, i) => remotes[i].init(...shardOf(slice))));
     while (!session.finished()) {
       const estep = session.eStepInput();
-      const pending = remotes.map((remote, i) => remote.eStep(estep, slices[i + 1].first));
+      const pending = slices.slice(1).map((slice, i) => remotes[i].eStep(estep, slice.first));
       const outputs = [local.eStep(estep, slices[0].first), ...(await Promise.all(pending))];
       if (onProgress(session.mStep(outputs)) === false) session.cancel();
     }
+  } finally {
+    local.free();
+  }
+}
+
+// The frame pairs' ICP (`gmm`'s refinement, the ICP methods) shared: grouped by reference view,
+// so each group builds its ICP target once, and handed out a group at a time to whichever
+// worker is free, this one included. The session keeps the outcomes in pair order, so who
+// registered what does not change the result.
+async function shareFramePairs(session, remotes, onProgress) {
+  const work = session.frameJobs();
+  if (!work) return; // jrmpc
+  const groups = new Map(); // reference view -> pair indices
+  for (let job = 0; job < work.jobs.length / 2; job++) {
+    const reference = work.jobs[2 * job];
+    if (!groups.has(reference)) groups.set(reference, []);
+    groups.get(reference).push(job);
+  }
+  const queue = [...groups];
+  let stopped = false;
+  const heed = (progress) => {
+    if (onProgress(progress) === false) stopped = true;
+    return !stopped;
+  };
+  const next = () => (stopped ? undefined : queue.shift());
+  const local = async () => {
+    for (let group = next(); group; group = next()) {
+      session.refineFrames(Uint32Array.from(group[1]), heed);
+      await yieldToEvents();
+    }
+  };
+  const remote = async (worker) => {
+    for (let group = next(); group; group = next()) {
+      const [reference, jobs] = group;
+      const sources = jobs.map((job) => session.viewPoints(work.jobs[2 * job + 1]));
+      const starts = new Float64Array(jobs.length * 7);
+      jobs.forEach((job, i) => starts.set(work.starts.subarray(7 * job, 7 * job + 7), 7 * i));
+      const outcomes = await worker.align(work.plan, session.viewPoints(reference), sources, starts);
+      jobs.forEach((job, i) => heed(session.recordFrame(job, outcomes[i])));
+    }
+  };
+  // Two requests in flight per remote: it starts the next group while its last reply waits for
+  // this worker to finish a group of its own (one in flight left it idle about half the time).
+  await Promise.all([local(), ...remotes.flatMap((worker) => [remote(worker), remote(worker)])]);
+  if (stopped) session.cancel(); // finish() must not register what is left
+}
+
+// `calibrate(input, onProgress)` with the work shared by `workers` workers (this one included):
+// JRMPC's E-step, then the frame pairs. `wasm` is the initialised module; `spawn()` makes a
+// remote worker (tests pass an in-process one).
+export async function calibrateSharded(wasm, input, workers, onProgress, spawn = () => new RemoteWorker()) {
+  const session = new wasm.CalibrationSession(input);
+  const remotes = [];
+  try {
+    for (let i = 1; i < workers; i++) remotes.push(spawn());
+    await shareEm(wasm, session, remotes, onProgress);
+    await shareFramePairs(session, remotes, onProgress);
     const result = session.finish(onProgress);
-    result.workers = Math.max(1, slices.length); // the ICP methods: no views to split
+    result.workers = workers;
     return result;
   } finally {
     for (const remote of remotes) remote.terminate();
-    local?.free();
     session.free();
   }
 }

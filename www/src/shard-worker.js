@@ -1,6 +1,7 @@
-// A shard of JRMPC's E-step (see shard-pool.js): holds some views' points in its own wasm
-// instance and answers each {type: 'eStep', input, first} with its views' statistics.
-import init, { JrmpcShard } from '../pkg/gmmcalib.js';
+// A pool worker (see shard-pool.js): holds a shard of JRMPC's E-step, some views' points in its
+// own wasm instance, and answers each {type: 'eStep', input, first} with its views'
+// statistics; and registers frame pairs, {type: 'align', ...}, for the calibration worker.
+import init, { JrmpcShard, alignFrames } from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
 
 const ready = init({ module_or_path: wasmUrl });
@@ -17,6 +18,9 @@ self.onmessage = async ({ data }) => {
       if (!shard) throw new Error('eStep before init');
       const output = shard.eStep(data.input, data.first);
       self.postMessage({ type: 'output', output }, [output.buffer]);
+    } else if (data.type === 'align') {
+      const output = alignFrames(data.plan, data.target, data.sources, data.starts);
+      self.postMessage({ type: 'output', output }, output.filter((o) => o instanceof Float64Array).map((o) => o.buffer));
     } else {
       throw new Error(`unknown request type '${data.type}'`);
     }

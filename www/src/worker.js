@@ -18,9 +18,8 @@ function buffersOf(value, found = []) {
 const handlers = {
   parse: ({ bytes, name }) => parseCloud(new Uint8Array(bytes), name),
   simulate: ({ options }) => simulateRig(options),
-  // `workers` > 1 shares JRMPC's E-step with that many workers in all (this one included),
-  // where a worker can start workers of its own (the ICP methods have no E-step: the session
-  // runs them here).
+  // `workers` > 1 shares JRMPC's E-step and the frame pairs' ICP with that many workers in
+  // all (this one included), where a worker can start workers of its own.
   calibrate: ({ input, workers = 1 }, id) => {
     // At most 10 progress messages a second (and always the last): the page redraws on each,
     // and on two cores that work competes with the calculation (sample scale on 2 workers:

@@ -1,6 +1,7 @@
-// The worker pool's plain parts under Node: how views are split, and that the driven session
-// gives `calibrate`'s result exactly (one worker here: Node has no Web Workers; the Chromium
-// test runs two).
+// The worker pool under Node: how views are split, and that the driven session gives
+// `calibrate`'s result exactly, on one worker and on several (Node has no Web Workers: the
+// remote workers here are the same wasm calls in this thread, behind the same promises; the
+// Chromium test runs real ones).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFile } from 'node:fs/promises';
@@ -22,6 +23,17 @@ test('views are split into contiguous slices of about equal points, none empty',
   for (const load of loads) assert.ok(Math.abs(load - mean) < 2200, `${loads}`);
 });
 
+// A remote worker in this thread: shard-worker.js's calls, answered as promises.
+const inProcess = () => {
+  let shard = null;
+  return {
+    init: async (points, sizes) => { shard = new wasm.JrmpcShard(points, sizes); },
+    eStep: async (input, first) => shard.eStep(input, first),
+    align: async (plan, target, sources, starts) => wasm.alignFrames(plan, target, sources, starts),
+    terminate: () => shard?.free(),
+  };
+};
+
 test('the driven session gives calibrate\'s result, and bad shard data is an error', async () => {
   await init({ module_or_path: await readFile(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
   const rig = wasm.syntheticRig({ sensors: 2, frames: 3, pointsPerView: 800, seed: 5 });
@@ -33,15 +45,28 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.deepEqual(driven.history, direct.history);
   assert.deepEqual(Array.from(driven.target.means), Array.from(direct.target.means));
   assert.equal(progress.filter((p) => p.maxIterations === 30).length, direct.iterations);
-  // An ICP method has no E-step to share: the session runs it where it is, on one worker.
+  // gmm's frame pairs come after EM's iterations, one progress each, however they are shared.
+  const pairs = progress.filter((p) => p.maxIterations !== 30);
+  assert.equal(pairs.length, 3);
+  for (const workers of [2, 3]) {
+    const shared = [];
+    const result = await calibrateSharded(wasm, input(), workers, (p) => shared.push(p), inProcess);
+    assert.deepEqual(result.sensors, direct.sensors);
+    assert.deepEqual(result.history, direct.history);
+    assert.deepEqual(Array.from(result.target.means), Array.from(direct.target.means));
+    assert.equal(result.workers, workers);
+    assert.equal(shared.filter((p) => p.maxIterations === pairs[0].maxIterations).length, 3);
+  }
+  // An ICP method has no E-step: its frame pairs alone are shared.
   const icp = () => ({ ...input(), method: 'p2l' });
-  const icpDriven = await calibrateSharded(wasm, icp(), 2, () => true);
+  const icpDriven = await calibrateSharded(wasm, icp(), 2, () => true, inProcess);
   assert.deepEqual(icpDriven.sensors, wasm.calibrate(icp()).sensors);
-  assert.equal(icpDriven.workers, 1);
+  assert.equal(icpDriven.workers, 2);
 
   const session = new wasm.CalibrationSession(input());
   assert.throws(() => session.mStep([new Float64Array(7)]), /not a whole number of views/);
   assert.throws(() => session.shardPoints(5, 2), /views 5\.\.5\+2 of 6/);
+  const shardOf = (driven) => new wasm.JrmpcShard(driven.shardPoints(0, driven.viewSizes().length), driven.viewSizes());
   const shard = new wasm.JrmpcShard(session.shardPoints(0, 1), session.viewSizes().slice(0, 1));
   assert.throws(() => shard.eStep(new Float64Array([1, 2, 3]), 0), /malformed E-step input/);
   const estep = session.eStepInput();
@@ -50,4 +75,31 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.throws(() => new wasm.JrmpcShard(new Float64Array(5), new Uint32Array([2])), /5 coordinates for 2 points/);
   shard.free();
   session.free();
+
+  // Frame pairs: a bad plan, cloud, start or outcome is an error, not a crash.
+  const pairsOf = new wasm.CalibrationSession(input());
+  while (!pairsOf.finished()) pairsOf.mStep([shardOf(pairsOf).eStep(pairsOf.eStepInput(), 0)]);
+  const work = pairsOf.frameJobs();
+  const [reference, view] = work.jobs;
+  const target = pairsOf.viewPoints(reference);
+  const source = pairsOf.viewPoints(view);
+  const start = work.starts.slice(0, 7);
+  const [aligned] = wasm.alignFrames(work.plan, target, [source], start);
+  assert.ok(aligned instanceof Float64Array && aligned.length === 7);
+  assert.throws(() => wasm.alignFrames({ method: 'nope' }, target, [source], start), /invalid plan/);
+  assert.throws(() => wasm.alignFrames(work.plan, target, [source], start.slice(0, 6)), /6 numbers of starts for 1 sources/);
+  assert.throws(() => wasm.alignFrames(work.plan, target.slice(0, 4), [source], start), /target's 4 numbers/);
+  assert.throws(() => wasm.alignFrames(work.plan, target, [[1, 2, 3]], start), /source 0 is not a Float32Array/);
+  assert.throws(() => wasm.alignFrames(work.plan, target, [source], new Float64Array(7)), /unit quaternion/);
+  const [tooFew] = wasm.alignFrames(work.plan, new Float32Array(3), [source], start);
+  assert.match(tooFew, /./, 'a target ICP cannot use is a message for that pair');
+  assert.throws(() => pairsOf.viewPoints(99), /no view 99 of 6/);
+  assert.throws(() => pairsOf.recordFrame(99, aligned), /no frame pair 99 of 3/);
+  assert.throws(() => pairsOf.recordFrame(0, 5), /a pose or a message/);
+  assert.throws(() => pairsOf.recordFrame(0, new Float64Array([0, 0, 0, 2, 0, 0, 0])), /unit quaternion/);
+  assert.equal(pairsOf.recordFrame(0, aligned).iteration, 1);
+  assert.equal(pairsOf.recordFrame(1, 'gicp could not converge').iteration, 2);
+  const finished = pairsOf.finish(() => true);
+  assert.ok(finished.skipped.some((note) => /could not converge/.test(note.reason)), JSON.stringify(finished.skipped));
+  pairsOf.free();
 });
