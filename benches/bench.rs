@@ -52,6 +52,9 @@ mod native {
         if fast_only {
             return;
         }
+        for job in JOBS.iter().take(if quick { 1 } else { JOBS.len() }) {
+            gmm(job);
+        }
         for points in if quick { &[2000][..] } else { &[2000, 65_000][..] } {
             icp_per_pair(*points);
         }
@@ -120,6 +123,41 @@ mod native {
                 s.lines().find(|l| l.starts_with("VmHWM:")).map(|l| l[6..].trim().to_string())
             })
             .unwrap_or_else(|| "unknown".into())
+    }
+
+    /// `gmm`, the default, end to end on 1 and 2 threads: JRMPC's 100 iterations, then the
+    /// frame pairs' GICP, the plane adjustment and the target fit (their share is the time after
+    /// EM's last progress).
+    fn gmm(job: &Job) {
+        let rig = jrmpc::rig(job);
+        for threads in [1, 2] {
+            let mut settings = calib::Settings {
+                method: calib::Method::Gmm,
+                components: job.components,
+                ..Default::default()
+            };
+            settings.jrmpc.tolerance = 0.0;
+            settings.jrmpc.threads = threads;
+            let started = Instant::now();
+            let mut em_ended = started;
+            calib::calibrate(&rig, &settings, |p| {
+                if p.mean_sigma > 0.0 {
+                    em_ended = Instant::now();
+                }
+                Control::Continue
+            })
+            .expect("calibration");
+            let (em, rest) = (em_ended - started, em_ended.elapsed());
+            println!(
+                "gmm {} on {threads} thread{}: {:.2} s; JRMPC {:.2} s, then {:.2} s (frame pairs, \
+                 plane adjustment, target fit)",
+                job.name,
+                if threads > 1 { "s" } else { "" },
+                (em + rest).as_secs_f64(),
+                em.as_secs_f64(),
+                rest.as_secs_f64()
+            );
+        }
     }
 
     /// ICP baselines through the calibration, per frame pair, on the synthetic rig's partial

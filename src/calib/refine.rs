@@ -101,16 +101,18 @@ pub fn target(cloud: &[[f32; 3]], plan: &Plan) -> Result<icp::Target, icp::IcpEr
     Ok(target)
 }
 
-/// Registers `cloud` onto `target` from `start`: one ICP stage per match distance.
+/// Registers `cloud` onto `target` from `start`: one ICP stage per match distance, on one
+/// prepared source.
 pub fn align(
     target: &icp::Target,
     cloud: &[[f32; 3]],
     start: &Pose,
     plan: &Plan,
 ) -> Result<Pose, icp::IcpError> {
+    let source = icp::Source::new(cloud, plan.method, &plan.settings)?;
     plan.match_distances.iter().try_fold(*start, |pose, &distance| {
         let stage = IcpSettings { max_correspondence_distance: distance, ..plan.settings.clone() };
-        target.align(cloud, &pose, &stage).map(|a| a.target_from_source)
+        target.align_prepared(&source, &pose, &stage).map(|a| a.target_from_source)
     })
 }
 

@@ -3,7 +3,8 @@
 //!
 //! Two tiers, as in small_gicp: [`align`] with an [`IcpSettings`] for most uses; underneath, a
 //! [`Target`] prepared once (kd-tree, normals or covariances) and [`Target::align`]ed with many
-//! sources, plus the [`KdTree`] and the [`normals`] estimators themselves.
+//! sources (or with a [`Source`] prepared once for several runs), plus the [`KdTree`] and the
+//! [`normals`] estimators themselves.
 //!
 //! Frames: the result `T_target_source` maps source points into the target frame,
 //! `p_target = T_target_source * p_source`. Points are f32 metres; all maths is f64.
@@ -23,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 pub use kdtree::{KdTree, Neighbour};
 pub use point::kabsch;
-pub use target::Target;
+pub use target::{Source, Target};
 
 use crate::se3::Pose;
 

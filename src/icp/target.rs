@@ -1,5 +1,7 @@
 //! A target cloud prepared once for registration (kd-tree plus normals or covariances, as the
-//! method needs) and reused for any number of sources, e.g. every sensor's view of one frame.
+//! method needs) and reused for any number of sources, e.g. every sensor's view of one frame;
+//! and a source prepared once (tree order, GICP covariances) for several registrations, e.g.
+//! stages with a shrinking match distance.
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
@@ -106,37 +108,38 @@ impl Target {
         init: &Pose,
         settings: &IcpSettings,
     ) -> Result<Alignment, IcpError> {
+        self.align_prepared(&Source::new(source, self.method, settings)?, init, settings)
+    }
+
+    /// [`Target::align`] for a source prepared once, with the same method; `neighbours` and
+    /// `voxel` were taken when it was.
+    pub fn align_prepared(
+        &self,
+        source: &Source,
+        init: &Pose,
+        settings: &IcpSettings,
+    ) -> Result<Alignment, IcpError> {
         settings.validate()?;
         if !solver::is_finite(init) {
             return Err(IcpError::InvalidInitialPose);
         }
-        let source = prepare(source, Role::Source, settings)?;
-        // Visit source points in tree order: consecutive queries then land close together in
-        // the target tree, which stays in cache (merged clouds are not spatially ordered).
-        let source_tree = KdTree::new(&source);
-        let order: Vec<usize> = source_tree.tree_order().collect();
-        // GICP source covariances, from the source's own neighbourhoods.
-        let source_covariances: Vec<Matrix3<f64>> = if self.method == Method::Gicp {
-            let covariances = plane_covariances(&source, &source_tree, settings.neighbours);
-            order.iter().map(|&i| covariances[i]).collect()
-        } else {
-            Vec::new()
-        };
-        let source: Vec<Vector3<f64>> =
-            order.iter().map(|&i| Vector3::from(source[i].map(f64::from))).collect();
+        if source.method != self.method {
+            return Err(IcpError::InvalidSettings("the source was prepared for another method"));
+        }
+        let Source { points: source, covariances: source_covariances, .. } = source;
         let (tree, target) = (&self.tree, &self.points[..]);
         match self.method {
             Method::PointToPoint => {
-                let mut step = PointToPoint { target, source: &source };
-                solver::run(tree, target, &source, &mut step, init, settings)
+                let mut step = PointToPoint { target, source };
+                solver::run(tree, target, source, &mut step, init, settings)
             }
             Method::PointToPlane => {
                 let factor =
-                    PointToPlane::new(target, &self.normals, &source, settings.robust_scale);
+                    PointToPlane::new(target, &self.normals, source, settings.robust_scale);
                 solver::run(
                     tree,
                     target,
-                    &source,
+                    source,
                     &mut LevenbergMarquardt::new(factor),
                     init,
                     settings,
@@ -146,20 +149,54 @@ impl Target {
                 let factor = Gicp::new(
                     target,
                     &self.covariances,
-                    &source,
-                    &source_covariances,
+                    source,
+                    source_covariances,
                     settings.robust_scale,
                 );
                 solver::run(
                     tree,
                     target,
-                    &source,
+                    source,
                     &mut LevenbergMarquardt::new(factor),
                     init,
                     settings,
                 )
             }
         }
+    }
+}
+
+/// The source side of a registration, prepared for one [`Method`].
+#[derive(Clone, Debug)]
+pub struct Source {
+    method: Method,
+    /// In kd-tree order: consecutive queries then land close together in the target tree,
+    /// which stays in cache (merged clouds are not spatially ordered).
+    points: Vec<Vector3<f64>>,
+    /// GICP: plane-regularised covariances from the source's own neighbourhoods, in that order.
+    covariances: Vec<Matrix3<f64>>,
+}
+
+impl Source {
+    /// Checks and (when `settings.voxel` is set) downsamples `points` and, for GICP, computes
+    /// their covariances from `settings.neighbours` nearest neighbours.
+    pub fn new(
+        points: &[[f32; 3]],
+        method: Method,
+        settings: &IcpSettings,
+    ) -> Result<Self, IcpError> {
+        settings.validate()?;
+        let points = prepare(points, Role::Source, settings)?;
+        let tree = KdTree::new(&points);
+        let order: Vec<usize> = tree.tree_order().collect();
+        let covariances = if method == Method::Gicp {
+            let covariances = plane_covariances(&points, &tree, settings.neighbours);
+            order.iter().map(|&i| covariances[i]).collect()
+        } else {
+            Vec::new()
+        };
+        let points = order.iter().map(|&i| Vector3::from(points[i].map(f64::from))).collect();
+        Ok(Self { method, points, covariances })
     }
 }
 

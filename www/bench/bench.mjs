@@ -55,6 +55,22 @@ for (const [index, job] of (quick ? jobs.slice(0, 1) : jobs).entries()) {
     `${mib(instance.exports.memory.buffer.byteLength)} (bench module)`);
 }
 
+// `gmm`, the default, end to end through the JS API: JRMPC's 100 iterations, then the frame
+// pairs' GICP, the plane adjustment and the target fit (their share is the time after EM's
+// last progress).
+for (const job of quick ? jobs.slice(0, 1) : jobs) {
+  const rig = syntheticRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
+  let emEnded = 0;
+  const started = performance.now();
+  calibrate(rigInput(rig, { method: 'gmm', components: job.components, tolerance: 0 }), (p) => {
+    if (p.meanSigma > 0) emEnded = performance.now();
+    return true;
+  });
+  const ended = performance.now();
+  console.log(`gmm ${job.name}: ${((ended - started) / 1000).toFixed(2)} s; JRMPC ${((emEnded - started) / 1000).toFixed(2)} s, ` +
+    `then ${((ended - emEnded) / 1000).toFixed(2)} s (frame pairs, plane adjustment, target fit)`);
+}
+
 // ICP baselines: per frame pair, on partial views of the synthetic rig.
 for (const pointsPerView of quick ? [2000] : [2000, 65000]) {
   const frames = pointsPerView > 10000 ? 1 : 5;
