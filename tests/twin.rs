@@ -21,6 +21,8 @@ use common::{for_seeds, median};
 
 /// Time spent in `calibrate` over a study (µs).
 static CALIBRATION_MICROS: AtomicU64 = AtomicU64::new(0);
+/// JRMPC iterations the studies' calibrations ran, summed.
+static ITERATIONS: AtomicU64 = AtomicU64::new(0);
 
 /// What one non-reference sensor's calibration got wrong, and what it claimed.
 struct SensorError {
@@ -87,6 +89,13 @@ fn trial(
     let clock = std::time::Instant::now();
     let result = calib::calibrate(&rig, settings, |_| Control::Continue).expect("calibration");
     CALIBRATION_MICROS.fetch_add(clock.elapsed().as_micros() as u64, Ordering::Relaxed);
+    ITERATIONS.fetch_add(result.iterations as u64, Ordering::Relaxed);
+    if std::env::var("TWIN_HISTORY").is_ok_and(|n| n == "1") {
+        // The first iteration whose largest change is below each level.
+        let below = |level: f64| result.history.iter().position(|h| h.max_change <= level);
+        let levels = [1e-2, 3e-3, 1e-3, 3e-4, 1e-4].map(|l| format!("{l:.0e}: {:?}", below(l)));
+        println!("seed {seed} start {start}: first below {}", levels.join(", "));
+    }
     if std::env::var("TWIN_NOTES").is_ok_and(|n| n == "1") {
         for note in result.plane_adjustment.iter().chain(&result.kept_jrmpc) {
             println!("seed {seed} start {start}: {}: {}", note.sensor, note.reason);
@@ -346,6 +355,9 @@ fn study() {
     if let Ok(iterations) = std::env::var("TWIN_ITERATIONS") {
         settings.jrmpc.max_iterations = iterations.parse().unwrap();
     }
+    if let Ok(tolerance) = std::env::var("TWIN_TOLERANCE") {
+        settings.jrmpc.tolerance = tolerance.parse().unwrap(); // rad and m per iteration
+    }
     let three = std::env::var("TWIN_SENSORS").is_ok_and(|s| s == "3");
     let mut preset = if three { three_sensor_preset() } else { Preset::paper() };
     if let Ok(columns) = std::env::var("TWIN_COLUMNS") {
@@ -421,4 +433,6 @@ fn study() {
     println!("within 0.1 deg & 1 cm: {good} of {}", all.len());
     let seconds = CALIBRATION_MICROS.load(Ordering::Relaxed) as f64 * 1e-6;
     println!("calibration: {:.2} s each (trials run in parallel)", seconds / jobs.len() as f64);
+    let iterations = ITERATIONS.load(Ordering::Relaxed) as f64;
+    println!("JRMPC iterations: {:.1} each", iterations / jobs.len() as f64);
 }
