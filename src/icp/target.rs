@@ -44,9 +44,7 @@ impl Target {
         method: Method,
         settings: &IcpSettings,
     ) -> Result<Self, IcpError> {
-        settings.validate()?;
-        let points = prepare(points, Role::Target, settings)?;
-        let tree = KdTree::new(&points);
+        let (points, tree) = indexed(points, Role::Target, settings)?;
         let k = settings.neighbours;
         let normals =
             if method == Method::PointToPlane { normals(&points, &tree, k) } else { Vec::new() };
@@ -185,9 +183,7 @@ impl Source {
         method: Method,
         settings: &IcpSettings,
     ) -> Result<Self, IcpError> {
-        settings.validate()?;
-        let points = prepare(points, Role::Source, settings)?;
-        let tree = KdTree::new(&points);
+        let (points, tree) = indexed(points, Role::Source, settings)?;
         let order: Vec<usize> = tree.tree_order().collect();
         let covariances = if method == Method::Gicp {
             let covariances = plane_covariances(&points, &tree, settings.neighbours);
@@ -198,6 +194,18 @@ impl Source {
         let points = order.iter().map(|&i| Vector3::from(points[i].map(f64::from))).collect();
         Ok(Self { method, points, covariances })
     }
+}
+
+/// One side's points checked and downsampled ([`prepare`]), and their kd-tree.
+fn indexed(
+    points: &[[f32; 3]],
+    role: Role,
+    settings: &IcpSettings,
+) -> Result<(Vec<[f32; 3]>, KdTree), IcpError> {
+    settings.validate()?;
+    let points = prepare(points, role, settings)?;
+    let tree = KdTree::new(&points);
+    Ok((points, tree))
 }
 
 /// Rejects non-finite points, downsamples, then rejects clouds too small or without spread.
