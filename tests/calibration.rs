@@ -238,3 +238,35 @@ fn threads_change_nothing_but_the_time() {
     assert!(one_seen.len() > 100, "JRMPC's iterations and every frame pair report progress");
     assert_eq!(one_seen, three_seen);
 }
+
+/// Frame pairs registered elsewhere (the page's pool workers) and recorded in any order give
+/// the calibration `calibrate` gives.
+#[test]
+fn frame_pairs_recorded_in_any_order_calibrate_alike() {
+    let spec = RigSpec { sensors: 3, frames: 4, seed: 6, ..RigSpec::default() };
+    let rig = rig_of(&synth::generate(&spec));
+    let settings = Settings { method: "gicp".parse().unwrap(), ..Settings::default() };
+    let direct = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibration");
+
+    let prepared = calib::prepare(&rig, &settings).expect("prepared");
+    let mut refinement = prepared.refinement(None).expect("gicp registers frame pairs");
+    let clouds = prepared.clouds();
+    let jobs = refinement.jobs().to_vec();
+    assert_eq!(jobs.len(), 8, "two sensors against the reference, four frames each");
+    let plan = refinement.plan().clone();
+    for (j, job) in jobs.iter().enumerate().rev() {
+        let target = calib::refine::target(clouds[job.reference_view], &plan).expect("target");
+        let pose = calib::refine::align(&target, clouds[job.view], &job.start, &plan);
+        refinement.record(j, pose.map_err(|e| e.to_string()));
+    }
+    // A second outcome for a recorded pair, or one for no pair, changes nothing.
+    refinement.record(0, Err("late".into()));
+    refinement.record(99, Err("none".into()));
+    assert_eq!(refinement.done(), jobs.len());
+    drop(clouds);
+    let recorded = prepared.finish_with(None, Some(refinement)).expect("calibration");
+    for (a, b) in direct.sensors.iter().zip(&recorded.sensors) {
+        assert_eq!((a.name.as_str(), a.correction), (b.name.as_str(), b.correction));
+    }
+    assert_eq!(direct.skipped.len(), recorded.skipped.len());
+}
