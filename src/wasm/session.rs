@@ -202,6 +202,10 @@ impl CalibrationSession {
         self.refinement()?;
         let prepared = self.prepared.as_ref().ok_or_else(finished)?;
         let Some((_, Some(refinement))) = &mut self.registered else { return Ok(()) };
+        if let Some(job) = jobs.iter().find(|&&j| j as usize >= refinement.jobs().len()) {
+            let count = refinement.jobs().len();
+            return Err(JsError::new(&format!("no frame pair {job} of {count}")));
+        }
         let mut sink = ProgressSink::new(on_progress, prepared.sensors().to_vec());
         refinement.run(&prepared.clouds(), jobs.iter().map(|&j| j as usize), 1, &mut |p| {
             let corrections = prepared.levelled(p.corrections);

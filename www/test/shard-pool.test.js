@@ -95,6 +95,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.match(tooFew, /./, 'a target ICP cannot use is a message for that pair');
   assert.throws(() => pairsOf.viewPoints(99), /no view 99 of 6/);
   assert.throws(() => pairsOf.recordFrame(99, aligned), /no frame pair 99 of 3/);
+  assert.throws(() => pairsOf.refineFrames(new Uint32Array([7]), () => true), /no frame pair 7 of 3/);
   assert.throws(() => pairsOf.recordFrame(0, 5), /a pose or a message/);
   assert.throws(() => pairsOf.recordFrame(0, new Float64Array([0, 0, 0, 2, 0, 0, 0])), /unit quaternion/);
   assert.equal(pairsOf.recordFrame(0, aligned).iteration, 1);
