@@ -95,8 +95,9 @@ pub struct Outcome {
 
 /// One-sigma uncertainty of a sensor's calibration as the plane adjustment measures it: the
 /// covariance of its motion at the solution, from the point-to-plane residuals (see
-/// [`covariance`]). That is the spread the point noise leaves (the twin's errors follow it; README, "How precise"), not a bound on
-/// errors the plane model cannot see (a target that moved, a wrong nominal beyond reach).
+/// `covariance`). That is the spread the point noise leaves (the twin's errors follow it;
+/// README, "How precise"), not a bound on errors the plane model cannot see (a target that
+/// moved, a wrong nominal beyond reach).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Precision {
     /// Rotation about the vehicle's x, y, z axes (rad).
@@ -128,7 +129,7 @@ impl FramePlane {
 }
 
 /// Adjusts `corrections` (per sensor, per frame pair `(reference view, sensor view)`, as
-/// `refine::per_frame` leaves them) by one motion per non-reference sensor. `origins` are the
+/// the refinement leaves them) by one motion per non-reference sensor. `origins` are the
 /// sensors' positions in the clouds' frame (for [`Precision::position`]); `ground` is the
 /// reference's ground plane in the vehicle frame; without it nothing is done.
 pub fn adjust(
@@ -451,7 +452,7 @@ struct Solution {
     motions: Vec<Pose>,
     pivot: Vector3<f64>,
     /// Covariance of the motions' unknowns `[rotation vector, shift]` per non-reference
-    /// sensor (see [`covariance`]); `None` without observations or when singular.
+    /// sensor (see `covariance`); `None` without observations or when singular.
     covariance: Option<DMatrix<f64>>,
     /// Each sensor's first unknown (`None` for the reference).
     slot: Vec<Option<usize>>,
