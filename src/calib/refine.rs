@@ -1,11 +1,15 @@
 //! Per-frame ICP of each sensor's view onto the reference sensor's view of the same frame:
-//! the ICP baselines, and `gmm`'s refinement of the JRMPC corrections.
+//! the ICP baselines, and `gmm`'s refinement of the JRMPC corrections. A [`Refinement`] holds
+//! the frame pairs and their outcomes; it registers them itself ([`Refinement::run`], on
+//! threads natively) or takes outcomes registered elsewhere ([`Refinement::record`], the
+//! page's pool workers), in pair order either way.
 //!
 //! Why refine: JRMPC's isotropic Gaussians blend the sensors' different samplings of the same
 //! surfaces, and each view is pulled point-to-point toward that blend, which leaves a bias
-//! along the surfaces (README, "Why refine"). Point-to-plane and GICP remove most of the in-plane force; JRMPC
-//! supplies the basin of convergence. The match distance shrinks over stages, so the first
-//! stage can still catch what JRMPC left and the last one ignores what does not overlap.
+//! along the surfaces (README, "Why refine"). Point-to-plane and GICP remove most of the
+//! in-plane force; JRMPC supplies the basin of convergence. The match distance shrinks over
+//! stages, so the first stage can still catch what JRMPC left and the last one ignores what
+//! does not overlap.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
