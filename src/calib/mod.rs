@@ -122,8 +122,29 @@ pub struct Calibration {
     pub history: Vec<jrmpc::IterationStats>,
 }
 
-/// What the progress callback sees after each EM iteration.
+/// Which step a [`Progress`] reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// JRMPC's EM: `iteration` of `max_iterations`, with `mean_sigma` and `max_change`.
+    Jrmpc,
+    /// The frame pairs' ICP (`gmm`'s refinement, the ICP methods): `iteration` pairs done of
+    /// `max_iterations`; `mean_sigma` and `max_change` are 0.
+    FramePairs,
+}
+
+impl Stage {
+    /// `"jrmpc"` or `"framePairs"`, as JS sees it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Stage::Jrmpc => "jrmpc",
+            Stage::FramePairs => "framePairs",
+        }
+    }
+}
+
+/// What the progress callback sees after each EM iteration and each frame pair.
 pub struct Progress<'a> {
+    pub stage: Stage,
     pub iteration: usize,
     pub max_iterations: usize,
     pub mean_sigma: f64,
@@ -144,6 +165,7 @@ pub fn calibrate(
         let input = prepared.jrmpc_input();
         let registration = jrmpc::register(&input.clouds, &input.means, &input.settings, |p| {
             progress(&Progress {
+                stage: Stage::Jrmpc,
                 iteration: p.iteration,
                 max_iterations: input.settings.max_iterations,
                 mean_sigma: p.mean_sigma,

@@ -14,9 +14,9 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use super::Progress;
 use super::average::average;
 use super::level::Plane;
+use super::{Progress, Stage};
 use crate::icp::{self, IcpSettings};
 use crate::jrmpc::Control;
 use crate::se3::Pose;
@@ -239,13 +239,7 @@ impl Refinement {
                     continue; // the batch's work is kept; the caller has stopped listening
                 }
                 let running = self.running();
-                let answer = progress(&Progress {
-                    iteration: self.done(),
-                    max_iterations: self.jobs.len(),
-                    mean_sigma: 0.0,
-                    max_change: 0.0,
-                    corrections: &running,
-                });
+                let answer = progress(&self.progress(&running));
                 if answer == Control::Stop {
                     self.stopped = true;
                 }
@@ -256,6 +250,19 @@ impl Refinement {
     /// Stops: no later [`Refinement::run`] registers anything.
     pub fn stop(&mut self) {
         self.stopped = true;
+    }
+
+    /// The progress after the pairs recorded so far, with `corrections` as the caller shows
+    /// them (from [`Refinement::running`]).
+    pub fn progress<'a>(&self, corrections: &'a [Pose]) -> Progress<'a> {
+        Progress {
+            stage: Stage::FramePairs,
+            iteration: self.done(),
+            max_iterations: self.jobs.len(),
+            mean_sigma: 0.0,
+            max_change: 0.0,
+            corrections,
+        }
     }
 
     /// Jobs recorded.

@@ -55,6 +55,8 @@ enum InitialSigmaInput {
 #[derive(Serialize)]
 #[serde(rename_all = "camelCase")]
 struct ProgressOutput<'a> {
+    /// "jrmpc" (EM's iterations) or "framePairs" (pairs registered).
+    stage: &'static str,
     iteration: usize,
     max_iterations: usize,
     mean_sigma: f64,
@@ -172,6 +174,7 @@ impl ProgressSink {
     /// `p` as JS sees it.
     pub(super) fn value(sensors: &[String], p: &calib::Progress) -> Result<JsValue, JsError> {
         to_js(&ProgressOutput {
+            stage: p.stage.name(),
             iteration: p.iteration,
             max_iterations: p.max_iterations,
             mean_sigma: p.mean_sigma,

@@ -134,6 +134,7 @@ impl CalibrationSession {
         ProgressSink::value(
             prepared.sensors(),
             &calib::Progress {
+                stage: calib::Stage::Jrmpc,
                 iteration: p.iteration,
                 max_iterations: self.max_iterations,
                 mean_sigma: p.mean_sigma,
@@ -235,16 +236,8 @@ impl CalibrationSession {
             )));
         }
         refinement.record(job, outcome);
-        ProgressSink::value(
-            prepared.sensors(),
-            &calib::Progress {
-                iteration: refinement.done(),
-                max_iterations: refinement.jobs().len(),
-                mean_sigma: 0.0,
-                max_change: 0.0,
-                corrections: &prepared.levelled(&refinement.running()),
-            },
-        )
+        let corrections = prepared.levelled(&refinement.running());
+        ProgressSink::value(prepared.sensors(), &refinement.progress(&corrections))
     }
 
     /// The rest of the calibration (the frame pairs not registered yet, averaging, target

@@ -32,8 +32,21 @@ test('demo: simulate, calibrate, and land within the bound of the truth', async 
     window.longTasks = [];
     new PerformanceObserver((list) => window.longTasks.push(...list.getEntries().map((e) => e.duration))).observe({ type: 'longtask' });
   });
+  // What the status line and the bar say on the way.
+  await page.evaluate(() => {
+    window.statuses = [];
+    const status = document.querySelector('[data-testid=status]');
+    new MutationObserver(() => window.statuses.push([status.textContent, document.getElementById('progress').value]))
+      .observe(status, { childList: true, characterData: true, subtree: true });
+  });
   await page.getByTestId('calibrate').click();
   await waitForStatus(page, /^Done/, 180_000);
+  // JRMPC's iterations, then the frame pairs (the last always reported), on one rising bar.
+  const statuses = await page.evaluate(() => window.statuses);
+  assert.ok(statuses.some(([text]) => /^JRMPC iteration \d+\/100, σ \d\.\d\d cm.*then the frame pairs$/.test(text)), JSON.stringify(statuses));
+  assert.ok(statuses.some(([text]) => /^frame pair (\d+)\/\1$/.test(text)), JSON.stringify(statuses));
+  const bar = statuses.map(([, value]) => value);
+  assert.ok(bar.every((v, i) => i === 0 || v >= bar[i - 1]), `the bar went back: ${bar}`);
   const longTasks = await page.evaluate(() => window.longTasks);
   console.log(`main-thread tasks over 50 ms during the run: ${longTasks.map((d) => d.toFixed(0)).join(', ') || 'none'}`);
   assert.ok(longTasks.every((d) => d < LONGEST_TASK_MS), `main-thread tasks of ${longTasks.join(', ')} ms`);

@@ -12,6 +12,7 @@ import { exportsOf, renderExports, resultJson } from './exports.js';
 import { targetBounds } from './target.js';
 import { matrixFromXyzRpy } from './transforms.js';
 import { DEFAULTS, readHash, writeHash } from './url.js';
+import { describeProgress } from './progress.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
@@ -220,16 +221,20 @@ async function runCalibration() {
   try {
     for (const method of methods) {
       const label = methods.length > 1 ? `${method} (${results.length + 1}/${methods.length}): ` : '';
-      const methodStarted = performance.now();
       setStatus(`${label}starting…`);
       const { input, transfer } = await calibrateInput(method);
+      // A stage starts at the method's start or at the previous stage's last message.
+      let stage = { name: null, started: performance.now() };
+      let lastMessage = stage.started;
       const result = await client.request('calibrate', { input, workers: workerCount(state.settings.workers) }, {
         transfer,
         onProgress: (p) => {
-          const elapsed = (performance.now() - methodStarted) / 1000;
-          const eta = (elapsed / p.iteration) * (p.maxIterations - p.iteration);
-          $('progress').value = (results.length + p.iteration / p.maxIterations) / methods.length;
-          setStatus(`${label}iteration ${p.iteration}/${p.maxIterations}, σ ${(p.meanSigma * 100).toFixed(2)} cm, about ${eta.toFixed(1)} s left`);
+          const now = performance.now();
+          if (p.stage !== stage.name) stage = { name: p.stage, started: stage.name ? lastMessage : stage.started };
+          lastMessage = now;
+          const { fraction, text } = describeProgress(method, p, (now - stage.started) / 1000);
+          $('progress').value = (results.length + fraction) / methods.length;
+          setStatus(label + text);
           redraw(livePoses(p, nominal), { preview: true });
         },
       });

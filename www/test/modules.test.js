@@ -7,6 +7,7 @@ import { parseConfig } from '../src/config.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
 import { gmmcalibYaml, resultJson, ros2, targetPly, urdf } from '../src/exports.js';
 import { DEFAULTS, readHash } from '../src/url.js';
+import { describeProgress } from '../src/progress.js';
 
 const close = (a, b, tol = 1e-12) => a.every((v, i) => Math.abs(v - b[i]) < tol);
 
@@ -73,4 +74,16 @@ test('URL hash: known keys only, numbers checked, defaults otherwise', () => {
   assert.equal(s.frames, DEFAULTS.frames);
   assert.equal(s.demo, 'paper');
   assert.ok(!('evil' in s));
+});
+
+test('progress: JRMPC then the frame pairs fill one bar, each stage with its own wording and time left', () => {
+  const em = { stage: 'jrmpc', iteration: 50, maxIterations: 100, meanSigma: 0.0123 };
+  const pairs = { stage: 'framePairs', iteration: 3, maxIterations: 4, meanSigma: 0 };
+  assert.deepEqual(describeProgress('gmm', em, 5), { fraction: 0.4, text: 'JRMPC iteration 50/100, σ 1.23 cm, about 5.0 s left, then the frame pairs' });
+  assert.deepEqual(describeProgress('gmm', pairs, 3), { fraction: 0.95, text: 'frame pair 3/4, about 1.0 s left' });
+  assert.equal(describeProgress('jrmpc', em, 5).fraction, 0.5);
+  assert.doesNotMatch(describeProgress('jrmpc', em, 5).text, /frame pairs/);
+  assert.equal(describeProgress('p2l', pairs, 3).fraction, 0.75);
+  assert.equal(describeProgress('gmm', { ...pairs, iteration: 0 }, 0).text, 'frame pair 0/4');
+  assert.equal(describeProgress('gmm', { ...pairs, iteration: 4 }, 4).text, 'frame pair 4/4');
 });

@@ -39,7 +39,7 @@ fn main() -> std::process::ExitCode {
 mod cli {
     use std::io::{IsTerminal, Write};
 
-    use gmmcalib::calib::{self, Calibration, Method, Rig, Settings};
+    use gmmcalib::calib::{self, Calibration, Method, Rig, Settings, Stage};
     use gmmcalib::jrmpc::{Control, Prior};
     use gmmcalib::report::Report;
 
@@ -130,15 +130,19 @@ mod cli {
         }
     }
 
-    /// One calibration, with a progress line on stderr when it is a terminal: `i/N` counts EM
-    /// iterations, then frames refined (the library reports both through one callback).
+    /// One calibration, with a progress line on stderr when it is a terminal: EM's iterations,
+    /// then the frame pairs registered.
     fn calibrate_one(rig: &Rig, settings: &Settings) -> Result<Calibration, String> {
         let show = std::io::stderr().is_terminal();
         let name = settings.method.name();
         let result = calib::calibrate(rig, settings, |p| {
             if show {
                 let mut err = std::io::stderr();
-                let _ = write!(err, "\r{name}: {}/{}   ", p.iteration, p.max_iterations);
+                let what = match p.stage {
+                    Stage::Jrmpc => "JRMPC iteration",
+                    Stage::FramePairs => "frame pair",
+                };
+                let _ = write!(err, "\r{name}: {what} {}/{}   ", p.iteration, p.max_iterations);
                 let _ = err.flush();
             }
             Control::Continue

@@ -1,0 +1,22 @@
+// What the page says of a running calibration: the progress bar's share and the status line,
+// from the worker's progress messages. A calibration reports two stages: JRMPC's iterations
+// (`gmm`, `jrmpc`), then the frame pairs registered (`gmm`'s refinement, the ICP methods).
+
+// Share of a method's bar for JRMPC: `gmm` spends about a fifth of its time on the frame pairs
+// (browser bench, both scales); `jrmpc` has no pairs, the ICP methods no JRMPC.
+const JRMPC_SHARE = { gmm: 0.8, jrmpc: 1 };
+
+// {fraction, text} for progress `p` of `method`, `seconds` into the current stage.
+export function describeProgress(method, p, seconds) {
+  const jrmpcShare = JRMPC_SHARE[method] ?? 0;
+  const done = p.iteration / p.maxIterations;
+  // Time left in this stage, while it is under way.
+  const left = (seconds / p.iteration) * (p.maxIterations - p.iteration);
+  const eta = p.iteration > 0 && p.iteration < p.maxIterations && Number.isFinite(left) ? `, about ${left.toFixed(1)} s left` : '';
+  if (p.stage === 'framePairs') {
+    return { fraction: jrmpcShare + (1 - jrmpcShare) * done, text: `frame pair ${p.iteration}/${p.maxIterations}${eta}` };
+  }
+  const sigma = `σ ${(p.meanSigma * 100).toFixed(2)} cm`;
+  const then = jrmpcShare < 1 ? ', then the frame pairs' : '';
+  return { fraction: jrmpcShare * done, text: `JRMPC iteration ${p.iteration}/${p.maxIterations}, ${sigma}${eta}${then}` };
+}
