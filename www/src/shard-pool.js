@@ -143,7 +143,14 @@ async function shareFramePairs(session, remotes, onProgress) {
   };
   // Two requests in flight per remote: it starts the next group while its last reply waits for
   // this worker to finish a group of its own (one in flight left it idle about half the time).
-  await Promise.all([local(), ...remotes.flatMap((worker) => [remote(worker), remote(worker)])]);
+  // A failure stops every loop, and all have ended before the session can be freed.
+  const loops = [local(), ...remotes.flatMap((worker) => [remote(worker), remote(worker)])].map((loop) =>
+    loop.catch((error) => {
+      stopped = true;
+      throw error;
+    }));
+  const failure = (await Promise.allSettled(loops)).find(({ status }) => status === 'rejected');
+  if (failure) throw failure.reason;
   if (stopped) session.cancel(); // finish() must not register what is left
 }
 

@@ -57,6 +57,35 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
     assert.equal(result.workers, workers);
     assert.equal(shared.filter((p) => p.maxIterations === pairs[0].maxIterations).length, 3);
   }
+  // A pool worker that fails mid-way fails the calibration with its message, once every loop
+  // has stopped (none touches the freed session afterwards).
+  let alignCalls = 0;
+  const failing = () => ({
+    ...inProcess(),
+    align: async (...args) => {
+      if (++alignCalls === 2) throw new Error('a calculation worker failed: boom');
+      return wasm.alignFrames(...args);
+    },
+  });
+  const proto = wasm.CalibrationSession.prototype;
+  const original = { free: proto.free, refineFrames: proto.refineFrames, recordFrame: proto.recordFrame, viewPoints: proto.viewPoints };
+  const late = [];
+  proto.free = function free() { this.freed = true; return original.free.call(this); };
+  for (const name of ['refineFrames', 'recordFrame', 'viewPoints']) {
+    proto[name] = function (...args) {
+      if (this.freed) late.push(name);
+      return original[name].apply(this, args);
+    };
+  }
+  try {
+    const many = wasm.syntheticRig({ sensors: 2, frames: 8, pointsPerView: 400, seed: 2 });
+    const manyInput = { views: many.views, nominal: many.nominal, roi: many.roi, components: 100, iterations: 5 };
+    await assert.rejects(calibrateSharded(wasm, manyInput, 2, () => true, failing), /boom/);
+    await new Promise((resolve) => setTimeout(resolve, 100));
+  } finally {
+    Object.assign(proto, original);
+  }
+  assert.deepEqual(late, [], 'nothing touches the session once it is freed');
   // An ICP method has no E-step: its frame pairs alone are shared.
   const icp = () => ({ ...input(), method: 'p2l' });
   const icpDriven = await calibrateSharded(wasm, icp(), 2, () => true, inProcess);
