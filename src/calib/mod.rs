@@ -194,6 +194,8 @@ pub struct Prepared {
     levelling: Vec<Levelling>,
     /// The levelling applied on top of each sensor's nominal (identity without levelling).
     applied: Vec<Pose>,
+    /// Each sensor's levelled nominal, `applied * nominal`: what its points are pre-aligned by.
+    pre_aligned: Vec<Pose>,
     /// The views left after cropping: (sensor index, frame, cloud).
     usable: Vec<(usize, String, Cloud)>,
     skipped: Vec<FrameNote>,
@@ -248,8 +250,8 @@ pub fn prepare(rig: &Rig, settings: &Settings) -> Result<Prepared, CalibError> {
         .collect();
 
     // 2. Crop.
-    let poses: Vec<Pose> = applied.iter().zip(&nominals).map(|(a, n)| a * n).collect();
-    let (usable, skipped) = crop_views(rig, &sensors, &poses, settings);
+    let pre_aligned: Vec<Pose> = applied.iter().zip(&nominals).map(|(a, n)| a * n).collect();
+    let (usable, skipped) = crop_views(rig, &sensors, &pre_aligned, settings);
     for (s, name) in sensors.iter().enumerate() {
         if !usable.iter().any(|(u, _, _)| *u == s) {
             return Err(CalibError::NoPointsInRoi(name.clone()));
@@ -277,6 +279,7 @@ pub fn prepare(rig: &Rig, settings: &Settings) -> Result<Prepared, CalibError> {
         nominals,
         levelling,
         applied,
+        pre_aligned,
         usable,
         skipped,
         pairs,
@@ -413,6 +416,7 @@ impl Prepared {
             nominals,
             levelling,
             applied,
+            pre_aligned,
             usable,
             mut skipped,
             pairs,
@@ -446,11 +450,8 @@ impl Prepared {
             (Some(plane_settings), Method::Gmm) => {
                 let plane = reference_ground.map(|(plane, _)| plane);
                 // The clouds are pre-aligned: each sensor sits at its levelled nominal.
-                let origins: Vec<Vector3<f64>> = applied
-                    .iter()
-                    .zip(&nominals)
-                    .map(|(a, n)| (a * n).translation.vector)
-                    .collect();
+                let origins: Vec<Vector3<f64>> =
+                    pre_aligned.iter().map(|p| p.translation.vector).collect();
                 let outcomes = planes::adjust(
                     &clouds,
                     &origins,
