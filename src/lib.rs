@@ -19,5 +19,11 @@ pub mod target_fit;
 
 pub use cloud::{Aabb, Cloud};
 pub use se3::Pose;
+
+/// The threads a job asking for `requested` runs on here: at least one, and one in wasm32,
+/// which spawns none (the page shares work across Web Workers instead).
+pub(crate) fn threads_here(requested: usize) -> usize {
+    if cfg!(target_arch = "wasm32") { 1 } else { requested.max(1) }
+}
 #[cfg(target_arch = "wasm32")]
 pub mod wasm;

@@ -199,7 +199,7 @@ impl Refinement {
         threads: usize,
         progress: &mut impl FnMut(&Progress) -> Control,
     ) {
-        let threads = if cfg!(target_arch = "wasm32") { 1 } else { threads.max(1) };
+        let threads = crate::threads_here(threads);
         let todo: Vec<usize> = jobs
             .into_iter()
             .filter(|&j| self.outcomes.get(j).is_some_and(Option::is_none))

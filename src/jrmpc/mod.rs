@@ -166,8 +166,8 @@ pub fn register(
     mut progress: impl FnMut(&Progress) -> Control,
 ) -> Result<Registration, JrmpcError> {
     let (mut em, points) = Em::start(views, initial_means, settings)?;
-    let threads = if cfg!(target_arch = "wasm32") { 1 } else { settings.threads };
-    let per = points.len().div_ceil(threads.clamp(1, points.len()));
+    let threads = crate::threads_here(settings.threads);
+    let per = points.len().div_ceil(threads.min(points.len()).max(1));
     let mut shards: Vec<Shard> = Vec::new();
     let mut points = points.into_iter().peekable();
     while points.peek().is_some() {
