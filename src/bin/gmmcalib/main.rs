@@ -142,7 +142,8 @@ mod cli {
                     Stage::Jrmpc => "JRMPC iteration",
                     Stage::FramePairs => "frame pair",
                 };
-                let _ = write!(err, "\r{name}: {what} {}/{}   ", p.iteration, p.max_iterations);
+                // Clear the line first: a frame pair's line is shorter than an iteration's.
+                let _ = write!(err, "\r\x1b[K{name}: {what} {}/{}", p.iteration, p.max_iterations);
                 let _ = err.flush();
             }
             Control::Continue
