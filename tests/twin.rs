@@ -320,6 +320,9 @@ fn study() {
         settings.refine.icp.robust_scale = (robust > 0.0).then_some(robust);
         settings.refine.match_distances = r[2].split('/').map(|d| d.parse().unwrap()).collect();
     }
+    if let Ok(tolerance) = std::env::var("TWIN_EARLY_TOLERANCE") {
+        settings.refine.early_tolerance = Some(tolerance.parse().unwrap()); // rad and m
+    }
     if let Ok(tolerance) = std::env::var("TWIN_REFINE_TOLERANCE") {
         let tolerance: f64 = tolerance.parse().unwrap(); // rad and m
         settings.refine.icp.rotation_tolerance = tolerance;
