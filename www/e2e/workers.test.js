@@ -1,13 +1,14 @@
-// Issue 8: JRMPC's E-step shared by workers. The same demo on one worker and on two gives the
-// same result, bit for bit (the M-step takes every view's statistics in view order).
+// Issue 8: JRMPC's E-step and the frame pairs' ICP shared by workers. The same demo on one
+// worker and on two gives the same result, bit for bit (the M-step takes every view's
+// statistics in view order; the frame pairs' outcomes are kept in pair order).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { browserSession, waitForStatus } from './harness.js';
 
 const session = browserSession();
 
-async function run(workers) {
-  const { page, problems } = await session.open(`#demo=paper&frames=2&seed=3&workers=${workers}`);
+async function run(workers, method = 'gmm') {
+  const { page, problems } = await session.open(`#demo=paper&frames=2&seed=3&workers=${workers}&method=${method}`);
   await waitForStatus(page, /Calibrate next/);
   assert.equal(await page.locator('#workers').inputValue(), String(workers));
   await page.getByTestId('calibrate').click();
@@ -31,4 +32,14 @@ test('one worker and two give the same calibration', async () => {
   assert.deepEqual(two.result.sensors, one.result.sensors);
   assert.deepEqual(two.result.history, one.result.history);
   assert.deepEqual(two.result.target, one.result.target);
+});
+
+test('an ICP method\'s frame pairs on two workers give the one-worker result', async () => {
+  const one = await run(1, 'gicp');
+  const two = await run(2, 'gicp');
+  assert.equal(two.result.workers, 2);
+  assert.equal(two.result.method, 'gicp');
+  assert.match(two.status, /^Done: 2 frame pairs registered in [\d.]+ s on 2 workers\.$/);
+  assert.deepEqual(two.result.sensors, one.result.sensors);
+  assert.deepEqual(two.result.skipped, one.result.skipped);
 });

@@ -12,7 +12,7 @@ import { exportsOf, renderExports, resultJson } from './exports.js';
 import { targetBounds } from './target.js';
 import { matrixFromXyzRpy } from './transforms.js';
 import { DEFAULTS, readHash, writeHash } from './url.js';
-import { describeProgress } from './progress.js';
+import { describeDone, describeProgress } from './progress.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
@@ -242,10 +242,7 @@ async function runCalibration() {
     }
     $('progress').value = 1;
     await showResults(results);
-    const r = results[0];
-    const seconds = ((performance.now() - started) / 1000).toFixed(1);
-    const on = r.workers > 1 ? ` on ${r.workers} workers` : '';
-    setStatus(`Done: ${methods.length > 1 ? `${methods.length} methods` : `${r.iterations} iterations${r.converged ? ' (converged)' : ''}`} in ${seconds} s${on}.`);
+    setStatus(describeDone(results, (performance.now() - started) / 1000));
   } catch (error) {
     $('progress').value = 0;
     setStatus(error.cancelled ? 'Cancelled.' : 'Failed.');

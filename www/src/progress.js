@@ -1,5 +1,5 @@
-// What the page says of a running calibration: the progress bar's share and the status line,
-// from the worker's progress messages. A calibration reports two stages: JRMPC's iterations
+// What the page says of a calibration: while it runs, the progress bar's share and the status
+// line from the worker's progress messages; then the status line for the results. A calibration reports two stages: JRMPC's iterations
 // (`gmm`, `jrmpc`), then the frame pairs registered (`gmm`'s refinement, the ICP methods).
 
 // Share of a method's bar for JRMPC: `gmm` spends about a fifth of its time on the frame pairs
@@ -19,4 +19,19 @@ export function describeProgress(method, p, seconds) {
   const sigma = `σ ${(p.meanSigma * 100).toFixed(2)} cm`;
   const then = jrmpcShare < 1 ? ', then the frame pairs' : '';
   return { fraction: jrmpcShare * done, text: `JRMPC iteration ${p.iteration}/${p.maxIterations}, ${sigma}${eta}${then}` };
+}
+
+// The status line once `results` (one per method run) are in, `seconds` after the click.
+export function describeDone(results, seconds) {
+  const r = results[0];
+  const on = r.workers > 1 ? ` on ${r.workers} workers` : '';
+  let what;
+  if (results.length > 1) what = `${results.length} methods`;
+  else if (r.iterations > 0) what = `${r.iterations} iterations${r.converged ? ' (converged)' : ''}`;
+  else {
+    // An ICP method: no EM, the frame pairs averaged.
+    const pairs = r.sensors.filter((s) => s.name !== r.reference).reduce((n, s) => n + s.spread.frames, 0);
+    what = `${pairs} frame pair${pairs === 1 ? '' : 's'} registered`;
+  }
+  return `Done: ${what} in ${seconds.toFixed(1)} s${on}.`;
 }

@@ -7,7 +7,7 @@ import { parseConfig } from '../src/config.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
 import { gmmcalibYaml, resultJson, ros2, targetPly, urdf } from '../src/exports.js';
 import { DEFAULTS, readHash } from '../src/url.js';
-import { describeProgress } from '../src/progress.js';
+import { describeDone, describeProgress } from '../src/progress.js';
 
 const close = (a, b, tol = 1e-12) => a.every((v, i) => Math.abs(v - b[i]) < tol);
 
@@ -86,4 +86,13 @@ test('progress: JRMPC then the frame pairs fill one bar, each stage with its own
   assert.equal(describeProgress('p2l', pairs, 3).fraction, 0.75);
   assert.equal(describeProgress('gmm', { ...pairs, iteration: 0 }, 0).text, 'frame pair 0/4');
   assert.equal(describeProgress('gmm', { ...pairs, iteration: 4 }, 4).text, 'frame pair 4/4');
+});
+
+test('the status once done: iterations for the GMM methods, frame pairs for ICP, methods for compare all', () => {
+  const sensors = [{ name: 'a', spread: { frames: 4 } }, { name: 'b', spread: { frames: 3 } }, { name: 'c', spread: { frames: 4 } }];
+  const gmm = { reference: 'a', iterations: 100, converged: false, workers: 2, sensors };
+  assert.equal(describeDone([gmm], 1.234), 'Done: 100 iterations in 1.2 s on 2 workers.');
+  assert.equal(describeDone([{ ...gmm, iterations: 40, converged: true, workers: 1 }], 0.5), 'Done: 40 iterations (converged) in 0.5 s.');
+  assert.equal(describeDone([{ ...gmm, iterations: 0, converged: true }], 0.1), 'Done: 7 frame pairs registered in 0.1 s on 2 workers.');
+  assert.equal(describeDone([gmm, gmm], 3), 'Done: 2 methods in 3.0 s on 2 workers.');
 });
