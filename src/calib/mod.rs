@@ -393,13 +393,24 @@ impl Prepared {
         if let Some(refinement) = &mut refinement {
             let all = 0..refinement.jobs().len();
             // The same threads as JRMPC's (native).
-            let threads = self.settings.jrmpc.threads;
-            refinement.run(&self.clouds(), all, threads, &mut |p: &Progress| {
-                let corrections = self.levelled(p.corrections);
-                progress(&Progress { corrections: &corrections, ..*p })
-            });
+            self.refine(refinement, all, self.settings.jrmpc.threads, &mut progress);
         }
         self.finish_with(registration, refinement)
+    }
+
+    /// Registers `refinement`'s pairs `jobs` here ([`Refinement::run`] on this rig's cropped
+    /// views); `progress` sees the corrections as the caller does, levelling included.
+    pub fn refine(
+        &self,
+        refinement: &mut Refinement,
+        jobs: impl IntoIterator<Item = usize>,
+        threads: usize,
+        progress: &mut impl FnMut(&Progress) -> Control,
+    ) {
+        refinement.run(&self.clouds(), jobs, threads, &mut |p: &Progress| {
+            let corrections = self.levelled(p.corrections);
+            progress(&Progress { corrections: &corrections, ..*p })
+        });
     }
 
     /// Steps 4 and 5, after step 3: `registration` for the GMM methods, and the frame pairs of

@@ -208,10 +208,7 @@ impl CalibrationSession {
             return Err(JsError::new(&format!("no frame pair {job} of {count}")));
         }
         let mut sink = ProgressSink::new(on_progress, prepared.sensors().to_vec());
-        refinement.run(&prepared.clouds(), jobs.iter().map(|&j| j as usize), 1, &mut |p| {
-            let corrections = prepared.levelled(p.corrections);
-            sink.send(&calib::Progress { corrections: &corrections, ..*p })
-        });
+        prepared.refine(refinement, jobs.iter().map(|&j| j as usize), 1, &mut |p| sink.send(p));
         sink.error()
     }
 
