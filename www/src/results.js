@@ -105,7 +105,8 @@ export function drawConvergence(canvas, history) {
     { values: history.meanSigma, color: '#7fd1ff', label: 'mean σ (m)' },
     { values: history.maxChange, color: '#ffb054', label: 'max change (rad | m)' },
   ];
-  const pad = { l: 8, r: 8, t: 18, b: 14 };
+  // One legend line per series: side by side they overflow the panel's width.
+  const pad = { l: 8, r: 8, t: 32, b: 14 };
   series.forEach(({ values, color, label }, i) => {
     const logs = values.map((v) => Math.log10(Math.max(v, 1e-12)));
     const [lo, hi] = [Math.min(...logs), Math.max(...logs) + 1e-9];
@@ -118,7 +119,7 @@ export function drawConvergence(canvas, history) {
     });
     ctx.stroke();
     ctx.fillStyle = color;
-    ctx.fillText(`${label}: ${values[0].toExponential(1)} → ${values[n - 1].toExponential(1)} (log)`, pad.l + i * (w / 2), 12);
+    ctx.fillText(`${label}: ${values[0].toExponential(1)} → ${values[n - 1].toExponential(1)} (log)`, pad.l, 12 + 13 * i);
   });
   ctx.fillStyle = '#9aa4b1';
   ctx.fillText(`iteration 1 … ${n}`, pad.l, h - 2);
