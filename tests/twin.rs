@@ -2,7 +2,8 @@
 //! non-reference sensors' nominals wrong by up to +-3 deg / +-0.1 m, calibrated by `gmm`.
 //!
 //! `TWIN_STUDY=seeds,starts[,max_deg,max_m[,method]]` with `--ignored` prints the distribution
-//! that the README reports (more knobs in `study`); the plain tests keep a few for CI.
+//! that the README reports (more knobs in `study`, e.g. `TWIN_SENSORS=3`, `TWIN_FRAMES=7`);
+//! the plain tests keep a few for CI.
 
 mod common;
 
@@ -372,11 +373,12 @@ fn study() {
     if let Ok(noise) = std::env::var("TWIN_NOISE") {
         preset.sensors.iter_mut().for_each(|s| s.lidar.range_noise = noise.parse().unwrap());
     }
+    let frames = std::env::var("TWIN_FRAMES").map_or(5, |f| f.parse().unwrap());
     let jobs: Vec<(u64, u64)> =
         (1..=seeds).flat_map(|s| (0..starts).map(move |k| (s, k))).collect();
     let results = for_seeds(0..=(jobs.len() as u64 - 1), |j| {
         let (seed, start) = jobs[j as usize];
-        trial(&preset, 5, seed, start, bounds, &settings)
+        trial(&preset, frames, seed, start, bounds, &settings)
     });
     let errors: Vec<&SensorError> = results.iter().flatten().collect();
     for line in precision_check(&errors).0 {
@@ -434,6 +436,15 @@ fn study() {
     println!("rotation (deg): {}", summary(&angles));
     println!("translation (mm): {}", summary(&shifts));
     println!("within 0.1 deg & 1 cm: {good} of {}", all.len());
+    // With several non-reference sensors, each one's own distribution (issue 6 asks for every
+    // sensor).
+    let sensors = results.first().map_or(0, Vec::len);
+    for s in (0..sensors).filter(|_| sensors > 1) {
+        let own: Vec<(f64, f64)> = results.iter().map(|e| deg_m(&e[s].error)).collect();
+        let angles: Vec<f64> = own.iter().map(|e| e.0).collect();
+        let shifts: Vec<f64> = own.iter().map(|e| e.1 * 1e3).collect();
+        println!("sensor {}: {} deg, {} mm", s + 1, summary(&angles), summary(&shifts));
+    }
     let seconds = CALIBRATION_MICROS.load(Ordering::Relaxed) as f64 * 1e-6;
     println!("calibration: {:.2} s each (trials run in parallel)", seconds / jobs.len() as f64);
     let iterations = ITERATIONS.load(Ordering::Relaxed) as f64;
