@@ -194,6 +194,44 @@ fn method_all_writes_one_result_per_method() {
     }
 }
 
+#[test]
+fn method_all_reports_the_methods_that_ran_when_others_fail() {
+    // The twin with sensor_2's nominal 40 deg and 2 m off (seed 3): cropped in that nominal,
+    // sensor_2 has no ROI points for jrmpc and the ICP methods; gmm levels the ground and
+    // searches from above before it crops, so it runs. One failure must not lose the others.
+    let tmp = TempDir::new("all-partial");
+    let dir = tmp.0.to_str().unwrap();
+    let wrong = ["--max-angle-deg", "40", "--max-translation", "2"];
+    let simulate = Command::new(env!("CARGO_BIN_EXE_gmmcalib"))
+        .args(["simulate", "--out", dir, "--frames", "2", "--seed", "3"])
+        .args(wrong)
+        .output()
+        .unwrap();
+    assert!(simulate.status.success(), "{}", String::from_utf8_lossy(&simulate.stderr));
+    let json_path = tmp.0.join("all.json");
+    let out = gmmcalib(
+        &tmp.0,
+        &["--method", "all", "--iterations", "20", "--json", json_path.to_str().unwrap()],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
+    let results = json.as_array().expect("a JSON array");
+    let names: Vec<&str> = results.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    assert_eq!(names, ["gmm", "jrmpc", "p2p", "p2l", "gicp"]);
+    assert_eq!(results[0]["sensors"].as_array().unwrap().len(), 2, "gmm's result is kept");
+    assert!(results[0].get("error").is_none());
+    assert!(stdout.lines().any(|l| l.starts_with("gmm") && l.contains("sensor_2")), "{stdout}");
+    for (name, r) in names.iter().zip(results).skip(1) {
+        let error = r["error"].as_str().unwrap_or_else(|| panic!("{name} failed: {r}"));
+        assert!(error.contains("sensor_2") && error.contains("ROI"), "{error}");
+        assert!(stdout.contains(&format!("{name}: {error}")), "{stdout}");
+    }
+    // When every method fails, the run fails, naming each one's problem.
+    let out = gmmcalib(&tmp.0, &["--method", "all", "--iterations", "20", "--reference", "nobody"]);
+    assert!(!out.status.success());
+}
+
 /// Runs the CLI on a small valid folder after `spoil` breaks it; returns the one stderr line.
 fn error_of(name: &str, extra: &[&str], spoil: impl FnOnce(&Path)) -> String {
     let rig = synth::generate(&RigSpec {

@@ -110,3 +110,26 @@ test('a shared link loads the same demo, preset included', async () => {
   assert.equal(await page.locator('#files tr').count(), 1 + 2);
   assert.deepEqual(problems, []);
 });
+
+test('compare all keeps the methods that ran when others fail', async () => {
+  // The demo with front_right's nominal up to 40 deg and 2 m off (seed 2): cropped in that
+  // nominal, front_right has no ROI points for jrmpc and the ICP methods; gmm levels and searches
+  // from above before it crops, so it runs (far beyond its spec, so not accurately).
+  const { page, problems } = await session.open('#demo=paper&frames=2&seed=2&maxAngleDeg=40&maxTranslation=2&method=all&iterations=20');
+  await waitForStatus(page, /Calibrate next/);
+  await page.getByTestId('calibrate').click();
+  await waitForStatus(page, /^Done/);
+  assert.match(await page.getByTestId('status').textContent(), /^Done: 1 of 5 methods in [\d.]+ s.*; jrmpc, p2p, p2l, gicp failed \(see Results\)\.$/);
+  assert.equal(await page.getByTestId('error').isHidden(), true, 'a failed method is a finding, not an error');
+  const failed = await page.locator('table.compare tr.failed').allTextContents();
+  assert.equal(failed.length, 4);
+  for (const [row, method] of failed.map((row, i) => [row, ['jrmpc', 'p2p', 'p2l', 'gicp'][i]])) {
+    assert.match(row, new RegExp(`^${method}failed: .*front_right.*ROI`));
+  }
+  assert.match(await page.locator('#results').textContent(), /Details: gmm/);
+  const json = JSON.parse(await page.getByTestId('result-json').textContent());
+  assert.deepEqual(json.map((r) => r.method), ['gmm', 'jrmpc', 'p2p', 'p2l', 'gicp']);
+  assert.equal(json[0].sensors.length, 2);
+  assert.match(json[1].error, /front_right.*ROI/);
+  assert.deepEqual(problems, []);
+});

@@ -215,34 +215,47 @@ async function runCalibration() {
   forgetResults();
   setRunning(true);
   const methods = state.settings.method === 'all' ? METHODS : [state.settings.method];
-  const results = [];
+  // Per method, in order: its report, or {method, error} when comparing and it failed. A method
+  // that fails is then a finding like any other: the others still run and are shown.
+  const outcomes = [];
   const nominal = nominalPoses();
   const started = performance.now();
   try {
     for (const method of methods) {
-      const label = methods.length > 1 ? `${method} (${results.length + 1}/${methods.length}): ` : '';
+      const done = outcomes.length;
+      const label = methods.length > 1 ? `${method} (${done + 1}/${methods.length}): ` : '';
       setStatus(`${label}starting…`);
       const { input, transfer } = await calibrateInput(method);
       // A stage starts at the method's start or at the previous stage's last message.
       let stage = { name: null, started: performance.now() };
       let lastMessage = stage.started;
-      const result = await client.request('calibrate', { input, workers: workerCount(state.settings.workers) }, {
+      const request = client.request('calibrate', { input, workers: workerCount(state.settings.workers) }, {
         transfer,
         onProgress: (p) => {
           const now = performance.now();
           if (p.stage !== stage.name) stage = { name: p.stage, started: stage.name ? lastMessage : stage.started };
           lastMessage = now;
           const { fraction, text } = describeProgress(method, p, (now - stage.started) / 1000);
-          $('progress').value = (results.length + fraction) / methods.length;
+          $('progress').value = (done + fraction) / methods.length;
           setStatus(label + text);
           redraw(livePoses(p, nominal), { preview: true });
         },
       });
-      results.push(result);
+      if (methods.length === 1) {
+        outcomes.push(await request);
+        continue;
+      }
+      outcomes.push(await request.catch((error) => {
+        if (error.cancelled) throw error;
+        return { method, error: error.message };
+      }));
     }
+    const results = outcomes.filter((o) => !o.error);
+    const failures = outcomes.filter((o) => o.error);
+    if (!results.length) throw new Error(failures.map((f) => `${f.method}: ${f.error}`).join('\n'));
     $('progress').value = 1;
-    await showResults(results);
-    setStatus(describeDone(results, (performance.now() - started) / 1000));
+    await showResults(results, failures, methods.length > 1 ? outcomes : results[0]);
+    setStatus(describeDone(results, (performance.now() - started) / 1000, failures));
   } catch (error) {
     $('progress').value = 0;
     setStatus(error.cancelled ? 'Cancelled.' : 'Failed.');
@@ -256,20 +269,22 @@ async function runCalibration() {
 // In three tasks of a few ms each: on a busy machine a task waits for a core several times as
 // long as it computes, and the page must not stall (issue 7). A result forgotten meanwhile (new
 // files, a new run) stops here.
-async function showResults(results) {
+// `failures`: {method, error} of the methods that failed; `json`: what the JSON view holds (the
+// report, or every method's outcome in order when comparing, as the CLI writes it).
+async function showResults(results, failures, json) {
   state.results = results;
   state.show = 'after';
   $('show-after').disabled = false;
   $('show-after').checked = true;
   redraw();
-  renderResults($('results'), results, state.truth);
+  renderResults($('results'), results, state.truth, failures);
   await nextTask();
   if (state.results !== results) return;
   drawConvergence($('convergence'), results[0].history);
   renderExports($('exports'), exportsOf(results[0], { roi: state.rig.roi }));
   await nextTask();
   if (state.results !== results) return;
-  $('result-json').textContent = resultJson(results.length > 1 ? results : results[0]);
+  $('result-json').textContent = resultJson(json);
   const gmm = results.find((r) => r.target.priors.length);
   targetViewer.clear();
   const bounds = gmm && targetBounds(gmm.target);

@@ -22,9 +22,13 @@ export function describeProgress(method, p, seconds) {
 }
 
 // The status line once `results` (one per method run) are in, `seconds` after the click.
-export function describeDone(results, seconds) {
+export function describeDone(results, seconds, failures = []) {
   const r = results[0];
   const on = r.workers > 1 ? ` on ${r.workers} workers` : '';
+  if (failures.length) {
+    const failed = failures.map((f) => f.method).join(', ');
+    return `Done: ${results.length} of ${results.length + failures.length} methods in ${seconds.toFixed(1)} s${on}; ${failed} failed (see Results).`;
+  }
   let what;
   if (results.length > 1) what = `${results.length} methods`;
   else if (r.iterations > 0) what = `${r.iterations} iterations${r.converged ? ' (converged)' : ''}`;

@@ -61,7 +61,7 @@ function levellingHtml(levelling = []) {
   return `<p>ground levelling:</p><ul>${levelling.map(row).join('')}</ul>`;
 }
 
-function comparisonHtml(results, truth) {
+function comparisonHtml(results, truth, failures) {
   const head = `<tr><th>method</th><th>sensor</th><th>xyz (m)</th><th>rpy (deg)</th><th>spread xyz (mm)</th><th>spread rpy (deg)</th>${truth ? '<th>error vs truth</th>' : ''}</tr>`;
   const body = results.flatMap((r) => r.sensors.map((s) => {
     const e = errorVsTruth(s, truth);
@@ -69,11 +69,13 @@ function comparisonHtml(results, truth) {
       `<td>${f(s.spread.xyz.map((v) => v * 1000), 1)}</td><td>${f(s.spread.rpy.map(degrees), 3)}</td>` +
       `${e ? `<td>${e.deg.toFixed(3)} deg / ${e.mm.toFixed(1)} mm</td>` : ''}</tr>`;
   }));
-  return `<table class="compare">${head}${body.join('')}</table>`;
+  const failed = failures.map((x) => `<tr class="failed"><td>${esc(x.method)}</td><td colspan="${truth ? 6 : 5}">failed: ${esc(x.error)}</td></tr>`);
+  return `<table class="compare">${head}${body.join('')}${failed.join('')}</table>`;
 }
 
-// `results`: one report per method run; the first is shown in detail.
-export function renderResults(container, results, truth) {
+// `results`: one report per method run; the first is shown in detail. `failures`: {method, error}
+// of the methods compared that failed.
+export function renderResults(container, results, truth, failures = []) {
   const r = results[0];
   const t = r.target;
   const fitText = (x) => `edge ${x.edge.toFixed(3)} m, RMS ${(x.rms * 1000).toFixed(1)} mm`;
@@ -81,7 +83,7 @@ export function renderResults(container, results, truth) {
     ? `${t.fits.length === 1 ? 'target' : `${t.fits.length} targets`}: ${t.fits.map(fitText).join('; ')}`
     : t.means.length ? 'no target stands out from the ground' : 'no target reconstructed (ICP method)';
   container.innerHTML = `
-    ${results.length > 1 ? `<h3>All methods</h3>${comparisonHtml(results, truth)}<h3>Details: ${r.method}</h3>` : ''}
+    ${results.length + failures.length > 1 ? `<h3>All methods</h3>${comparisonHtml(results, truth, failures)}<h3>Details: ${r.method}</h3>` : ''}
     <p>method ${r.method}, reference ${esc(r.reference)}, ${r.iterations} iterations${r.converged ? ', converged' : ''}${r.cancelled ? ', cancelled' : ''}; ${fit}</p>
     ${r.sensors.map((s) => sensorHtml(s, r.reference, truth)).join('')}
     ${levellingHtml(r.levelling)}

@@ -95,4 +95,6 @@ test('the status once done: iterations for the GMM methods, frame pairs for ICP,
   assert.equal(describeDone([{ ...gmm, iterations: 40, converged: true, workers: 1 }], 0.5), 'Done: 40 iterations (converged) in 0.5 s.');
   assert.equal(describeDone([{ ...gmm, iterations: 0, converged: true }], 0.1), 'Done: 7 frame pairs registered in 0.1 s on 2 workers.');
   assert.equal(describeDone([gmm, gmm], 3), 'Done: 2 methods in 3.0 s on 2 workers.');
+  const failed = [{ method: 'p2p', error: 'x' }, { method: 'p2l', error: 'y' }];
+  assert.equal(describeDone([gmm], 3, failed), 'Done: 1 of 3 methods in 3.0 s on 2 workers; p2p, p2l failed (see Results).');
 });

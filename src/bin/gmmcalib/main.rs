@@ -93,32 +93,52 @@ mod cli {
             a.reference.clone().or(cfg.reference).or_else(|| Some(views[0].sensor.clone()));
         let rig = Rig { views, nominal: cfg.nominal, roi: cfg.roi, reference };
 
-        // 3. Calibrate by each method, on the same frames.
-        let mut results = Vec::new();
-        for method in &methods {
-            let settings = Settings { method: *method, ..settings.clone() };
-            let result = calibrate_one(&rig, &settings).map_err(|e| {
-                if methods.len() > 1 { format!("{}: {e}", method.name()) } else { e }
-            })?;
-            results.push(result);
+        // 3. Calibrate by each method, on the same frames. When comparing, a method that
+        // fails is a finding like any other: the others still run and are reported.
+        if let [method] = methods.as_slice() {
+            let result = calibrate_one(&rig, &Settings { method: *method, ..settings })?;
+            print!("{}", report::summary(&result));
+            return write_json(a.json.as_deref(), &Report::from(&result));
+        }
+        let outcomes: Vec<(Method, Result<Calibration, String>)> = methods
+            .iter()
+            .map(|&method| (method, calibrate_one(&rig, &Settings { method, ..settings.clone() })))
+            .collect();
+        let failures: Vec<String> = outcomes
+            .iter()
+            .filter_map(|(m, r)| r.as_ref().err().map(|e| format!("{}: {e}", m.name())))
+            .collect();
+        if failures.len() == outcomes.len() {
+            return Err(failures.join("; "));
         }
 
-        // 4. Report.
-        if let [one] = results.as_slice() {
-            print!("{}", report::summary(one));
-        } else {
-            print!("{}", report::comparison(&results));
+        // 4. Report: the successes side by side, then each failure.
+        let results: Vec<&Calibration> =
+            outcomes.iter().filter_map(|(_, r)| r.as_ref().ok()).collect();
+        print!("{}", report::comparison(&results));
+        if !failures.is_empty() {
+            println!("\nfailed:");
+            failures.iter().for_each(|f| println!("  {f}"));
         }
-        if let Some(path) = &a.json {
-            let reports: Vec<Report> = results.iter().map(Report::from).collect();
-            let json = match reports.as_slice() {
-                [one] if methods.len() == 1 => serde_json::to_string_pretty(one),
-                all => serde_json::to_string_pretty(all),
-            }
+        let entries: Vec<serde_json::Value> = outcomes
+            .iter()
+            .map(|(method, outcome)| match outcome {
+                Ok(c) => serde_json::to_value(Report::from(c)),
+                Err(e) => Ok(serde_json::json!({ "method": method.name(), "error": e })),
+            })
+            .collect::<Result<_, _>>()
             .map_err(|e| format!("JSON: {e}"))?;
-            std::fs::write(path, json + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
-        }
-        Ok(())
+        write_json(a.json.as_deref(), &entries)
+    }
+
+    /// Writes `value` as pretty JSON to `path`, when given.
+    fn write_json(
+        path: Option<&std::path::Path>,
+        value: &impl serde::Serialize,
+    ) -> Result<(), String> {
+        let Some(path) = path else { return Ok(()) };
+        let json = serde_json::to_string_pretty(value).map_err(|e| format!("JSON: {e}"))?;
+        std::fs::write(path, json + "\n").map_err(|e| format!("{}: {e}", path.display()))
     }
 
     /// `all` or one method name; the library's default when none is given.

@@ -56,7 +56,7 @@ pub fn summary(c: &Calibration) -> String {
 }
 
 /// One table comparing several calibrations of the same frames.
-pub fn comparison(results: &[Calibration]) -> String {
+pub fn comparison(results: &[&Calibration]) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
