@@ -70,9 +70,11 @@ pub fn for_seeds<T: Send>(
     results.into_iter().map(|(_, r)| r).collect()
 }
 
+/// The median: the middle value, or the mean of the two middle ones for an even count.
 pub fn median(values: &mut [f64]) -> f64 {
     values.sort_by(f64::total_cmp);
-    values[values.len() / 2]
+    let n = values.len();
+    if n % 2 == 1 { values[n / 2] } else { (values[n / 2 - 1] + values[n / 2]) / 2.0 }
 }
 
 /// A fresh, empty folder under the system temp dir, removed on drop.
