@@ -24,15 +24,19 @@ const MAX_EXPONENT_F32: f32 = 87.0;
 /// a hundred cycles each.
 const TINY: f64 = 1e-280;
 
-/// `exp(-x)` in f32 for `0 <= x <= 87`, to about 1 ulp (Cephes' expf): `2^n e^r`, `n` rounded
-/// by the 1.5 * 2^23 trick, `r` split off in two parts, `e^r = 1 + r + r^2 P(r)`.
+/// `exp(-x)` in f32 for `0 <= x <= 87`, to about 1 ulp: `2^n e^r`, `n` rounded by the
+/// 1.5 * 2^23 trick, `r` split off in two parts (Cephes' expf), `e^r = 1 + r + r^2 P(r)` with
+/// `P` of degree 4, minimax for relative error on `|r| <= 1.01 ln2 / 2` (the margin covers the
+/// range reduction's rounding): 3e-9 before rounding, far below f32's 6e-8, so in f32 it is as
+/// accurate as Cephes' degree-5 `P` (both at most 8e-8, mean error below 2e-9). The step saved
+/// made the sample job 9 % faster in wasm and 3 % natively (README, "Benchmarks").
 #[inline(always)]
 pub fn exp_neg_f32(x: f32) -> f32 {
     const MAGIC: f32 = 12_582_912.0; // 1.5 * 2^23
     const LN2_HI: f32 = 0.693_359_4;
     const LN2_LO: f32 = -2.121_944_4e-4;
-    const P: [f32; 6] =
-        [1.987_569_1e-4, 1.398_199_9e-3, 8.333_452e-3, 4.166_579_6e-2, 1.666_666_5e-1, 0.5];
+    const P: [f32; 5] =
+        [1.381_314_6e-3, 8.369_419e-3, 4.166_845_6e-2, 1.666_651_5e-1, 0.499_999_94];
     let y = -(if x < MAX_EXPONENT_F32 { x } else { MAX_EXPONENT_F32 });
     let t = y * std::f32::consts::LOG2_E + MAGIC;
     let n = t - MAGIC;
