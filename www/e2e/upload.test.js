@@ -7,7 +7,7 @@ import { tmpdir } from 'node:os';
 import { dirname, join } from 'node:path';
 import { browserSession, waitForStatus } from './harness.js';
 import { calibrate } from '../pkg/gmmcalib.js';
-import { errorOf, gmmcalibFolder, pcdAscii, syntheticRig } from './rigfiles.js';
+import { configYaml, errorOf, gmmcalibFolder, pcdAscii, syntheticRig } from './rigfiles.js';
 
 // Against the truth: this synthetic rig (3 sensors, 3 frames of 3000 points, cube and no
 // ground) calibrates to 0.08 and 0.06 deg, 3 mm. At 1000 points a view, one sparse frame's
@@ -117,5 +117,34 @@ test('loose files dropped on the view are grouped by <sensor>_<frame> and can be
   assert.deepEqual(await rows(), ['left/001', 'left/002', 'rear/002', 'right/001']);
   assert.equal(await page.getByRole('radio', { name: 'reference left' }).isChecked(), true);
   assert.equal(await page.getByLabel('rear x', { exact: true }).count(), 1);
+  assert.deepEqual(problems, []);
+});
+
+test('recorded scans: a folder per sensor, timestamps for names, paired and calibrated', async () => {
+  // As a bag export leaves them: per-topic folders, each scan named by its own timestamp (the
+  // rear's 4 ms after the front's), and a config naming the sensors after the folders.
+  const rig = syntheticRig({ sensors: 2, frames: 3, pointsPerView: 3000, seed: 2 });
+  const topic = { sensor_1: 'lidar_front', sensor_2: 'lidar_rear' };
+  const stamp = (v) => (1700000000.1 + 0.1 * (Number(v.frame) - 1) + (v.sensor === 'sensor_2' ? 0.004 : 0)).toFixed(3);
+  const files = rig.views.map((v) => ({ name: `bag/${topic[v.sensor]}/${stamp(v)}.pcd`, mimeType: 'application/octet-stream', buffer: pcdAscii(v.points) }));
+  const named = { nominal: { lidar_front: rig.nominal.sensor_1, lidar_rear: rig.nominal.sensor_2 }, roi: rig.roi };
+  files.push({ name: 'bag/config.yaml', mimeType: 'text/yaml', buffer: configYaml(named, 'initial_sigma: prior\ncomponents: 200\n') });
+  const { page, problems } = await session.open();
+  await page.getByTestId('file-input').setInputFiles(files);
+  await waitForStatus(page, /^6 scans of 2 sensors loaded \(one sensor per folder; frames paired by the nearest timestamp to lidar_front's\)\.$/);
+  const rows = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => [...tr.querySelectorAll('input')].map((i) => i.value).join('/')));
+  const frames = ['1700000000.100', '1700000000.200', '1700000000.300'];
+  assert.deepEqual(rows, [...frames.map((f) => `lidar_front/${f}`), ...frames.map((f) => `lidar_rear/${f}`)]);
+  assert.equal(await page.getByLabel('lidar_rear x', { exact: true }).inputValue(), String(+rig.nominal.sensor_2.xyz[0].toFixed(6)));
+
+  await page.getByTestId('calibrate').click();
+  await waitForStatus(page, /^Done/, 120_000);
+  const result = JSON.parse(await page.getByTestId('result-json').textContent());
+  assert.deepEqual(result.sensors.map((s) => s.name), ['lidar_front', 'lidar_rear']);
+  const rear = result.sensors[1];
+  assert.equal(rear.spread.frames, 3, 'every frame paired');
+  const e = errorOf(rear.extrinsic, rig.truth.sensor_2);
+  console.log(`recorded scans lidar_rear: ${e.deg.toFixed(3)} deg / ${e.mm.toFixed(1)} mm from the truth`);
+  assert.ok(e.deg < UPLOAD_ERROR_BOUND.deg && e.mm < UPLOAD_ERROR_BOUND.mm, `${e.deg} deg / ${e.mm} mm`);
   assert.deepEqual(problems, []);
 });

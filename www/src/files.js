@@ -52,11 +52,84 @@ export function assign(path) {
   return { sensor: stem, frame: '1' };
 }
 
+// Recorded scans as a bag export leaves them: one folder per sensor, whatever its name, and
+// files named by timestamp, so no two sensors share a stem. `pair(scans)` (one load's scans,
+// each {path, sensor, frame} from `assign`) takes a folder as the sensor of its scans when the
+// scans come from two or more folders and the names in it carry no sensor (each would be a
+// sensor of its own); then, when no frame name is shared by two sensors, it pairs each
+// sensor's scans with the first sensor's: by the nearest timestamp (within half that sensor's
+// median interval) when every stem is a number, else in order. Paired scans take the first
+// sensor's frame name; a scan left over keeps its own, so the calibration skips it. Returns
+// what it did, or null.
+export function pair(scans) {
+  const notes = [];
+  const byFolder = groupBy(scans, (s) => s.path.split('/').slice(0, -1).join('/'));
+  if (byFolder.size >= 2) {
+    let moved = false;
+    for (const [folder, list] of byFolder) {
+      const nameless = new Set(list.map((s) => s.sensor)).size === list.length && (list.length > 1 || list[0].frame === '1');
+      if (!folder || /(^|\/)sensor_\d+$/i.test(folder) || !nameless) continue;
+      for (const s of list) [s.sensor, s.frame] = [folder.split('/').at(-1), stemOf(s.path)];
+      moved = true;
+    }
+    if (moved) notes.push('one sensor per folder');
+  }
+  const bySensor = groupBy([...scans].sort((a, b) => natural(a.path, b.path)), (s) => s.sensor);
+  const sensors = [...bySensor.keys()].sort(natural);
+  const owners = groupBy(scans, (s) => s.frame);
+  if (sensors.length < 2 || [...owners.values()].some((list) => new Set(list.map((s) => s.sensor)).size >= 2)) {
+    return notes.length ? notes.join('; ') : null;
+  }
+  const first = bySensor.get(sensors[0]);
+  const time = (scan) => Number(stemOf(scan.path));
+  if (scans.every((scan) => /^\d+(\.\d+)?$/.test(stemOf(scan.path)))) {
+    const reference = first.map(time);
+    const sorted = [...reference].sort((a, b) => a - b);
+    const gaps = sorted.slice(1).map((t, i) => t - sorted[i]).sort((a, b) => a - b);
+    const reach = gaps.length ? gaps[gaps.length >> 1] / 2 : Infinity;
+    // One to one, closest pairs first.
+    for (const name of sensors.slice(1)) {
+      const list = bySensor.get(name);
+      const candidates = [];
+      list.forEach((scan, k) => reference.forEach((t, j) => {
+        const gap = Math.abs(time(scan) - t);
+        if (gap <= reach) candidates.push([gap, k, j]);
+      }));
+      candidates.sort((a, b) => a[0] - b[0]);
+      const [taken, given] = [new Set(), new Set()];
+      for (const [, k, j] of candidates) {
+        if (taken.has(k) || given.has(j)) continue;
+        list[k].frame = first[j].frame;
+        taken.add(k);
+        given.add(j);
+      }
+    }
+    notes.push(`frames paired by the nearest timestamp to ${sensors[0]}'s`);
+  } else {
+    for (const name of sensors.slice(1)) bySensor.get(name).forEach((s, k) => { if (k < first.length) s.frame = first[k].frame; });
+    notes.push(`frames paired in order with ${sensors[0]}'s`);
+  }
+  return notes.join('; ');
+}
+
+const stemOf = (path) => path.split('/').at(-1).replace(/\.[^.]*$/, '');
+
+// Map from key(item) to the items with that key, in order.
+function groupBy(items, key) {
+  const groups = new Map();
+  for (const item of items) {
+    const k = key(item);
+    if (!groups.has(k)) groups.set(k, []);
+    groups.get(k).push(item);
+  }
+  return groups;
+}
+
 // Natural order: sensor_2 before sensor_10.
 export const natural = (a, b) => a.localeCompare(b, undefined, { numeric: true });
 
 // Reads `entries` ([{path, file}]): {scans: [{path, sensor, frame, ...parsed}], bad: [{path,
-// error}], config}. `parse(bytes, path)` parses one cloud; `onFile(path, i, n)` reports progress.
+// error}], config, paired (what `pair` did, or null)}. `parse(bytes, path)` parses one cloud; `onFile(path, i, n)` reports progress.
 export async function readEntries(entries, parse, onFile) {
   const bad = [];
   let config = {};
@@ -78,5 +151,5 @@ export async function readEntries(entries, parse, onFile) {
       bad.push({ path, error: error.message });
     }
   }
-  return { scans, bad, config };
+  return { scans, bad, config, paired: pair(scans) };
 }

@@ -118,7 +118,7 @@ async function loadFiles(entries) {
   if (!entries.length) return;
   if (state.truth) clearAll(); // user files replace a demo
   const parse = (bytes, name) => client.request('parse', { bytes, name }, { transfer: [bytes] });
-  const { scans, bad, config } = await readEntries(entries, parse, (path, i, n) => setStatus(`Reading ${path} (${i}/${n})…`));
+  const { scans, bad, config, paired } = await readEntries(entries, parse, (path, i, n) => setStatus(`Reading ${path} (${i}/${n})…`));
   const paths = new Set(scans.map((s) => s.path));
   state.views = [...state.views.filter((v) => !paths.has(v.path)), ...scans.map((s) => ({ id: `view:${nextViewId++}`, ...s }))];
   state.bad.push(...bad);
@@ -131,7 +131,7 @@ async function loadFiles(entries) {
   redraw();
   viewerLookAt();
   const sensors = state.rig.sensors.length;
-  setStatus(`${state.views.length} scans of ${sensors} sensor${sensors === 1 ? '' : 's'} loaded${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
+  setStatus(`${state.views.length} scans of ${sensors} sensor${sensors === 1 ? '' : 's'} loaded${paired ? ` (${paired})` : ''}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
   if (state.bad.length) showError(state.bad.map((b) => `${b.path}: ${b.error}`).join('\n'));
 }
 

@@ -2,7 +2,7 @@
 // (round trip through GMMCalib YAML), URL settings.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { assign, natural } from '../src/files.js';
+import { assign, natural, pair } from '../src/files.js';
 import { parseConfig } from '../src/config.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
 import { gmmcalibYaml, resultJson, ros2, targetPly, urdf } from '../src/exports.js';
@@ -18,6 +18,43 @@ test('files are assigned by sensor_N folder, else by the last underscore of the 
   assert.deepEqual(assign('scans/left_003.ply'), { sensor: 'left', frame: '003' });
   assert.deepEqual(assign('scan.bin'), { sensor: 'scan', frame: '1' });
   assert.deepEqual(['sensor_10', 'sensor_2', 'sensor_1'].sort(natural), ['sensor_1', 'sensor_2', 'sensor_10']);
+});
+
+test('recorded scans: a folder per sensor, frames paired by timestamp or order', () => {
+  const load = (paths) => {
+    const scans = paths.map((path) => ({ path, ...assign(path) }));
+    const note = pair(scans);
+    return { note, rows: scans.map((s) => `${s.sensor}/${s.frame}`) };
+  };
+  // A bag export: per-topic folders, stems are timestamps 0.1 s apart, each sensor's own; rear
+  // has one scan more and misses one, and 1700000000.55 is nowhere near front's.
+  const front = ['1700000000.100', '1700000000.200', '1700000000.300', '1700000000.400'];
+  const rear = ['1700000000.103', '1700000000.198', '1700000000.405', '1700000000.550'];
+  const bag = load([...front.map((t) => `bag/lidar_front/${t}.pcd`), ...rear.map((t) => `bag/lidar_rear/${t}.pcd`)]);
+  assert.equal(bag.note, "one sensor per folder; frames paired by the nearest timestamp to lidar_front's");
+  assert.deepEqual(bag.rows, [
+    ...front.map((t) => `lidar_front/${t}`),
+    'lidar_rear/1700000000.100', 'lidar_rear/1700000000.200', 'lidar_rear/1700000000.400', 'lidar_rear/1700000000.550',
+  ]);
+  // Two of rear's scans near one of front's: only the closer is paired.
+  const twice = load(['f/10.pcd', 'f/20.pcd', 'r/19.pcd', 'r/21.5.pcd']);
+  assert.deepEqual(twice.rows, ['f/10', 'f/20', 'r/20', 'r/21.5']);
+  // Names that are not numbers: in natural order.
+  const named = load(['a/scan-2.ply', 'a/scan-10.ply', 'b/x9.ply', 'b/x11.ply', 'b/x12.ply']);
+  assert.equal(named.note, "one sensor per folder; frames paired in order with a's");
+  assert.deepEqual(named.rows, ['a/scan-2', 'a/scan-10', 'b/scan-2', 'b/scan-10', 'b/x12']);
+  // One snapshot per sensor folder.
+  assert.deepEqual(load(['x/front/5.pcd', 'x/rear/9.pcd']).rows, ['front/5', 'rear/5']);
+  // Layouts that already pair are left alone: GMMCalib's, <sensor>_<frame> names in folders,
+  // and one folder of timestamps (no way to tell its sensors apart).
+  for (const paths of [
+    ['d/sensor_1/1.pcd', 'd/sensor_1/2.pcd', 'd/sensor_2/1.pcd', 'd/sensor_2/2.pcd'],
+    ['s1/left_001.pcd', 's1/left_002.pcd', 's2/right_001.pcd', 's2/right_002.pcd'],
+    ['left_001.pcd', 'right_001.pcd'],
+  ]) {
+    const before = paths.map((path) => { const a = assign(path); return `${a.sensor}/${a.frame}`; });
+    assert.deepEqual(load(paths), { note: null, rows: before }, paths.join(' '));
+  }
 });
 
 test('GMMCalib config: nested and plain lists, our keys, errors naming file and key', () => {
