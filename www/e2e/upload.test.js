@@ -148,3 +148,26 @@ test('recorded scans: a folder per sensor, timestamps for names, paired and cali
   assert.ok(e.deg < UPLOAD_ERROR_BOUND.deg && e.mm < UPLOAD_ERROR_BOUND.mm, `${e.deg} deg / ${e.mm} mm`);
   assert.deepEqual(problems, []);
 });
+
+test('recorded scans picked folder by folder pair with the first sensor', async () => {
+  const rig = syntheticRig({ sensors: 2, frames: 2, pointsPerView: 300, seed: 4 });
+  const dir = mkdtempSync(join(tmpdir(), 'gmmcalib-e2e-'));
+  try {
+    const topic = { sensor_1: 'front', sensor_2: 'rear' };
+    for (const v of rig.views) {
+      const stamp = 100 + 10 * Number(v.frame) + (v.sensor === 'sensor_2' ? 1 : 0);
+      mkdirSync(join(dir, topic[v.sensor]), { recursive: true });
+      writeFileSync(join(dir, topic[v.sensor], `${stamp}.pcd`), pcdAscii(v.points));
+    }
+    const { page, problems } = await session.open();
+    await page.locator('#folder-input').setInputFiles(join(dir, 'front'));
+    await waitForStatus(page, /^2 scans of 1 sensor loaded \(one sensor per folder\)\.$/);
+    await page.locator('#folder-input').setInputFiles(join(dir, 'rear'));
+    await waitForStatus(page, /^4 scans of 2 sensors loaded \(one sensor per folder; frames paired by the nearest timestamp to front's\)\.$/);
+    const rows = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => [...tr.querySelectorAll('input')].map((i) => i.value).join('/')));
+    assert.deepEqual(rows, ['front/110', 'front/120', 'rear/110', 'rear/120']);
+    assert.deepEqual(problems, []);
+  } finally {
+    rmSync(dir, { recursive: true, force: true });
+  }
+});

@@ -53,43 +53,41 @@ export function assign(path) {
 }
 
 // Recorded scans as a bag export leaves them: one folder per sensor, whatever its name, and
-// files named by timestamp, so no two sensors share a stem. `pair(scans)` (one load's scans,
-// each {path, sensor, frame} from `assign`) takes a folder as the sensor of its scans when the
-// scans come from two or more folders and the names in it carry no sensor (each would be a
-// sensor of its own); then, when no frame name is shared by two sensors, it pairs each
-// sensor's scans with the first sensor's: by the nearest timestamp (within half that sensor's
-// median interval) when every stem is a number, else in order. Paired scans take the first
-// sensor's frame name; a scan left over keeps its own, so the calibration skips it. Returns
-// what it did, or null.
-export function pair(scans) {
+// files named by timestamp, so no two sensors share a stem. `pair(scans, fresh)` takes a
+// folder of `fresh` (the scans just read, each {path, sensor, frame} from `assign`) as the
+// sensor of its scans when their names carry no sensor (each would be a sensor of its own);
+// then every sensor of `scans` (all loaded) that shares no frame name with the first sensor
+// has its scans paired with the first sensor's: by the nearest timestamp (one to one, within
+// half the first sensor's median interval) when both are named by numbers, else in order.
+// Paired scans take the first sensor's frame name; a scan left over keeps its own, so the
+// calibration skips it. Returns what it did, or null.
+export function pair(scans, fresh = scans) {
   const notes = [];
-  const byFolder = groupBy(scans, (s) => s.path.split('/').slice(0, -1).join('/'));
-  if (byFolder.size >= 2) {
-    let moved = false;
-    for (const [folder, list] of byFolder) {
-      const nameless = new Set(list.map((s) => s.sensor)).size === list.length && (list.length > 1 || list[0].frame === '1');
-      if (!folder || /(^|\/)sensor_\d+$/i.test(folder) || !nameless) continue;
-      for (const s of list) [s.sensor, s.frame] = [folder.split('/').at(-1), stemOf(s.path)];
-      moved = true;
-    }
-    if (moved) notes.push('one sensor per folder');
+  const byFolder = groupBy(fresh, (s) => s.path.split('/').slice(0, -1).join('/'));
+  let moved = false;
+  for (const [folder, list] of byFolder) {
+    const nameless = new Set(list.map((s) => s.sensor)).size === list.length && (list.length > 1 || (byFolder.size > 1 && list[0].frame === '1'));
+    if (!folder || /(^|\/)sensor_\d+$/i.test(folder) || !nameless) continue;
+    for (const s of list) [s.sensor, s.frame] = [folder.split('/').at(-1), stemOf(s.path)];
+    moved = true;
   }
+  if (moved) notes.push('one sensor per folder');
   const bySensor = groupBy([...scans].sort((a, b) => natural(a.path, b.path)), (s) => s.sensor);
-  const sensors = [...bySensor.keys()].sort(natural);
-  const owners = groupBy(scans, (s) => s.frame);
-  if (sensors.length < 2 || [...owners.values()].some((list) => new Set(list.map((s) => s.sensor)).size >= 2)) {
-    return notes.length ? notes.join('; ') : null;
-  }
-  const first = bySensor.get(sensors[0]);
+  const [firstName, ...others] = [...bySensor.keys()].sort(natural);
+  const first = bySensor.get(firstName) ?? [];
+  const firstFrames = new Set(first.map((s) => s.frame));
+  const numeric = (list) => list.every((scan) => /^\d+(\.\d+)?$/.test(stemOf(scan.path)));
   const time = (scan) => Number(stemOf(scan.path));
-  if (scans.every((scan) => /^\d+(\.\d+)?$/.test(stemOf(scan.path)))) {
-    const reference = first.map(time);
-    const sorted = [...reference].sort((a, b) => a - b);
-    const gaps = sorted.slice(1).map((t, i) => t - sorted[i]).sort((a, b) => a - b);
-    const reach = gaps.length ? gaps[gaps.length >> 1] / 2 : Infinity;
-    // One to one, closest pairs first.
-    for (const name of sensors.slice(1)) {
-      const list = bySensor.get(name);
+  const how = new Set();
+  for (const name of others) {
+    const list = bySensor.get(name);
+    if (list.some((s) => firstFrames.has(s.frame))) continue;
+    if (numeric(first) && numeric(list)) {
+      const reference = first.map(time);
+      const sorted = [...reference].sort((a, b) => a - b);
+      const gaps = sorted.slice(1).map((t, i) => t - sorted[i]).sort((a, b) => a - b);
+      const reach = gaps.length ? gaps[gaps.length >> 1] / 2 : Infinity;
+      // One to one, closest pairs first.
       const candidates = [];
       list.forEach((scan, k) => reference.forEach((t, j) => {
         const gap = Math.abs(time(scan) - t);
@@ -103,13 +101,14 @@ export function pair(scans) {
         taken.add(k);
         given.add(j);
       }
+      how.add(`frames paired by the nearest timestamp to ${firstName}'s`);
+    } else {
+      list.forEach((s, k) => { if (k < first.length) s.frame = first[k].frame; });
+      how.add(`frames paired in order with ${firstName}'s`);
     }
-    notes.push(`frames paired by the nearest timestamp to ${sensors[0]}'s`);
-  } else {
-    for (const name of sensors.slice(1)) bySensor.get(name).forEach((s, k) => { if (k < first.length) s.frame = first[k].frame; });
-    notes.push(`frames paired in order with ${sensors[0]}'s`);
   }
-  return notes.join('; ');
+  notes.push(...how);
+  return notes.length ? notes.join('; ') : null;
 }
 
 const stemOf = (path) => path.split('/').at(-1).replace(/\.[^.]*$/, '');
@@ -129,7 +128,7 @@ function groupBy(items, key) {
 export const natural = (a, b) => a.localeCompare(b, undefined, { numeric: true });
 
 // Reads `entries` ([{path, file}]): {scans: [{path, sensor, frame, ...parsed}], bad: [{path,
-// error}], config, paired (what `pair` did, or null)}. `parse(bytes, path)` parses one cloud; `onFile(path, i, n)` reports progress.
+// error}], config}. `parse(bytes, path)` parses one cloud; `onFile(path, i, n)` reports progress.
 export async function readEntries(entries, parse, onFile) {
   const bad = [];
   let config = {};
@@ -151,5 +150,5 @@ export async function readEntries(entries, parse, onFile) {
       bad.push({ path, error: error.message });
     }
   }
-  return { scans, bad, config, paired: pair(scans) };
+  return { scans, bad, config };
 }

@@ -4,7 +4,7 @@
 import { WorkerClient } from './rpc.js';
 import { Viewer } from './viewer.js';
 import { Display, livePoses, sensorColour } from './display.js';
-import { fromDrop, fromInput, natural, readEntries } from './files.js';
+import { fromDrop, fromInput, natural, pair, readEntries } from './files.js';
 import { renderFiles } from './filelist.js';
 import { renderRig } from './rig.js';
 import { drawConvergence, renderResults } from './results.js';
@@ -118,9 +118,11 @@ async function loadFiles(entries) {
   if (!entries.length) return;
   if (state.truth) clearAll(); // user files replace a demo
   const parse = (bytes, name) => client.request('parse', { bytes, name }, { transfer: [bytes] });
-  const { scans, bad, config, paired } = await readEntries(entries, parse, (path, i, n) => setStatus(`Reading ${path} (${i}/${n})…`));
+  const { scans, bad, config } = await readEntries(entries, parse, (path, i, n) => setStatus(`Reading ${path} (${i}/${n})…`));
   const paths = new Set(scans.map((s) => s.path));
-  state.views = [...state.views.filter((v) => !paths.has(v.path)), ...scans.map((s) => ({ id: `view:${nextViewId++}`, ...s }))];
+  const fresh = scans.map((s) => ({ id: `view:${nextViewId++}`, ...s }));
+  state.views = [...state.views.filter((v) => !paths.has(v.path)), ...fresh];
+  const paired = pair(state.views, fresh);
   state.bad.push(...bad);
   state.views.sort((a, b) => natural(a.sensor, b.sensor) || natural(a.frame, b.frame));
   state.settings.demo = '';

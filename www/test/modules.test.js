@@ -45,8 +45,15 @@ test('recorded scans: a folder per sensor, frames paired by timestamp or order',
   assert.deepEqual(named.rows, ['a/scan-2', 'a/scan-10', 'b/scan-2', 'b/scan-10', 'b/x12']);
   // One snapshot per sensor folder.
   assert.deepEqual(load(['x/front/5.pcd', 'x/rear/9.pcd']).rows, ['front/5', 'rear/5']);
+  // Folder by folder, as the folder picker loads them: the second pairs with the first.
+  const frontOnly = ['front/10.pcd', 'front/20.pcd'].map((path) => ({ path, ...assign(path) }));
+  assert.equal(pair(frontOnly), 'one sensor per folder');
+  const rearToo = ['rear/11.pcd', 'rear/21.pcd'].map((path) => ({ path, ...assign(path) }));
+  const all = [...frontOnly, ...rearToo];
+  assert.equal(pair(all, rearToo), "one sensor per folder; frames paired by the nearest timestamp to front's");
+  assert.deepEqual(all.map((s) => `${s.sensor}/${s.frame}`), ['front/10', 'front/20', 'rear/10', 'rear/20']);
   // Layouts that already pair are left alone: GMMCalib's, <sensor>_<frame> names in folders,
-  // and one folder of timestamps (no way to tell its sensors apart).
+  // loose files.
   for (const paths of [
     ['d/sensor_1/1.pcd', 'd/sensor_1/2.pcd', 'd/sensor_2/1.pcd', 'd/sensor_2/2.pcd'],
     ['s1/left_001.pcd', 's1/left_002.pcd', 's2/right_001.pcd', 's2/right_002.pcd'],
