@@ -44,6 +44,8 @@ pub struct LevellingReport {
     pub note: Option<String>,
     /// The bird's-eye search's yaw and shift, included in `applied`.
     pub bev: Option<BevReport>,
+    /// What to check, if anything (a search that ended at the edge of its range).
+    pub warning: Option<String>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -56,6 +58,8 @@ pub struct BevReport {
     /// Structure points on the reference's, weighted by closeness: found and unchanged.
     pub score: f64,
     pub score_unchanged: f64,
+    /// The best overlay lies on the border of the range searched.
+    pub at_edge: bool,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -177,7 +181,9 @@ impl From<&Calibration> for Report {
                         shift: b.shift.into(),
                         score: b.score,
                         score_unchanged: b.score_unchanged,
+                        at_edge: b.at_edge,
                     }),
+                    warning: l.warning.clone(),
                 })
                 .collect(),
             history: HistoryReport {

@@ -222,6 +222,10 @@ fn method_all_reports_the_methods_that_ran_when_others_fail() {
     assert_eq!(results[0]["sensors"].as_array().unwrap().len(), 2, "gmm's result is kept");
     assert!(results[0].get("error").is_none());
     assert!(stdout.lines().any(|l| l.starts_with("gmm") && l.contains("sensor_2")), "{stdout}");
+    // gmm's bird's-eye search cannot reach that far and says so.
+    let warning = results[0]["levelling"][1]["warning"].as_str().unwrap_or_default();
+    assert!(warning.contains("nominal extrinsic may be"), "{}", results[0]["levelling"]);
+    assert!(stdout.contains(&format!("gmm: warning: sensor_2: {warning}")), "{stdout}");
     for (name, r) in names.iter().zip(results).skip(1) {
         let error = r["error"].as_str().unwrap_or_else(|| panic!("{name} failed: {r}"));
         assert!(error.contains("sensor_2") && error.contains("ROI"), "{error}");

@@ -24,6 +24,8 @@ use common::{for_seeds, median};
 static CALIBRATION_MICROS: AtomicU64 = AtomicU64::new(0);
 /// JRMPC iterations the studies' calibrations ran, summed.
 static ITERATIONS: AtomicU64 = AtomicU64::new(0);
+/// Levelling warnings (a bird's-eye search at the edge of its range) over a study.
+static WARNINGS: AtomicU64 = AtomicU64::new(0);
 
 /// What one non-reference sensor's calibration got wrong, and what it claimed.
 struct SensorError {
@@ -91,6 +93,8 @@ fn trial(
     let result = calib::calibrate(&rig, settings, |_| Control::Continue).expect("calibration");
     CALIBRATION_MICROS.fetch_add(clock.elapsed().as_micros() as u64, Ordering::Relaxed);
     ITERATIONS.fetch_add(result.iterations as u64, Ordering::Relaxed);
+    let warnings = result.levelling.iter().filter(|l| l.warning.is_some()).count();
+    WARNINGS.fetch_add(warnings as u64, Ordering::Relaxed);
     if std::env::var("TWIN_HISTORY").is_ok_and(|n| n == "1") {
         // The first iteration whose largest change is below each level.
         let below = |level: f64| result.history.iter().position(|h| h.max_change <= level);
@@ -100,6 +104,12 @@ fn trial(
     if std::env::var("TWIN_NOTES").is_ok_and(|n| n == "1") {
         for note in result.plane_adjustment.iter().chain(&result.kept_jrmpc) {
             println!("seed {seed} start {start}: {}: {}", note.sensor, note.reason);
+        }
+        for l in &result.levelling {
+            if let Some(b) = &l.bev {
+                let share = b.score / b.points as f64;
+                println!("seed {seed} start {start}: {}: bird's-eye overlap {share:.3}", l.sensor);
+            }
         }
     }
     preset.sensors[1..]
@@ -449,4 +459,5 @@ fn study() {
     println!("calibration: {:.2} s each (trials run in parallel)", seconds / jobs.len() as f64);
     let iterations = ITERATIONS.load(Ordering::Relaxed) as f64;
     println!("JRMPC iterations: {:.1} each", iterations / jobs.len() as f64);
+    println!("levelling warnings: {}", WARNINGS.load(Ordering::Relaxed));
 }

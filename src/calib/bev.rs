@@ -61,6 +61,51 @@ pub struct BevAlignment {
     /// candidate and with no change.
     pub score: f64,
     pub score_unchanged: f64,
+    /// The best candidate lies on the border of the range searched (the largest yaw or shift):
+    /// the sensor may be off by more than the search covers, and the true overlay lie beyond.
+    pub at_edge: bool,
+    /// The sensor's structure points searched with.
+    pub points: usize,
+}
+
+/// Below this share of a sensor's structure points on the reference's (closeness-weighted) at
+/// the best candidate, the overlay is not trusted. On the twin every calibration, within the
+/// spec and beyond it, ends at 0.94 or more; sensors that see different sides of the scene
+/// can legitimately score lower, so this only warns.
+const LOW_OVERLAP: f64 = 0.25;
+
+/// What the user should check after the search, if anything: nothing found to overlay, an
+/// overlay that lands little of the sensor's structure on the reference's, or a best candidate
+/// on the border of the range (the truth may lie beyond it). Each points at a nominal
+/// extrinsic further off than the search covers.
+pub fn warning(found: Option<&BevAlignment>, settings: &BevSettings) -> Option<String> {
+    let range = format!(
+        "yaw {:.0} deg, shift {:.2} m either way",
+        settings.max_yaw.to_degrees(),
+        settings.max_shift
+    );
+    let Some(found) = found else {
+        return Some(format!(
+            "the bird's-eye search found no structure above the ground to overlay on the \
+             reference's: the nominal extrinsic may be far off (the search covers {range}), or \
+             no target stands near the ROI"
+        ));
+    };
+    let share = found.score / found.points.max(1) as f64;
+    if share < LOW_OVERLAP {
+        return Some(format!(
+            "seen from above, only {:.0} % of this sensor's structure lands on the reference's \
+             at the best overlay the search found ({range}): the nominal extrinsic may be further \
+             off than that; check it, and the result",
+            100.0 * share
+        ));
+    }
+    found.at_edge.then(|| {
+        format!(
+            "the bird's-eye search ended at the edge of its range ({range}): the nominal \
+             extrinsic may be further off than that; check it, and the result"
+        )
+    })
 }
 
 /// Coordinates along the ground: an orthonormal basis (u, v) of the plane, u along the
@@ -177,9 +222,16 @@ pub fn search(
     let centre = Vector2::new(pivot.dot(&frame.u), pivot.dot(&frame.v));
     let yaw_steps = (settings.max_yaw / settings.yaw_step).round() as i64;
     let shift_steps = (settings.max_shift / settings.cell).round() as i64;
-    // (score, yaw step, shift cells); the unchanged candidate first, so ties keep it.
-    let mut best = (f64::NEG_INFINITY, 0, [0i64; 2]);
-    let mut unchanged = 0.0;
+    // (score, yaw step, shift cells): the unchanged candidate unless another scores higher, so
+    // ties (no overlap anywhere, say) keep it.
+    let unchanged: f64 = source
+        .iter()
+        .map(|p| {
+            let [i, j] = target.cell_of(p);
+            target.at(i, j)
+        })
+        .sum();
+    let mut best = (unchanged, 0, [0i64; 2]);
     let mut cells: Vec<[i64; 2]> = Vec::with_capacity(source.len());
     let mut counted: Vec<([i64; 2], f64)> = Vec::with_capacity(source.len());
     for k in std::iter::once(0).chain((-yaw_steps..=yaw_steps).filter(|&k| k != 0)) {
@@ -203,9 +255,6 @@ pub fn search(
             for b in -shift_steps..=shift_steps {
                 let score: f64 =
                     counted.iter().map(|([i, j], n)| n * target.at(i + a, j + b)).sum();
-                if k == 0 && a == 0 && b == 0 {
-                    unchanged = score;
-                }
                 if score > best.0 {
                     best = (score, k, [a, b]);
                 }
@@ -217,7 +266,10 @@ pub fn search(
     let shift = (frame.u * a as f64 + frame.v * b as f64) * settings.cell;
     let rotation = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(ground.normal), yaw);
     let applied = rotation_about(rotation, pivot, &shift);
-    Some(BevAlignment { yaw, shift, applied, score, score_unchanged: unchanged })
+    let at_edge = (yaw_steps > 0 && k.abs() == yaw_steps)
+        || (shift_steps > 0 && (a.abs() == shift_steps || b.abs() == shift_steps));
+    let points = source.len();
+    Some(BevAlignment { yaw, shift, applied, score, score_unchanged: unchanged, at_edge, points })
 }
 
 #[cfg(test)]
@@ -263,6 +315,39 @@ mod tests {
         let at_cubes = (left * Point3::new(12.3, 0.0, 0.3)).coords - Vector3::new(12.3, 0.0, 0.3);
         assert!(at_cubes.norm() < 0.06, "{at_cubes:?} {found:?}");
         assert!(found.score > 2.0 * found.score_unchanged, "{found:?}");
+        assert!(!found.at_edge, "{found:?}");
+        assert_eq!(warning(Some(&found), &BevSettings::default()), None);
+    }
+
+    #[test]
+    fn a_sensor_off_by_more_than_the_range_is_found_at_its_edge() {
+        let reference = cubes();
+        let ground = Plane { normal: Vector3::z(), offset: 0.0 };
+        let sensor = Vector3::new(2.3, -0.6, 1.6);
+        // Moved 1 m ahead, beyond the 0.75 m searched: the best the search can do is the
+        // largest shift back.
+        let error =
+            rotation_about(UnitQuaternion::identity(), &sensor, &Vector3::new(1.0, 0.0, 0.0));
+        let seen: Vec<Vector3<f64>> =
+            reference.iter().map(|p| (error * Point3::from(*p)).coords).collect();
+        let pivot = (error * Point3::from(sensor)).coords;
+        let settings = BevSettings::default();
+        let found = search(&seen, &reference, &ground, &pivot, &settings).unwrap();
+        assert!(found.at_edge, "{found:?}");
+        assert!(warning(Some(&found), &settings).unwrap().contains("edge of its range"));
+        // 3 m ahead: nothing overlaps anywhere in reach, so nothing moves, and it says so.
+        let far = rotation_about(UnitQuaternion::identity(), &sensor, &Vector3::new(3.0, 0.0, 0.0));
+        let seen: Vec<Vector3<f64>> =
+            reference.iter().map(|p| (far * Point3::from(*p)).coords).collect();
+        let pivot = (far * Point3::from(sensor)).coords;
+        let found = search(&seen, &reference, &ground, &pivot, &settings).unwrap();
+        assert_eq!(
+            (found.yaw, found.shift, found.score),
+            (0.0, Vector3::zeros(), 0.0),
+            "{found:?}"
+        );
+        assert!(warning(Some(&found), &settings).unwrap().contains("only 0 % of this sensor"));
+        assert!(warning(None, &settings).unwrap().contains("no structure above the ground"));
     }
 
     #[test]

@@ -85,6 +85,9 @@ pub struct Levelling {
     pub bev: Option<BevAlignment>,
     /// Why nothing was applied, if nothing was.
     pub note: Option<String>,
+    /// What the user should check, if anything: a bird's-eye search that ended at the edge of
+    /// its range.
+    pub warning: Option<String>,
 }
 
 /// RANSAC plane fit over `points` with a normal within `max_tilt` of +z, refined by least

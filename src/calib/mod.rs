@@ -619,21 +619,21 @@ fn level_grounds(
                     Some(format!("the reference sensor {} shows no ground plane", sensors[r])),
                 ),
             };
-            let bev = match (&settings.bev, grounds[r]) {
-                (Some(bev_settings), Some((reference, _))) if s != r && note.is_none() => {
-                    let levelled: Vec<_> = near_roi[s]
-                        .iter()
-                        .map(|p| (applied * nalgebra::Point3::from(*p)).coords)
-                        .collect();
-                    let sensor = (applied * nominals[s]).translation.vector;
-                    bev::search(&levelled, &near_roi[r], &reference, &sensor, bev_settings)
-                }
-                _ => None,
-            };
+            // The bird's-eye search runs for every non-reference sensor levelled.
+            let searched = settings.bev.as_ref().filter(|_| s != r && note.is_none());
+            let bev = searched.zip(grounds[r]).and_then(|(bev_settings, (reference, _))| {
+                let levelled: Vec<_> = near_roi[s]
+                    .iter()
+                    .map(|p| (applied * nalgebra::Point3::from(*p)).coords)
+                    .collect();
+                let sensor = (applied * nominals[s]).translation.vector;
+                bev::search(&levelled, &near_roi[r], &reference, &sensor, bev_settings)
+            });
             if let Some(found) = &bev {
                 applied = found.applied * applied;
             }
-            Levelling { sensor: name.clone(), ground, inliers, applied, bev, note }
+            let warning = searched.and_then(|b| bev::warning(bev.as_ref(), b));
+            Levelling { sensor: name.clone(), ground, inliers, applied, bev, note, warning }
         })
         .collect()
 }

@@ -85,6 +85,7 @@ export function renderResults(container, results, truth, failures = []) {
   container.innerHTML = `
     ${results.length + failures.length > 1 ? `<h3>All methods</h3>${comparisonHtml(results, truth, failures)}<h3>Details: ${r.method}</h3>` : ''}
     <p>method ${r.method}, reference ${esc(r.reference)}, ${r.iterations} iterations${r.converged ? ', converged' : ''}${r.cancelled ? ', cancelled' : ''}; ${fit}</p>
+    ${(r.levelling ?? []).filter((l) => l.warning).map((l) => `<p class="error" data-testid="warning">${esc(l.sensor)}: ${esc(l.warning)}</p>`).join('')}
     ${r.sensors.map((s) => sensorHtml(s, r.reference, truth)).join('')}
     ${levellingHtml(r.levelling)}
     ${notesHtml('views left out', r.skipped)}${notesHtml('refinement rejected, kept the JRMPC correction', r.keptJrmpc)}

@@ -52,6 +52,7 @@ pub fn summary(c: &Calibration) -> String {
     notes(&mut out, "skipped", &c.skipped);
     notes(&mut out, "refinement rejected, kept the JRMPC correction", &c.kept_jrmpc);
     notes(&mut out, "plane adjustment", &c.plane_adjustment);
+    warnings(&mut out, "", c);
     out
 }
 
@@ -90,8 +91,18 @@ pub fn comparison(results: &[&Calibration]) -> String {
         notes(&mut out, &label, &c.skipped);
         let label = format!("{}: refinement rejected, kept the JRMPC correction", c.method.name());
         notes(&mut out, &label, &c.kept_jrmpc);
+        warnings(&mut out, &format!("{}: ", c.method.name()), c);
     }
     out
+}
+
+/// The levelling's warnings (a bird's-eye search that ended at the edge of its range).
+fn warnings(out: &mut String, prefix: &str, c: &Calibration) {
+    for l in &c.levelling {
+        if let Some(w) = &l.warning {
+            let _ = writeln!(out, "\n{prefix}warning: {}: {w}", l.sensor);
+        }
+    }
 }
 
 fn notes(out: &mut String, title: &str, notes: &[FrameNote]) {
