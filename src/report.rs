@@ -44,7 +44,8 @@ pub struct LevellingReport {
     pub note: Option<String>,
     /// The bird's-eye search's yaw and shift, included in `applied`.
     pub bev: Option<BevReport>,
-    /// What to check, if anything (a search that ended at the edge of its range).
+    /// What to check, if anything: a bird's-eye search that found nothing to overlay, little
+    /// overlap, or its best at the edge of its range.
     pub warning: Option<String>,
 }
 

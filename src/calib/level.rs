@@ -85,8 +85,8 @@ pub struct Levelling {
     pub bev: Option<BevAlignment>,
     /// Why nothing was applied, if nothing was.
     pub note: Option<String>,
-    /// What the user should check, if anything: a bird's-eye search that ended at the edge of
-    /// its range.
+    /// What the user should check, if anything: a bird's-eye search that suggests the nominal
+    /// is further off than it reaches ([`super::bev::warning`]).
     pub warning: Option<String>,
 }
 

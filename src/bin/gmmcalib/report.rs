@@ -96,7 +96,7 @@ pub fn comparison(results: &[&Calibration]) -> String {
     out
 }
 
-/// The levelling's warnings (a bird's-eye search that ended at the edge of its range).
+/// The levelling's warnings (a nominal further off than the bird's-eye search reaches).
 fn warnings(out: &mut String, prefix: &str, c: &Calibration) {
     for l in &c.levelling {
         if let Some(w) = &l.warning {
