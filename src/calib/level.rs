@@ -86,7 +86,7 @@ pub struct Levelling {
     /// Why nothing was applied, if nothing was.
     pub note: Option<String>,
     /// What the user should check, if anything: a bird's-eye search that suggests the nominal
-    /// is further off than it reaches ([`super::bev::warning`]).
+    /// is further off than it reaches (`bev::warning`).
     pub warning: Option<String>,
 }
 
