@@ -440,8 +440,11 @@ fn study() {
             .collect();
         println!("seed {seed} start {start}: {}", cells.join(" | "));
     }
-    let angles: Vec<f64> = all.iter().map(|e| e.0).collect();
-    let shifts: Vec<f64> = all.iter().map(|e| e.1 * 1e3).collect();
+    // Rotation errors (deg) and translation errors (mm), apart.
+    let columns = |errors: &[(f64, f64)]| -> (Vec<f64>, Vec<f64>) {
+        errors.iter().map(|(a, t)| (*a, t * 1e3)).unzip()
+    };
+    let (angles, shifts) = columns(&all);
     let good = all.iter().filter(|(a, t)| *a <= 0.1 && *t <= 0.01).count();
     println!("rotation (deg): {}", summary(&angles));
     println!("translation (mm): {}", summary(&shifts));
@@ -451,8 +454,7 @@ fn study() {
     let sensors = results.first().map_or(0, Vec::len);
     for s in (0..sensors).filter(|_| sensors > 1) {
         let own: Vec<(f64, f64)> = results.iter().map(|e| deg_m(&e[s].error)).collect();
-        let angles: Vec<f64> = own.iter().map(|e| e.0).collect();
-        let shifts: Vec<f64> = own.iter().map(|e| e.1 * 1e3).collect();
+        let (angles, shifts) = columns(&own);
         println!("sensor {}: {} deg, {} mm", s + 1, summary(&angles), summary(&shifts));
     }
     let seconds = CALIBRATION_MICROS.load(Ordering::Relaxed) as f64 * 1e-6;

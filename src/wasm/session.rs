@@ -203,10 +203,7 @@ impl CalibrationSession {
         self.refinement()?;
         let prepared = self.prepared.as_ref().ok_or_else(finished)?;
         let Some((_, Some(refinement))) = &mut self.registered else { return Ok(()) };
-        if let Some(job) = jobs.iter().find(|&&j| j as usize >= refinement.jobs().len()) {
-            let count = refinement.jobs().len();
-            return Err(JsError::new(&format!("no frame pair {job} of {count}")));
-        }
+        jobs.iter().try_for_each(|&job| check_job(refinement, job as usize))?;
         let mut sink = ProgressSink::new(on_progress, prepared.sensors().to_vec());
         prepared.refine(refinement, jobs.iter().map(|&j| j as usize), 1, &mut |p| sink.send(p));
         sink.error()
@@ -226,12 +223,7 @@ impl CalibrationSession {
         let Some((_, Some(refinement))) = &mut self.registered else {
             return Err(JsError::new("this method has no frame pairs"));
         };
-        if job >= refinement.jobs().len() {
-            return Err(JsError::new(&format!(
-                "no frame pair {job} of {}",
-                refinement.jobs().len()
-            )));
-        }
+        check_job(refinement, job)?;
         refinement.record(job, outcome);
         let corrections = prepared.levelled(&refinement.running());
         ProgressSink::value(prepared.sensors(), &refinement.progress(&corrections))
@@ -253,6 +245,12 @@ impl CalibrationSession {
                 .map_err(|e| JsError::new(&e.to_string()))?,
         )
     }
+}
+
+/// An error unless `job` is one of `refinement`'s frame pairs.
+fn check_job(refinement: &Refinement, job: usize) -> Result<(), JsError> {
+    let count = refinement.jobs().len();
+    if job < count { Ok(()) } else { Err(JsError::new(&format!("no frame pair {job} of {count}"))) }
 }
 
 impl CalibrationSession {
@@ -287,9 +285,7 @@ pub fn align_frames(
             sources.length()
         )));
     }
-    let target = Cloud::from_flat(target).ok_or_else(|| {
-        JsError::new(&format!("alignFrames: the target's {} numbers are not points", target.len()))
-    })?;
+    let target = cloud_from(target, "target")?;
     let built = refine::target(&target.points, &plan);
     let outcomes = Array::new();
     for (i, (source, start)) in sources.iter().zip(starts.chunks_exact(POSE)).enumerate() {
@@ -312,7 +308,12 @@ fn cloud_of(value: &JsValue, what: &str) -> Result<Cloud, JsError> {
         .dyn_ref::<Float32Array>()
         .ok_or_else(|| JsError::new(&format!("alignFrames: the {what} is not a Float32Array")))?
         .to_vec();
-    Cloud::from_flat(&flat).ok_or_else(|| {
+    cloud_from(&flat, what)
+}
+
+/// `flat` (`x, y, z, ...`) as a cloud, or an error naming `what`.
+fn cloud_from(flat: &[f32], what: &str) -> Result<Cloud, JsError> {
+    Cloud::from_flat(flat).ok_or_else(|| {
         JsError::new(&format!("alignFrames: the {what}'s {} numbers are not points", flat.len()))
     })
 }

@@ -39,13 +39,15 @@ export async function fromDrop(dataTransfer) {
 export const isCloud = (path) => CLOUD.test(path);
 export const isConfig = (path) => CONFIG.test(path);
 
+// A file's name without its folders and extension.
+const stemOf = (path) => path.split('/').at(-1).replace(/\.[^.]*$/, '');
+
 // Sensor and frame from a path: the GMMCalib layout `.../sensor_N/<frame>.<ext>`, else the name
 // `<sensor>_<frame>.<ext>` split at the last underscore. A name without one is frame 1 of a
 // sensor of its own name, to be reassigned by hand.
 export function assign(path) {
-  const parts = path.split('/');
-  const stem = parts.at(-1).replace(/\.[^.]*$/, '');
-  const folder = parts.at(-2);
+  const stem = stemOf(path);
+  const folder = path.split('/').at(-2);
   if (folder && /^sensor_\d+$/i.test(folder)) return { sensor: folder, frame: stem };
   const cut = stem.lastIndexOf('_');
   if (cut > 0 && cut < stem.length - 1) return { sensor: stem.slice(0, cut), frame: stem.slice(cut + 1) };
@@ -110,8 +112,6 @@ export function pair(scans, fresh = scans) {
   notes.push(...how);
   return notes.length ? notes.join('; ') : null;
 }
-
-const stemOf = (path) => path.split('/').at(-1).replace(/\.[^.]*$/, '');
 
 // Map from key(item) to the items with that key, in order.
 function groupBy(items, key) {
