@@ -21,7 +21,9 @@ build: wasm setup-node
 
 test: lint test-rust test-wasm test-browser
 
-lint:
+# Every target that builds for wasm32 (clippy's second run too) depends on setup-rust, so
+# `make test` and `make serve` each work first on a machine that has only Rust.
+lint: setup-rust
 	cargo fmt --check
 	cargo clippy --all-targets -- -D warnings
 	cargo clippy --lib --target $(WASM_TARGET) -- -D warnings
