@@ -35,7 +35,6 @@ mod native {
 
     use gmmcalib::calib::{self};
     use gmmcalib::jrmpc::Control;
-    use gmmcalib::synth::{self, RigSpec};
 
     use super::jrmpc::{self, JOBS, Job};
 
@@ -165,9 +164,7 @@ mod native {
     /// views: the same jobs as the wasm bench.
     fn icp_per_pair(points_per_view: usize) {
         let frames = if points_per_view > 10_000 { 1 } else { 5 };
-        let spec =
-            RigSpec { frames, points_per_view, partial: true, seed: 2, ..RigSpec::default() };
-        let rig = jrmpc::rig_of(synth::generate(&spec));
+        let rig = jrmpc::sampled(frames, points_per_view, 2);
         for method in ["p2p", "p2l", "gicp"] {
             let settings =
                 calib::Settings { method: method.parse().expect("method"), ..Default::default() };

@@ -1,5 +1,5 @@
 //! ICP baseline timings: one registration per pair (target preparation included) for a ~2k-point
-//! view and a ~65k-point full scan, per method, best of a few runs.
+//! view and a ~65k-point full scan, per metric, best of a few runs.
 //!
 //! A module, not a bench target: the main bench binary includes it with `#[path]` and calls
 //! [`run`]. Build it in release mode; timings use `std::time::Instant`.
@@ -7,7 +7,7 @@
 use std::time::{Duration, Instant};
 
 use gmmcalib::Pose;
-use gmmcalib::icp::{IcpSettings, Method, Target};
+use gmmcalib::icp::{IcpSettings, Metric, TargetCloud};
 use gmmcalib::se3::{angle_between, pose_from_xyz_rpy};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
@@ -64,7 +64,7 @@ fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> (Duration, T) {
     (best, last.expect("at least one run"))
 }
 
-/// Prints, per cloud size and method: target preparation, alignment, total per pair,
+/// Prints, per cloud size and metric: target preparation, alignment, total per pair,
 /// iterations and the error against the known 2 deg / 5 cm offset.
 pub fn run() {
     let truth = pose_from_xyz_rpy([0.03, -0.03, 0.02], [0.02, -0.015, 0.025]);
@@ -74,10 +74,11 @@ pub fn run() {
         let mut rng = Pcg64::seed_from_u64(42);
         let target = scene(&mut rng, n, half, &Pose::identity());
         let source = scene(&mut rng, n, half, &truth.inverse());
-        for method in Method::ALL {
-            let (prepare, prepared) = best_of(runs, || Target::new(&target, method, &settings));
+        for metric in Metric::ALL {
+            let (prepare, prepared) =
+                best_of(runs, || TargetCloud::new(&target, metric, &settings));
             let Ok(prepared) = prepared else {
-                println!("  {label:<10} {method:<5} failed: {}", prepared.unwrap_err());
+                println!("  {label:<10} {metric:<5} failed: {}", prepared.unwrap_err());
                 continue;
             };
             let (register, result) =
@@ -90,7 +91,7 @@ pub fn run() {
                         .norm()
                         * 1e3;
                     println!(
-                        "  {label:<10} {method:<5} total {:>9.2} ms  (target {:>8.2} ms, align {:>8.2} ms)  \
+                        "  {label:<10} {metric:<5} total {:>9.2} ms  (target {:>8.2} ms, align {:>8.2} ms)  \
                          {:>2} it  err {deg:.3} deg {mm:.1} mm",
                         (prepare + register).as_secs_f64() * 1e3,
                         prepare.as_secs_f64() * 1e3,
@@ -98,7 +99,7 @@ pub fn run() {
                         a.iterations,
                     );
                 }
-                Err(e) => println!("  {label:<10} {method:<5} failed: {e}"),
+                Err(e) => println!("  {label:<10} {metric:<5} failed: {e}"),
             }
         }
     }

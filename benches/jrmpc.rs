@@ -1,9 +1,9 @@
 //! The JRMPC bench jobs, shared by the native bench and its wasm build (`bench_jrmpc`, which
 //! `www/bench/bench.mjs` loads without wasm-bindgen and times from JS).
 
-use gmmcalib::calib::{self, Rig, View};
+use gmmcalib::calib::{self, Rig};
 use gmmcalib::jrmpc::Control;
-use gmmcalib::synth::{self, RigSpec};
+use gmmcalib::twin::{Miscalibration, Model, Sampling, Twin};
 
 pub struct Job {
     pub name: &'static str,
@@ -40,13 +40,14 @@ pub struct Outcome {
 }
 
 pub fn rig(job: &Job) -> Rig {
-    let spec = RigSpec {
-        frames: job.frames,
-        points_per_view: job.points_per_view,
-        partial: true,
-        ..RigSpec::default()
-    };
-    rig_of(synth::generate(&spec))
+    sampled(job.frames, job.points_per_view, 1)
+}
+
+/// The sampled twin's rig: partial views (the faces each sensor sees, 80 % ground), two
+/// sensors miscalibrated within the paper's bounds.
+pub fn sampled(frames: usize, points_per_view: usize, seed: u64) -> Rig {
+    let sampling = Sampling { points_per_view, partial: true, ..Sampling::default() };
+    Twin::new(&Model::Sampled(sampling), frames, seed, &Miscalibration::default()).rig()
 }
 
 /// Calibrates `rig` with JRMPC for exactly `iterations` (the convergence test off, like the
@@ -63,21 +64,8 @@ pub fn run(job: &Job, rig: &Rig, dense: bool, iterations: usize, threads: usize)
     settings.jrmpc.threads = threads;
     let result = calib::calibrate(rig, &settings, |_| Control::Continue).expect("calibration");
     Outcome {
-        points: rig.views.iter().map(|v| v.points.len()).sum(),
+        points: rig.scans.iter().map(|v| v.points.len()).sum(),
         iterations: result.iterations,
         terms: result.history.iter().map(|h| h.terms).sum(),
-    }
-}
-
-pub fn rig_of(rig: synth::SyntheticRig) -> Rig {
-    Rig {
-        views: rig
-            .views
-            .into_iter()
-            .map(|v| View { sensor: v.sensor, frame: v.frame, points: v.points })
-            .collect(),
-        nominal: rig.nominal,
-        roi: rig.roi,
-        reference: None,
     }
 }

@@ -4,11 +4,12 @@
 //!
 //! Extrinsics are `T_vehicle_sensor` (sensor points into the vehicle frame). Units: m, rad.
 
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 
+use crate::calib::{Calibration, Precision};
 use crate::cloud::is_valid_point;
 use crate::se3::{Pose, rpy};
-use crate::sim::OrientedBox;
+use crate::twin::{OrientedBox, Twin};
 
 /// A trial counts as miscalibrated when the mean distance error (L2, m) over the validation
 /// cube exceeds this: 5 cm, ten times the simulated range noise and a tenth of the cube's edge,
@@ -197,6 +198,43 @@ impl GlobalError {
         let bins = self.sums.iter().enumerate().filter(|(_, (_, n))| *n > 0);
         bins.map(|(i, (s, n))| (centre(i), s / *n as f64)).collect()
     }
+}
+
+/// What one non-reference sensor's calibration got wrong, and what it claimed.
+#[derive(Clone, Copy, Debug)]
+pub struct SensorError {
+    /// `C_est^-1 C_true` of its correction.
+    pub error: Pose,
+    /// Its rotation error about the vehicle axes, `log(R_est R_true^T)` (rad).
+    pub rotation: Vector3<f64>,
+    /// Its position error, estimate - truth (m).
+    pub position: Vector3<f64>,
+    /// The one-sigma precision the calibration claimed, if it did.
+    pub precision: Option<Precision>,
+}
+
+impl SensorError {
+    /// Rotation (deg) and translation (m) of the error.
+    pub fn deg_m(&self) -> (f64, f64) {
+        (self.error.rotation.angle().to_degrees(), self.error.translation.vector.norm())
+    }
+}
+
+/// The error of `calibration` on each non-reference sensor of `twin`, in the twin's order;
+/// `None` for a sensor the calibration has no result for.
+pub fn sensor_errors(twin: &Twin, calibration: &Calibration) -> Vec<Option<SensorError>> {
+    (1..twin.truth.len())
+        .map(|i| {
+            let (name, truth) = &twin.truth[i];
+            let estimate = calibration.sensors.iter().find(|s| &s.name == name)?;
+            Some(SensorError {
+                error: estimate.correction.inverse() * twin.correction(i),
+                rotation: (estimate.extrinsic.rotation * truth.rotation.inverse()).scaled_axis(),
+                position: estimate.extrinsic.translation.vector - truth.translation.vector,
+                precision: estimate.precision,
+            })
+        })
+        .collect()
 }
 
 /// Summary statistics of a sample.

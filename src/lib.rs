@@ -1,21 +1,30 @@
 //! gmmcalib: multi-LiDAR extrinsic calibration by joint registration of all scans to one
 //! floating Gaussian mixture (JRMPC, Evangelidis & Horaud 2018, as used by GMMCalib).
 //!
-//! Data flows one way: bytes -> [`Cloud`] -> pre-align and crop -> views -> [`jrmpc`] ->
-//! [`calib`] -> results. The algorithm modules know nothing of JavaScript; `wasm` is a thin
-//! adapter compiled only for `wasm32`.
+//! Data flows one way (docs/architecture.md): bytes ([`io`]) -> clouds ([`Cloud`]) -> views
+//! ([`calib::Views`]) -> stages ([`calib`], over the engines [`jrmpc`] and [`icp`]) ->
+//! [`calib::Calibration`] -> [`report`]. The algorithm modules know nothing of JavaScript and
+//! make no prose; `wasm` is a thin adapter compiled only for `wasm32`.
 
-pub mod calib;
+// Primitives.
 pub mod cloud;
-pub mod eval;
-pub mod icp;
-pub mod io;
-pub mod jrmpc;
-pub mod report;
+pub mod plane;
 pub mod se3;
-pub mod sim;
-pub mod synth;
-pub mod target_fit;
+// Decoding.
+pub mod io;
+// Engines and the target.
+pub mod icp;
+pub mod jrmpc;
+pub mod target;
+// The pipeline.
+pub mod calib;
+// Truth: the digital twin and the paper's metrics.
+pub mod eval;
+pub mod twin;
+// The edge.
+pub mod report;
+#[cfg(target_arch = "wasm32")]
+pub mod wasm;
 
 pub use cloud::{Aabb, Cloud};
 pub use se3::Pose;
@@ -25,5 +34,3 @@ pub use se3::Pose;
 pub(crate) fn threads_here(requested: usize) -> usize {
     if cfg!(target_arch = "wasm32") { 1 } else { requested.max(1) }
 }
-#[cfg(target_arch = "wasm32")]
-pub mod wasm;

@@ -4,10 +4,30 @@
 //! Euler angles are roll, pitch, yaw about the fixed x, y, z axes, `R = Rz(yaw) Ry(pitch) Rx(roll)`
 //! (ROS RPY, URDF `rpy`, scipy `from_euler('xyz')`). Metres and radians throughout.
 
-use nalgebra::{Isometry3, Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{
+    Isometry3, Matrix4, Quaternion, Rotation3, Translation3, UnitQuaternion, Vector3, Vector4,
+};
 
 /// A rigid transform (rotation + translation), f64.
 pub type Pose = Isometry3<f64>;
+
+/// A pose as seven numbers: its unit quaternion `x, y, z, w` and its translation (m), exactly
+/// as held (how a pose crosses between workers).
+pub fn to_quaternion_xyz(pose: &Pose) -> [f64; 7] {
+    let (q, t) = (pose.rotation.coords, pose.translation.vector);
+    [q.x, q.y, q.z, q.w, t.x, t.y, t.z]
+}
+
+/// The pose [`to_quaternion_xyz`] wrote; `None` for anything else (a wrong length, a number
+/// that is not finite, a quaternion that is not a unit one).
+pub fn from_quaternion_xyz(flat: &[f64]) -> Option<Pose> {
+    let &[x, y, z, w, tx, ty, tz] = flat else { return None };
+    let q = Quaternion::from(Vector4::new(x, y, z, w));
+    if !flat.iter().all(|v| v.is_finite()) || (q.norm() - 1.0).abs() > 1e-9 {
+        return None;
+    }
+    Some(Pose::from_parts(Translation3::new(tx, ty, tz), UnitQuaternion::new_unchecked(q)))
+}
 
 /// Pose from a translation (m) and roll, pitch, yaw (rad).
 pub fn pose_from_xyz_rpy(xyz: [f64; 3], rpy: [f64; 3]) -> Pose {

@@ -2,10 +2,11 @@
 
 mod common;
 
-use common::{for_seeds, median, rig_of, run, worst_error};
-use gmmcalib::calib::{self, CalibError, Settings};
+use std::borrow::Cow;
+
+use common::{RigSpec, for_seeds, generate, median, rig_of, run, worst_error};
+use gmmcalib::calib::{self, CalibError, Phase, Settings, Stages};
 use gmmcalib::jrmpc::Control;
-use gmmcalib::synth::{self, RigSpec};
 
 /// Full views: every face of the cube in every view, 1 cm range noise, each non-reference
 /// sensor off by up to 3 deg / 10 cm per axis. The ROI holds only the cube, so the mixture
@@ -20,7 +21,7 @@ fn full_views(
         let spec = RigSpec { seed, sensors, ..RigSpec::default() };
         let settings = Settings {
             method,
-            initial_sigma: calib::InitialSigma::PriorSize,
+            initial_sigma: calib::InitialSigma::TargetSize,
             ..Settings::default()
         };
         let (result, truth) = run(&spec, &settings);
@@ -52,17 +53,18 @@ fn full_views_three_sensors() {
 fn no_ground_is_reported_not_fatal() {
     let spec = RigSpec { seed: 1, ..RigSpec::default() };
     let settings =
-        Settings { initial_sigma: calib::InitialSigma::PriorSize, ..Settings::default() };
+        Settings { initial_sigma: calib::InitialSigma::TargetSize, ..Settings::default() };
     let (result, _) = run(&spec, &settings);
     assert_eq!(result.levelling.len(), 2);
     for l in &result.levelling {
         assert_eq!(l.ground, None);
-        assert_eq!(l.applied, gmmcalib::se3::Pose::identity());
-        assert!(l.note.as_deref().is_some_and(|n| n.contains("no ground plane")), "{l:?}");
+        assert_eq!(l.motion, gmmcalib::se3::Pose::identity());
+        let note = l.skipped.as_ref().map(ToString::to_string);
+        assert!(note.is_some_and(|n| n.contains("no ground plane")), "{l:?}");
     }
     // The paper's methods run as published: no levelling unless asked.
     let plain = Settings { method: calib::Method::Jrmpc, ..settings };
-    assert!(!plain.levels_ground());
+    assert!(!Stages::of(&plain).level);
 }
 
 /// Realistic partial views (only the faces each sensor sees, 80% ground), plain JRMPC.
@@ -96,16 +98,16 @@ fn partial_views_median_within_one_degree_and_ten_centimetres() {
 fn three_sensors_with_missing_frames() {
     let spec =
         RigSpec { sensors: 3, frames: 4, points_per_view: 800, seed: 3, ..RigSpec::default() };
-    let truth = synth::generate(&spec);
+    let truth = generate(&spec);
     let mut rig = rig_of(&truth);
-    rig.views.retain(|v| !(v.sensor == "sensor_3" && v.frame == "2"));
+    rig.scans.retain(|v| !(v.sensor == "sensor_3" && v.frame == "2"));
     // Sensor 2's frame 4 points far away: nothing of it is in the ROI.
-    for v in rig.views.iter_mut().filter(|v| v.sensor == "sensor_2" && v.frame == "4") {
+    for v in rig.scans.iter_mut().filter(|v| v.sensor == "sensor_2" && v.frame == "4") {
         v.points.iter_mut().for_each(|p| p[2] += 100.0);
     }
     // A ROI that holds only the cube: start the mixture at the prior's size.
     let settings =
-        Settings { initial_sigma: calib::InitialSigma::PriorSize, ..Settings::default() };
+        Settings { initial_sigma: calib::InitialSigma::TargetSize, ..Settings::default() };
     let result = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
     assert_eq!(result.reference, "sensor_1");
     let names: Vec<_> = result.sensors.iter().map(|s| s.name.as_str()).collect();
@@ -115,14 +117,11 @@ fn three_sensors_with_missing_frames() {
     assert_eq!(result.sensors[2].spread.frames, 3);
     assert_eq!(result.skipped.len(), 1);
     assert_eq!(
-        (result.skipped[0].sensor.as_str(), result.skipped[0].frame.as_str()),
-        ("sensor_2", "4")
+        (result.skipped[0].sensor.as_str(), result.skipped[0].frame.as_deref()),
+        ("sensor_2", Some("4"))
     );
-    assert!(
-        result.skipped[0].reason.contains("0 points in the ROI"),
-        "{}",
-        result.skipped[0].reason
-    );
+    let reason = result.skipped[0].kind.to_string();
+    assert!(reason.contains("0 points in the ROI"), "{reason}");
     // The reference's own correction is the identity, and the others are close to the truth.
     assert!(result.sensors[0].correction.rotation.angle() < 1e-12);
     assert!(result.sensors[0].correction.translation.vector.norm() < 1e-12);
@@ -134,18 +133,18 @@ fn three_sensors_with_missing_frames() {
         let d = expected.inverse() * result.sensors[i].relative;
         assert!(d.rotation.angle() < 1e-9 && d.translation.vector.norm() < 1e-9);
     }
-    let fit = result.target.fits.first().expect("cube fit");
+    let fit = result.reconstruction.fits.first().expect("cube fit");
     assert!((fit.size - 0.5).abs() < 0.03 && fit.rms < 0.02, "{fit:?}");
 }
 
 #[test]
 fn choosing_another_reference() {
     let spec = RigSpec { frames: 3, points_per_view: 600, seed: 5, ..RigSpec::default() };
-    let truth = synth::generate(&spec);
+    let truth = generate(&spec);
     let mut rig = rig_of(&truth);
     rig.reference = Some("sensor_2".into());
     let settings =
-        Settings { initial_sigma: calib::InitialSigma::PriorSize, ..Settings::default() };
+        Settings { initial_sigma: calib::InitialSigma::TargetSize, ..Settings::default() };
     let result = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
     assert_eq!(result.reference, "sensor_2");
     let s2 = result.sensors.iter().find(|s| s.name == "sensor_2").unwrap();
@@ -155,13 +154,13 @@ fn choosing_another_reference() {
 #[test]
 fn bad_rigs_are_typed_errors() {
     let spec = RigSpec { frames: 2, points_per_view: 300, ..RigSpec::default() };
-    let truth = synth::generate(&spec);
+    let truth = generate(&spec);
     let settings = Settings::default();
     let calibrate =
         |rig: &calib::Rig| calib::calibrate(rig, &settings, |_| Control::Continue).err();
 
     let mut rig = rig_of(&truth);
-    rig.views.retain(|v| v.sensor == "sensor_1");
+    rig.scans.retain(|v| v.sensor == "sensor_1");
     assert_eq!(calibrate(&rig), Some(CalibError::TooFewSensors(1)));
 
     let mut rig = rig_of(&truth);
@@ -185,15 +184,15 @@ fn bad_rigs_are_typed_errors() {
     assert_eq!(calibrate(&rig), Some(CalibError::NoPointsInRoi("sensor_1".into())));
 
     let mut rig = rig_of(&truth);
-    rig.views[3].points[7][2] = f32::NAN;
-    let (sensor, frame) = (rig.views[3].sensor.clone(), rig.views[3].frame.clone());
+    rig.scans[3].points[7][2] = f32::NAN;
+    let (sensor, frame) = (rig.scans[3].sensor.clone(), rig.scans[3].frame.clone());
     assert_eq!(calibrate(&rig), Some(CalibError::NonFinitePoint { sensor, frame, index: 7 }));
 
     // Degenerate views (empty, one point, all identical) are skipped; a sensor left with none
     // is an error that names it.
     for points in [vec![], vec![[4.0f32, 0.0, 0.25]], vec![[4.0f32, 0.0, 0.25]; 40]] {
         let mut rig = rig_of(&truth);
-        for v in rig.views.iter_mut().filter(|v| v.sensor == "sensor_2") {
+        for v in rig.scans.iter_mut().filter(|v| v.sensor == "sensor_2") {
             v.points = points.clone();
         }
         assert_eq!(calibrate(&rig), Some(CalibError::NoPointsInRoi("sensor_2".into())));
@@ -201,7 +200,7 @@ fn bad_rigs_are_typed_errors() {
 
     // Frames that never pair with the reference's.
     let mut rig = rig_of(&truth);
-    for v in rig.views.iter_mut().filter(|v| v.sensor == "sensor_2") {
+    for v in rig.scans.iter_mut().filter(|v| v.sensor == "sensor_2") {
         v.frame = format!("other_{}", v.frame);
     }
     assert_eq!(calibrate(&rig), Some(CalibError::NoCommonFrames("sensor_2".into())));
@@ -212,7 +211,7 @@ fn bad_rigs_are_typed_errors() {
 #[test]
 fn threads_change_nothing_but_the_time() {
     let spec = RigSpec { sensors: 3, frames: 7, seed: 4, ..RigSpec::default() };
-    let rig = rig_of(&synth::generate(&spec));
+    let rig = rig_of(&generate(&spec));
     let calibrate = |threads: usize| {
         let mut settings = Settings::default();
         settings.jrmpc.threads = threads;
@@ -229,8 +228,8 @@ fn threads_change_nothing_but_the_time() {
     for (a, b) in one.sensors.iter().zip(&three.sensors) {
         assert_eq!((a.correction, a.precision), (b.correction, b.precision), "{}", a.name);
     }
-    let reasons = |notes: &[calib::FrameNote]| -> Vec<String> {
-        notes.iter().map(|n| format!("{}/{}: {}", n.sensor, n.frame, n.reason)).collect()
+    let reasons = |notes: &[calib::Note]| -> Vec<String> {
+        notes.iter().map(|n| format!("{}/{:?}: {}", n.sensor, n.frame, n.kind)).collect()
     };
     assert_eq!(reasons(&one.skipped), reasons(&three.skipped));
     assert_eq!(reasons(&one.kept_jrmpc), reasons(&three.kept_jrmpc));
@@ -244,27 +243,31 @@ fn threads_change_nothing_but_the_time() {
 #[test]
 fn frame_pairs_recorded_in_any_order_calibrate_alike() {
     let spec = RigSpec { sensors: 3, frames: 4, seed: 6, ..RigSpec::default() };
-    let rig = rig_of(&synth::generate(&spec));
+    let rig = rig_of(&generate(&spec));
     let settings = Settings { method: "gicp".parse().unwrap(), ..Settings::default() };
     let direct = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibration");
 
-    let prepared = calib::prepare(&rig, &settings).expect("prepared");
-    let mut refinement = prepared.refinement(None).expect("gicp registers frame pairs");
-    let clouds = prepared.clouds();
-    let jobs = refinement.jobs().to_vec();
+    let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[settings.method]);
+    assert_eq!(run.phase(), Phase::FramePairs, "gicp registers frame pairs");
+    let clouds: Vec<Vec<[f32; 3]>> =
+        run.views().expect("views").clouds().iter().map(|c| c.to_vec()).collect();
+    let pairs = run.frame_pairs().expect("frame pairs");
+    let jobs = pairs.pairs().to_vec();
     assert_eq!(jobs.len(), 8, "two sensors against the reference, four frames each");
-    let plan = refinement.plan().clone();
+    let icp = pairs.icp().clone();
     for (j, job) in jobs.iter().enumerate().rev() {
-        let target = calib::refine::target(clouds[job.reference_view], &plan).expect("target");
-        let pose = calib::refine::align(&target, clouds[job.view], &job.start, &plan);
-        refinement.record(j, pose.map_err(|e| e.to_string()));
+        let target = calib::target(&clouds[job.reference_view], &icp).expect("target");
+        let pose = calib::align(&target, &clouds[job.view], &job.start, &icp);
+        pairs.record(j, pose.map_err(|e| e.to_string()));
     }
     // A second outcome for a recorded pair, or one for no pair, changes nothing.
-    refinement.record(0, Err("late".into()));
-    refinement.record(99, Err("none".into()));
-    assert_eq!(refinement.done(), jobs.len());
-    drop(clouds);
-    let recorded = prepared.finish_with(None, Some(refinement)).expect("calibration");
+    pairs.record(0, Err("late".into()));
+    pairs.record(99, Err("none".into()));
+    assert_eq!(pairs.done(), jobs.len());
+    run.advance();
+    assert_eq!(run.phase(), Phase::Done);
+    let (_, recorded) = run.into_outcomes().pop().expect("one outcome");
+    let recorded = recorded.expect("calibration");
     for (a, b) in direct.sensors.iter().zip(&recorded.sensors) {
         assert_eq!((a.name.as_str(), a.correction), (b.name.as_str(), b.correction));
     }

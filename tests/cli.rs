@@ -10,26 +10,25 @@ use std::fs;
 use std::path::Path;
 use std::process::{Command, Output};
 
-use common::TempDir;
-use gmmcalib::Cloud;
-use gmmcalib::calib::{self, Method, Rig, Settings, View};
+use common::{RigSpec, TempDir, generate};
+use gmmcalib::calib::{self, Method, Rig, Scan, Settings};
 use gmmcalib::io::{write_pcd_binary, write_ply_binary};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::{Pose, from_row_major, pose_from_xyz_rpy, xyz_rpy};
-use gmmcalib::synth::{self, RigSpec, SyntheticRig};
+use gmmcalib::twin::Twin;
 use serde_json::Value;
 
 /// Writes the rig as GMMCalib lays it out: `data/sensor_N/<frame>.pcd` (`.ply` for sensor_3)
 /// and `config.yaml` with the nominal extrinsics and the ROI, in GMMCalib's nested-list form.
-fn write_rig(dir: &Path, rig: &SyntheticRig) {
-    for view in &rig.views {
+fn write_rig(dir: &Path, rig: &Twin) {
+    for view in &rig.scans {
         let folder = dir.join("data").join(&view.sensor);
         fs::create_dir_all(&folder).unwrap();
-        let cloud = Cloud::from_points(view.points.clone());
+        let cloud = &view.cloud;
         let (name, bytes) = if view.sensor == "sensor_3" {
-            (format!("{}.ply", view.frame), write_ply_binary(&cloud))
+            (format!("{}.ply", view.frame), write_ply_binary(cloud))
         } else {
-            (format!("{}.pcd", view.frame), write_pcd_binary(&cloud))
+            (format!("{}.pcd", view.frame), write_pcd_binary(cloud))
         };
         fs::write(folder.join(name), bytes).unwrap();
     }
@@ -49,14 +48,14 @@ fn write_rig(dir: &Path, rig: &SyntheticRig) {
 
 /// The rig exactly as the CLI builds it: views sensor by sensor, the nominal from the config's
 /// numbers (which round-trip through the YAML text bit for bit).
-fn rig_as_read(rig: &SyntheticRig) -> Rig {
-    let mut views = Vec::new();
+fn rig_as_read(rig: &Twin) -> Rig {
+    let mut scans = Vec::new();
     for (sensor, _) in &rig.nominal {
-        for v in rig.views.iter().filter(|v| &v.sensor == sensor) {
-            views.push(View {
+        for v in rig.scans.iter().filter(|v| &v.sensor == sensor) {
+            scans.push(Scan {
                 sensor: v.sensor.clone(),
                 frame: v.frame.clone(),
-                points: v.points.clone(),
+                points: v.cloud.points.clone(),
             });
         }
     }
@@ -68,7 +67,7 @@ fn rig_as_read(rig: &SyntheticRig) -> Rig {
             (name.clone(), pose_from_xyz_rpy(xyz, rpy))
         })
         .collect();
-    Rig { views, nominal, roi: rig.roi, reference: None }
+    Rig { scans, nominal, roi: rig.roi, reference: None }
 }
 
 fn gmmcalib(dir: &Path, extra: &[&str]) -> Output {
@@ -104,7 +103,7 @@ fn calibrates_a_gmmcalib_folder_like_the_library() {
         partial: true,
         ..Default::default()
     };
-    let rig = synth::generate(&spec);
+    let rig = generate(&spec);
     let tmp = TempDir::new("e2e");
     write_rig(&tmp.0, &rig);
     let json_path = tmp.0.join("out.json");
@@ -151,14 +150,20 @@ fn calibrates_a_gmmcalib_folder_like_the_library() {
             assert!(matrix(&s["correction"]).rotation.angle() < 1e-12);
         }
     }
-    assert_eq!(json["target"]["means"].as_array().unwrap().len(), 3 * lib.target.means.len());
-    assert_eq!(json["target"]["priors"].as_array().unwrap().len(), lib.target.means.len());
+    assert_eq!(
+        json["reconstruction"]["means"].as_array().unwrap().len(),
+        3 * lib.reconstruction.means.len()
+    );
+    assert_eq!(
+        json["reconstruction"]["priors"].as_array().unwrap().len(),
+        lib.reconstruction.means.len()
+    );
     assert_eq!(json["cancelled"].as_bool(), Some(false));
     let history = &json["history"];
     assert_eq!(history["meanSigma"].as_array().unwrap().len(), lib.iterations);
     assert_eq!(history["maxChange"].as_array().unwrap().len(), lib.iterations);
-    let fit = &json["target"]["fits"][0];
-    assert!(fit["rms"].as_f64().is_some() && fit["edge"].as_f64().is_some(), "{fit}");
+    let fit = &json["reconstruction"]["fits"][0];
+    assert!(fit["rms"].as_f64().is_some() && fit["size"].as_f64().is_some(), "{fit}");
     assert_eq!(fit["rotation"].as_array().map(Vec::len), Some(3));
     assert!(json["skipped"].as_array().unwrap().is_empty());
     assert!(json["keptJrmpc"].as_array().is_some());
@@ -166,12 +171,8 @@ fn calibrates_a_gmmcalib_folder_like_the_library() {
 
 #[test]
 fn method_all_writes_one_result_per_method() {
-    let rig = synth::generate(&RigSpec {
-        sensors: 2,
-        frames: 2,
-        points_per_view: 600,
-        ..Default::default()
-    });
+    let rig =
+        generate(&RigSpec { sensors: 2, frames: 2, points_per_view: 600, ..Default::default() });
     let tmp = TempDir::new("all");
     write_rig(&tmp.0, &rig);
     let json_path = tmp.0.join("all.json");
@@ -238,12 +239,8 @@ fn method_all_reports_the_methods_that_ran_when_others_fail() {
 
 /// Runs the CLI on a small valid folder after `spoil` breaks it; returns the one stderr line.
 fn error_of(name: &str, extra: &[&str], spoil: impl FnOnce(&Path)) -> String {
-    let rig = synth::generate(&RigSpec {
-        sensors: 2,
-        frames: 2,
-        points_per_view: 200,
-        ..Default::default()
-    });
+    let rig =
+        generate(&RigSpec { sensors: 2, frames: 2, points_per_view: 200, ..Default::default() });
     let tmp = TempDir::new(name);
     write_rig(&tmp.0, &rig);
     spoil(&tmp.0);
@@ -308,12 +305,8 @@ fn append(dir: &Path, text: &str) {
 
 #[test]
 fn flags_override_the_config() {
-    let rig = synth::generate(&RigSpec {
-        sensors: 2,
-        frames: 2,
-        points_per_view: 300,
-        ..Default::default()
-    });
+    let rig =
+        generate(&RigSpec { sensors: 2, frames: 2, points_per_view: 300, ..Default::default() });
     let tmp = TempDir::new("override");
     write_rig(&tmp.0, &rig);
     append(&tmp.0, "method: ndt\nreference: sensor_9\n");
@@ -327,7 +320,8 @@ fn flags_override_the_config() {
     assert_eq!(json["reference"], "sensor_2");
     // ICP reconstructs no target: no fit to report.
     assert!(
-        json["target"]["rms"].is_null() && json["target"]["means"].as_array().unwrap().is_empty()
+        json["reconstruction"]["rms"].is_null()
+            && json["reconstruction"]["means"].as_array().unwrap().is_empty()
     );
     let reference = &json["sensors"][1];
     assert_eq!(reference["name"], "sensor_2");

@@ -14,7 +14,7 @@ use std::process::Command;
 use common::TempDir;
 use gmmcalib::io::parse_cloud;
 use gmmcalib::se3::{Pose, from_row_major, pose_from_xyz_rpy};
-use gmmcalib::sim::Preset;
+use gmmcalib::twin::Preset;
 use nalgebra::Point3;
 use serde_json::Value;
 

@@ -2,7 +2,7 @@
 //! forward and inverse, and reject degenerate input with an error.
 
 use gmmcalib::Pose;
-use gmmcalib::icp::{IcpError, IcpSettings, Method, Role, Target, align};
+use gmmcalib::icp::{IcpError, IcpSettings, Metric, Role, TargetCloud, align};
 use gmmcalib::se3::angle_between;
 use nalgebra::{Point3, Translation3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
@@ -158,30 +158,30 @@ fn error(estimate: &Pose, expected: &Pose) -> (f64, f64) {
 /// Registers forward (source onto target) and inverse (target onto source) from the identity;
 /// asserts both converge within `max_deg` / `max_m` and returns the worst errors.
 fn recover(
-    method: Method,
+    metric: Metric,
     target: &[[f32; 3]],
     source: &[[f32; 3]],
     max_deg: f64,
     max_m: f64,
 ) -> (f64, f64) {
     let settings = IcpSettings::default();
-    let forward = align(target, source, &Pose::identity(), method, &settings).unwrap();
-    let inverse = align(source, target, &Pose::identity(), method, &settings).unwrap();
+    let forward = align(target, source, &Pose::identity(), metric, &settings).unwrap();
+    let inverse = align(source, target, &Pose::identity(), metric, &settings).unwrap();
     let mut worst: (f64, f64) = (0.0, 0.0);
     for (result, expected, name) in
         [(&forward, truth(), "forward"), (&inverse, truth().inverse(), "inverse")]
     {
         let (deg, m) = error(&result.target_from_source, &expected);
         eprintln!(
-            "{method} {name}: {deg:.5} deg, {:.3} mm, {} iterations, converged {}, rmse {:.4} m, {} inliers",
+            "{metric} {name}: {deg:.5} deg, {:.3} mm, {} iterations, converged {}, rmse {:.4} m, {} inliers",
             m * 1e3,
             result.iterations,
             result.converged,
             result.rmse,
             result.inliers
         );
-        assert!(result.converged, "{method} {name} did not converge");
-        assert!(deg < max_deg && m < max_m, "{method} {name}: {deg} deg, {m} m");
+        assert!(result.converged, "{metric} {name} did not converge");
+        assert!(deg < max_deg && m < max_m, "{metric} {name}: {deg} deg, {m} m");
         assert!(result.inliers > source.len().min(target.len()) / 2);
         worst = (worst.0.max(deg), worst.1.max(m));
     }
@@ -205,8 +205,8 @@ fn noiseless_same_positions_all_methods_recover_exactly() {
     // floor below 0.01 deg. With the same sample positions every residual vanishes at the
     // truth, so this case checks the solvers themselves; measured: below 1e-4 deg / 0.01 mm.
     let (target, source) = scene_pair(1, 0.0, false);
-    for method in Method::ALL {
-        recover(method, &target, &source, 0.02, 1e-3);
+    for metric in Metric::ALL {
+        recover(metric, &target, &source, 0.02, 1e-3);
     }
 }
 
@@ -215,7 +215,7 @@ fn noiseless_fresh_samples_gicp_recovers() {
     // Measured (seeds 1-3): at most 0.0037 deg, 0.30 mm.
     for seed in [1, 2] {
         let (target, source) = scene_pair(seed, 0.0, true);
-        recover(Method::Gicp, &target, &source, 0.02, 1e-3);
+        recover(Metric::Gicp, &target, &source, 0.02, 1e-3);
     }
 }
 
@@ -225,8 +225,8 @@ fn noisy_fresh_samples_plane_and_gicp_recover() {
     // most 0.034 deg, 3.0 mm; GICP at most 0.013 deg, 1.4 mm.
     for seed in [1, 2] {
         let (target, source) = scene_pair(seed, 0.01, true);
-        recover(Method::PointToPlane, &target, &source, 0.1, 5e-3);
-        recover(Method::Gicp, &target, &source, 0.1, 5e-3);
+        recover(Metric::PointToPlane, &target, &source, 0.1, 5e-3);
+        recover(Metric::Gicp, &target, &source, 0.1, 5e-3);
     }
 }
 
@@ -239,7 +239,7 @@ fn point_to_point_converges_to_its_sampling_floor() {
     // 2 deg / 5 cm offset.
     for (seed, noise) in [(1, 0.0), (3, 0.01)] {
         let (target, source) = scene_pair(seed, noise, true);
-        let (deg, m) = recover(Method::PointToPoint, &target, &source, 0.75, 0.02);
+        let (deg, m) = recover(Metric::PointToPoint, &target, &source, 0.75, 0.02);
         eprintln!(
             "point-to-point, seed {seed}, noise {noise} m: worst {deg:.3} deg, {:.1} mm",
             m * 1e3
@@ -252,14 +252,14 @@ fn voxel_downsampling_still_recovers() {
     // 5 cm voxels: each voxel's centroid moves with the sampling, like fresh samples.
     let (target, source) = scene_pair(2, 0.01, true);
     let settings = IcpSettings { voxel: Some(0.05), ..IcpSettings::default() };
-    let result = align(&target, &source, &Pose::identity(), Method::Gicp, &settings).unwrap();
+    let result = align(&target, &source, &Pose::identity(), Metric::Gicp, &settings).unwrap();
     let (deg, m) = error(&result.target_from_source, &truth());
     assert!(result.converged && deg < 0.1 && m < 5e-3, "{deg} deg, {m} m");
     assert!(result.inliers < source.len());
     // A voxel holding the whole (shifted) target leaves one point.
     let shifted: Vec<[f32; 3]> = target.iter().map(|p| p.map(|c| c + 100.0)).collect();
     let coarse = IcpSettings { voxel: Some(1000.0), ..IcpSettings::default() };
-    let err = align(&shifted, &source, &Pose::identity(), Method::Gicp, &coarse).unwrap_err();
+    let err = align(&shifted, &source, &Pose::identity(), Metric::Gicp, &coarse).unwrap_err();
     assert_eq!(err, IcpError::TooFewPoints { cloud: Role::Target, count: 1, required: 3 });
 }
 
@@ -267,22 +267,22 @@ fn voxel_downsampling_still_recovers() {
 fn prepared_target_is_reusable_and_deterministic() {
     let (target, source) = scene_pair(3, 0.01, true);
     let settings = IcpSettings::default();
-    for method in Method::ALL {
-        let prepared = Target::new(&target, method, &settings).unwrap();
-        assert_eq!(prepared.method(), method);
+    for metric in Metric::ALL {
+        let prepared = TargetCloud::new(&target, metric, &settings).unwrap();
+        assert_eq!(prepared.metric(), metric);
         let first = prepared.align(&source, &Pose::identity(), &settings).unwrap();
         // Bit-identical on reuse and through the one-call entry.
         assert_eq!(prepared.align(&source, &Pose::identity(), &settings).unwrap(), first);
-        assert_eq!(align(&target, &source, &Pose::identity(), method, &settings).unwrap(), first);
+        assert_eq!(align(&target, &source, &Pose::identity(), metric, &settings).unwrap(), first);
         // A second source (the target itself) aligns to the identity with the same target.
         let own = prepared.align(&target, &Pose::identity(), &settings).unwrap();
         let (deg, m) = error(&own.target_from_source, &Pose::identity());
-        assert!(deg < 1e-6 && m < 1e-9 && own.rmse < 1e-9, "{method}: {deg} deg, {m} m");
+        assert!(deg < 1e-6 && m < 1e-9 && own.rmse < 1e-9, "{metric}: {deg} deg, {m} m");
         assert_eq!(own.inliers, target.len());
     }
 }
 
-/// Every way a registration must refuse to produce a pose, for every method.
+/// Every way a registration must refuse to produce a pose, for every metric.
 #[test]
 fn degenerate_input_is_an_error() {
     let (scene, _) = scene_pair(1, 0.0, false);
@@ -294,9 +294,9 @@ fn degenerate_input_is_an_error() {
     with_nan[7][1] = f32::NAN;
     let id = Pose::identity();
     let settings = IcpSettings::default();
-    for method in Method::ALL {
+    for metric in Metric::ALL {
         let run = |target: &[[f32; 3]], source: &[[f32; 3]]| {
-            align(target, source, &id, method, &settings)
+            align(target, source, &id, metric, &settings)
         };
         let too_few = |cloud, count| Err(IcpError::TooFewPoints { cloud, count, required: 3 });
         assert_eq!(run(&scene[..2], &scene), too_few(Role::Target, 2));
@@ -331,12 +331,12 @@ fn degenerate_input_is_an_error() {
         let mut bad_init = id;
         bad_init.translation.vector.x = f64::NAN;
         assert_eq!(
-            align(&scene, &scene, &bad_init, method, &settings),
+            align(&scene, &scene, &bad_init, metric, &settings),
             Err(IcpError::InvalidInitialPose)
         );
         let bad = IcpSettings { max_correspondence_distance: -1.0, ..IcpSettings::default() };
         assert!(matches!(
-            align(&scene, &scene, &id, method, &bad),
+            align(&scene, &scene, &id, metric, &bad),
             Err(IcpError::InvalidSettings(_))
         ));
     }
@@ -350,10 +350,10 @@ fn sparse_overlap_below_three_pairs_is_an_error() {
         scene.iter().take(100).map(|p| [p[0], p[1], p[2] + 50.0]).collect();
     source[0] = scene[0];
     source[1] = scene[1];
-    for method in Method::ALL {
+    for metric in Metric::ALL {
         let err =
-            align(&scene, &source, &Pose::identity(), method, &IcpSettings::default()).unwrap_err();
-        assert!(matches!(err, IcpError::NoCorrespondences { found: 2, .. }), "{method}: {err}");
+            align(&scene, &source, &Pose::identity(), metric, &IcpSettings::default()).unwrap_err();
+        assert!(matches!(err, IcpError::NoCorrespondences { found: 2, .. }), "{metric}: {err}");
     }
 }
 
@@ -405,16 +405,16 @@ fn arbitrary_input_gives_an_error_or_a_finite_pose() {
             voxel: (rng.random_range(0..4) == 0).then(|| scale * rng.random_range(0.01..0.5)),
             ..IcpSettings::default()
         };
-        for method in Method::ALL {
-            match align(&target, &source, &init, method, &settings) {
+        for metric in Metric::ALL {
+            match align(&target, &source, &init, metric, &settings) {
                 Ok(a) => {
                     let pose = a.target_from_source;
                     let finite = pose.translation.vector.iter().chain(pose.rotation.coords.iter());
                     assert!(
                         finite.clone().all(|c| c.is_finite()),
-                        "case {case} {method}: {pose:?}"
+                        "case {case} {metric}: {pose:?}"
                     );
-                    assert!(a.rmse.is_finite() && a.inliers > 0, "case {case} {method}: {a:?}");
+                    assert!(a.rmse.is_finite() && a.inliers > 0, "case {case} {metric}: {a:?}");
                     outcomes[0] += 1;
                 }
                 Err(e) => {

@@ -3,8 +3,9 @@
 
 mod common;
 
-use gmmcalib::jrmpc::{self, Control, JrmpcError, Settings, init::cube_surface};
+use gmmcalib::jrmpc::{self, Control, EmSettings, JrmpcError};
 use gmmcalib::se3::{Pose, pose_from_xyz_rpy};
+use gmmcalib::target::cube_surface;
 use nalgebra::Point3;
 
 fn cube_points(n: usize, seed: u64, pose: &Pose) -> Vec<[f32; 3]> {
@@ -33,7 +34,7 @@ fn recovers_known_offsets_exactly_when_views_share_samples() {
     let views: Vec<Vec<[f32; 3]>> = offsets.iter().map(|o| cube_points(1500, 1, o)).collect();
     let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
     let settings =
-        Settings { initial_sigma: Some(0.5), max_iterations: 300, ..Settings::default() };
+        EmSettings { initial_sigma: Some(0.5), max_iterations: 300, ..EmSettings::default() };
     let result =
         jrmpc::register(&refs, &prior_means(300), &settings, |_| Control::Continue).unwrap();
     assert!(result.converged, "stopped after {} iterations without converging", result.iterations);
@@ -59,8 +60,8 @@ fn convergence_test_matches_fixed_iterations() {
     let views = [cube_points(1000, 2, &Pose::identity()), cube_points(1000, 2, &offset)];
     let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
     let means = prior_means(200);
-    let early = Settings { initial_sigma: Some(0.5), ..Settings::default() };
-    let fixed = Settings { tolerance: 0.0, ..early.clone() };
+    let early = EmSettings { initial_sigma: Some(0.5), ..EmSettings::default() };
+    let fixed = EmSettings { tolerance: 0.0, ..early.clone() };
     let a = jrmpc::register(&refs, &means, &early, |_| Control::Continue).unwrap();
     let b = jrmpc::register(&refs, &means, &fixed, |_| Control::Continue).unwrap();
     assert!(
@@ -81,7 +82,7 @@ fn convergence_test_matches_fixed_iterations() {
 fn progress_runs_every_iteration_and_can_cancel() {
     let views = [cube_points(300, 3, &Pose::identity()), cube_points(300, 4, &Pose::identity())];
     let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
-    let settings = Settings { tolerance: 0.0, max_iterations: 20, ..Settings::default() };
+    let settings = EmSettings { tolerance: 0.0, max_iterations: 20, ..EmSettings::default() };
     let mut seen = Vec::new();
     let result = jrmpc::register(&refs, &prior_means(50), &settings, |p| {
         seen.push(p.iteration);
@@ -98,7 +99,7 @@ fn progress_runs_every_iteration_and_can_cancel() {
 fn degenerate_input_is_a_typed_error() {
     let good = cube_points(100, 5, &Pose::identity());
     let means = prior_means(20);
-    let s = Settings::default();
+    let s = EmSettings::default();
     let run = |views: &[&[[f32; 3]]], means: &[[f64; 3]]| {
         jrmpc::register(views, means, &s, |_| Control::Continue).err()
     };
@@ -123,7 +124,7 @@ fn degenerate_input_is_a_typed_error() {
     let mut bad_means = means.clone();
     bad_means[3][0] = f64::INFINITY;
     assert_eq!(run(&[&good], &bad_means), Some(JrmpcError::NonFiniteMean { index: 3 }));
-    let no_gamma = Settings { gamma: 0.0, ..Settings::default() };
+    let no_gamma = EmSettings { gamma: 0.0, ..EmSettings::default() };
     assert!(jrmpc::register(&[&good], &means, &no_gamma, |_| Control::Continue).is_err());
 }
 
@@ -135,7 +136,8 @@ fn weak_data_never_produces_nan() {
     let good = cube_points(500, 6, &Pose::identity());
     let mut means = prior_means(50);
     means.push([500.0, 500.0, 500.0]); // a component nothing can reach
-    let settings = Settings { initial_sigma: Some(0.5), max_iterations: 30, ..Settings::default() };
+    let settings =
+        EmSettings { initial_sigma: Some(0.5), max_iterations: 30, ..EmSettings::default() };
     let result =
         jrmpc::register(&[&good, &line], &means, &settings, |_| Control::Continue).unwrap();
     for pose in &result.poses {
@@ -155,8 +157,8 @@ fn weak_data_never_produces_nan() {
 /// to 5e-4 rad, which is why the exponents stay f64.
 #[test]
 fn fast_estep_calibrates_as_the_dense_one() {
+    use common::{RigSpec, generate};
     use gmmcalib::calib::{self, InitialSigma, Method};
-    use gmmcalib::synth::{self, RigSpec};
 
     // (rig, K, mixture started at the prior's size (else the bounding box), max iterations,
     // convergence test on)
@@ -181,13 +183,13 @@ fn fast_estep_calibrates_as_the_dense_one() {
         ),
     ];
     for (n, (spec, components, prior_size, iterations, converge)) in rigs.into_iter().enumerate() {
-        let synthetic = synth::generate(&spec);
+        let synthetic = generate(&spec);
         let rig = common::rig_of(&synthetic);
         let mut settings = calib::Settings {
             method: Method::Jrmpc,
             components,
             initial_sigma: if prior_size {
-                InitialSigma::PriorSize
+                InitialSigma::TargetSize
             } else {
                 InitialSigma::BoundingBox
             },
@@ -236,10 +238,10 @@ fn threads_give_identical_results() {
         .map(|j| cube_points(800, 10 + j, if j % 2 == 0 { &offset } else { &identity }))
         .collect();
     let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
-    let one = Settings { initial_sigma: Some(0.5), max_iterations: 40, ..Settings::default() };
+    let one = EmSettings { initial_sigma: Some(0.5), max_iterations: 40, ..EmSettings::default() };
     let a = jrmpc::register(&refs, &prior_means(150), &one, |_| Control::Continue).unwrap();
     for threads in [2, 3, 8] {
-        let s = Settings { threads, ..one.clone() };
+        let s = EmSettings { threads, ..one.clone() };
         let b = jrmpc::register(&refs, &prior_means(150), &s, |_| Control::Continue).unwrap();
         assert_eq!(a.poses, b.poses, "{threads} threads");
         assert_eq!(a.mixture, b.mixture);
@@ -263,7 +265,8 @@ fn em_driven_over_uneven_shards_matches_register() {
         })
         .collect();
     let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
-    let settings = Settings { initial_sigma: Some(0.5), max_iterations: 40, ..Settings::default() };
+    let settings =
+        EmSettings { initial_sigma: Some(0.5), max_iterations: 40, ..EmSettings::default() };
     let expected =
         jrmpc::register(&refs, &prior_means(150), &settings, |_| Control::Continue).unwrap();
 
@@ -293,7 +296,7 @@ fn em_driven_over_uneven_shards_matches_register() {
         }
         em.m_step(&stats, terms);
         iterations += 1;
-        assert_eq!(em.progress().iteration, iterations);
+        assert_eq!(em.latest().iteration, iterations);
     }
     let driven = em.into_registration();
     assert_eq!(driven.poses, expected.poses);

@@ -5,9 +5,8 @@
 use gmmcalib::calib;
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::{pose_from_xyz_rpy, to_row_major, xyz_rpy};
-use gmmcalib::sim::Preset;
-use gmmcalib::synth::{self, RigSpec};
-use gmmcalib::wasm::{calibrate, parse_cloud, simulate_rig, synthetic_rig};
+use gmmcalib::twin::{Miscalibration, Model, Preset, Sampling, Twin};
+use gmmcalib::wasm::{calibrate, methods, parse_cloud, parse_config, simulate_rig};
 use js_sys::{Array, Error, Function, Reflect};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen_test::*;
@@ -18,11 +17,13 @@ fn js(body: &str, rig: &JsValue) -> JsValue {
 }
 
 fn small_rig() -> JsValue {
-    let options =
-        js("return { sensors: 2, frames: 3, pointsPerView: 1000, seed: 4 };", &JsValue::NULL);
-    let rig = synthetic_rig(options).map_err(JsValue::from).expect("syntheticRig");
+    let options = js(
+        "return { preset: 'sampled', sensors: 2, frames: 3, pointsPerView: 1000, seed: 4 };",
+        &JsValue::NULL,
+    );
+    let rig = simulate_rig(options).map_err(JsValue::from).expect("simulateRig");
     js(
-        "return { views: rig.views, nominal: rig.nominal, roi: rig.roi, truth: rig.truth, components: 200, initialSigma: 'prior' };",
+        "return { scans: rig.scans, nominal: rig.nominal, roi: rig.roi, truth: rig.truth, components: 200, initialSigma: 'prior' };",
         &rig,
     )
 }
@@ -40,26 +41,12 @@ fn calibrate_returns_the_library_result_for_the_synthetic_truth() {
     let rig = small_rig();
     let result = calibrate(rig.clone(), None).map_err(JsValue::from).expect("calibrate");
 
-    let spec =
-        RigSpec { sensors: 2, frames: 3, points_per_view: 1000, seed: 4, ..RigSpec::default() };
-    let truth = synth::generate(&spec);
-    let lib_rig = calib::Rig {
-        views: truth
-            .views
-            .iter()
-            .map(|v| calib::View {
-                sensor: v.sensor.clone(),
-                frame: v.frame.clone(),
-                points: v.points.clone(),
-            })
-            .collect(),
-        nominal: truth.nominal.clone(),
-        roi: truth.roi,
-        reference: None,
-    };
+    let sampling = Sampling { points_per_view: 1000, ..Sampling::default() };
+    let truth = Twin::new(&Model::Sampled(sampling), 3, 4, &Miscalibration::default());
+    let lib_rig = truth.rig();
     let settings = calib::Settings {
         components: 200,
-        initial_sigma: calib::InitialSigma::PriorSize,
+        initial_sigma: calib::InitialSigma::TargetSize,
         ..calib::Settings::default()
     };
     let expected = calib::calibrate(&lib_rig, &settings, |_| Control::Continue).unwrap();
@@ -68,7 +55,7 @@ fn calibrate_returns_the_library_result_for_the_synthetic_truth() {
         "result",
         "const s = result.sensors[1];
          return [...s.extrinsic, ...s.xyz, ...s.rpy, result.reference, result.iterations,
-                 result.target.means instanceof Float32Array, result.target.means.length];",
+                 result.reconstruction.means instanceof Float32Array, result.reconstruction.means.length];",
     );
     let out: Array = read.call1(&JsValue::NULL, &result).unwrap().into();
     let number = |i: u32| out.get(i).as_f64().unwrap();
@@ -91,23 +78,23 @@ fn calibrate_returns_the_library_result_for_the_synthetic_truth() {
 #[wasm_bindgen_test]
 fn bad_input_throws_errors_that_name_the_problem() {
     let cases = [
-        ("rig.views[0].sensor = 'lidar_x'; return rig;", "unknown sensor 'lidar_x'"),
+        ("rig.scans[0].sensor = 'lidar_x'; return rig;", "unknown sensor 'lidar_x'"),
         ("rig.roi = { min: [0, 0, 0], max: [-1, 1, 1] }; return rig;", "ROI is empty"),
         (
             "rig.roi = { min: [100, 100, 100], max: [101, 101, 101] }; return rig;",
             "no usable points in the ROI",
         ),
         (
-            "rig.views = rig.views.filter((v) => v.sensor === 'sensor_1'); return rig;",
+            "rig.scans = rig.scans.filter((v) => v.sensor === 'sensor_1'); return rig;",
             "at least 2 sensors",
         ),
         ("rig.nominal.sensor_2.rpy[1] = NaN; return rig;", "not finite"),
         (
-            "rig.views[1].points = rig.views[1].points.subarray(0, 301); return rig;",
+            "rig.scans[1].points = rig.scans[1].points.subarray(0, 301); return rig;",
             "not a multiple of 3",
         ),
-        ("rig.views[1].points[5] = NaN; return rig;", "point 1 is not finite"),
-        ("rig.views[0].points = [1, 2, 3]; return rig;", "invalid calibrate input"),
+        ("rig.scans[1].points[5] = NaN; return rig;", "point 1 is not finite"),
+        ("rig.scans[0].points = [1, 2, 3]; return rig;", "invalid calibrate input"),
         ("rig.reference = 'nobody'; return rig;", "unknown reference sensor 'nobody'"),
         ("return 42;", "invalid calibrate input"),
         ("rig.initialSigma = -1; return rig;", "initialSigma must be"),
@@ -157,7 +144,7 @@ fn calibrate_with_gicp() {
         "rig, result",
         "const s = result.sensors[1]; const t = rig.truth.sensor_2;
          return [result.method, Math.hypot(s.xyz[0] - t.xyz[0], s.xyz[1] - t.xyz[1], s.xyz[2] - t.xyz[2]),
-                 result.target.means.length, s.spread.frames];",
+                 result.reconstruction.means.length, s.spread.frames];",
     );
     let out: Array = read.call2(&JsValue::NULL, &rig, &result).unwrap().into();
     assert_eq!(out.get(0).as_string().unwrap(), "gicp");
@@ -210,9 +197,9 @@ fn simulate_rig_returns_a_miscalibrated_twin_with_its_truth() {
     let rig = simulate_rig(options.clone()).map_err(JsValue::from).expect("simulateRig");
     let read = Function::new_with_args(
         "rig",
-        "const v = rig.views.find((v) => v.sensor === 'front_right');
+        "const v = rig.scans.find((v) => v.sensor === 'front_right');
          const n = rig.nominal, t = rig.truth;
-         return [rig.views.length, rig.reference, v.points instanceof Float32Array, v.points.length % 3,
+         return [rig.scans.length, rig.reference, v.points instanceof Float32Array, v.points.length % 3,
                  v.points.length / 3 + v.dropped, JSON.stringify(n.front_left) === JSON.stringify(t.front_left),
                  ...n.front_right.xyz, ...n.front_right.rpy,
                  Array.from(v.points.subarray(0, 30)).join(','), rig.roi.min.join(',') + ';' + rig.roi.max.join(','),
@@ -268,4 +255,41 @@ fn simulate_rig_returns_a_miscalibrated_twin_with_its_truth() {
         let message = error_message(simulate_rig(js(options, &JsValue::NULL)));
         assert!(message.contains(expected), "{options}: got '{message}', want '{expected}'");
     }
+}
+
+/// The page asks the library what it offers and reads configs with the library's one reader.
+#[wasm_bindgen_test]
+fn methods_and_the_config_reader_come_from_the_library() {
+    let list = methods().map_err(JsValue::from).unwrap();
+    let names = js("return rig.map((m) => `${m.name}:${m.jrmpc}:${m.pairs}`).join(' ');", &list);
+    assert_eq!(
+        names.as_string().unwrap(),
+        "gmm:true:true jrmpc:true:false p2p:false:true p2l:false:true gicp:false:true"
+    );
+    let config = parse_config(
+        "transform_a: [0.1, 0.2, 0.3, 1, 2, 3]\nmin_bound: [-1, -2, -3]\nmax_bound: [1, 2, 3]\n\
+         initial_sigma: prior\ntarget_edge: 0.4\nmethod: all\n",
+        "config.yaml",
+    )
+    .map_err(JsValue::from)
+    .unwrap();
+    let read = js(
+        "return [rig.nominal.a.xyz.join(','), rig.nominal.a.rpy.join(','), rig.roi.max.join(','),
+                 rig.initialSigma, rig.edge, rig.method].join(';');",
+        &config,
+    );
+    assert_eq!(read.as_string().unwrap(), "1,2,3;0.1,0.2,0.3;1,2,3;prior;0.4;all");
+    let message = error_message(parse_config("min_bound: [1, 2, 3]\n", "c.yaml"));
+    assert!(message.contains("c.yaml: missing key max_bound"), "{message}");
+}
+
+/// `method: 'all'` runs every method through the same entry point: one result per method, in
+/// order, a failed method as `{method, error}`.
+#[wasm_bindgen_test]
+fn calibrate_compares_every_method() {
+    let rig = js("rig.method = 'all'; rig.iterations = 10; return rig;", &small_rig());
+    let result = calibrate(rig, None).map_err(JsValue::from).expect("compare all");
+    let names =
+        js("return rig.map((r) => r.error ? `${r.method}!` : r.method).join(' ');", &result);
+    assert_eq!(names.as_string().unwrap(), "gmm jrmpc p2p p2l gicp");
 }

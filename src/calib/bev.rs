@@ -15,7 +15,8 @@
 
 use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 
-use super::level::Plane;
+use super::notes::{BevWarning, SearchRange};
+use crate::plane::Plane;
 use crate::se3::{Pose, rotation_about};
 
 /// The search range and resolution.
@@ -76,36 +77,17 @@ const LOW_OVERLAP: f64 = 0.25;
 
 /// What the user should check after the search, if anything: nothing found to overlay, an
 /// overlay that lands little of the sensor's structure on the reference's, or a best candidate
-/// on the border of the range (the truth may lie beyond it). Each points at a nominal
-/// extrinsic further off than the search covers.
-pub fn warning(found: Option<&BevAlignment>, settings: &BevSettings) -> Option<String> {
-    let range = format!(
-        "yaw {:.0} deg, shift {:.2} m either way",
-        settings.max_yaw.to_degrees(),
-        settings.max_shift
-    );
+/// on the border of the range (the truth may lie beyond it).
+pub fn warning(found: Option<&BevAlignment>, settings: &BevSettings) -> Option<BevWarning> {
+    let range = SearchRange { yaw: settings.max_yaw, shift: settings.max_shift };
     let Some(found) = found else {
-        return Some(format!(
-            "the bird's-eye search found no structure above the ground to overlay on the \
-             reference's: the nominal extrinsic may be far off (the search covers {range}), or \
-             no target stands near the ROI"
-        ));
+        return Some(BevWarning::NothingToOverlay { range });
     };
     let share = found.score / found.points.max(1) as f64;
     if share < LOW_OVERLAP {
-        return Some(format!(
-            "seen from above, only {:.0} % of this sensor's structure lands on the reference's \
-             at the best overlay the search found ({range}): the nominal extrinsic may be further \
-             off than that; check it, and the result",
-            100.0 * share
-        ));
+        return Some(BevWarning::LowOverlap { share, range });
     }
-    found.at_edge.then(|| {
-        format!(
-            "the bird's-eye search ended at the edge of its range ({range}): the nominal \
-             extrinsic may be further off than that; check it, and the result"
-        )
-    })
+    found.at_edge.then_some(BevWarning::AtEdge { range })
 }
 
 /// Coordinates along the ground: an orthonormal basis (u, v) of the plane, u along the
@@ -334,7 +316,7 @@ mod tests {
         let settings = BevSettings::default();
         let found = search(&seen, &reference, &ground, &pivot, &settings).unwrap();
         assert!(found.at_edge, "{found:?}");
-        assert!(warning(Some(&found), &settings).unwrap().contains("edge of its range"));
+        assert!(matches!(warning(Some(&found), &settings), Some(BevWarning::AtEdge { .. })));
         // 3 m ahead: nothing overlaps anywhere in reach, so nothing moves, and it says so.
         let far = rotation_about(UnitQuaternion::identity(), &sensor, &Vector3::new(3.0, 0.0, 0.0));
         let seen: Vec<Vector3<f64>> =
@@ -346,8 +328,11 @@ mod tests {
             (0.0, Vector3::zeros(), 0.0),
             "{found:?}"
         );
-        assert!(warning(Some(&found), &settings).unwrap().contains("only 0 % of this sensor"));
-        assert!(warning(None, &settings).unwrap().contains("no structure above the ground"));
+        assert!(matches!(
+            warning(Some(&found), &settings),
+            Some(BevWarning::LowOverlap { share: 0.0, .. })
+        ));
+        assert!(matches!(warning(None, &settings), Some(BevWarning::NothingToOverlay { .. })));
     }
 
     #[test]

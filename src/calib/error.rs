@@ -22,10 +22,11 @@ pub enum CalibError {
     InvalidSetting(&'static str),
     UnknownMethod(String),
     Registration(JrmpcError),
+    /// A stage's work failed where it ran (a worker that crashed, say): its message.
+    StageFailed(String),
     /// Every frame of this sensor failed to register.
     FramesFailed {
         sensor: String,
-        reason: String,
     },
 }
 
@@ -55,8 +56,9 @@ impl fmt::Display for CalibError {
                 write!(f, "unknown method '{m}' (expected gmm, jrmpc, p2p, p2l or gicp)")
             }
             Self::Registration(e) => write!(f, "registration failed: {e}"),
-            Self::FramesFailed { sensor, reason } => {
-                write!(f, "no frame of sensor '{sensor}' could be registered: {reason}")
+            Self::StageFailed(message) => write!(f, "the calculation failed: {message}"),
+            Self::FramesFailed { sensor } => {
+                write!(f, "no frame of sensor '{sensor}' could be registered: every frame failed")
             }
         }
     }

@@ -3,38 +3,18 @@
 //!
 //! Why: each sensor is cropped to the ROI in its own, wrong, nominal frame. With a few degrees
 //! of pitch error the ground 10 m ahead moves tens of centimetres, so one sensor's crop holds
-//! ground the other's lacks, and every registration then fits lopsided data (README, "Where
-//! the bias comes from"). The ground fixes roll, pitch and height; levelling applies exactly
+//! ground the other's lacks, and every registration then fits lopsided data (docs/method.md,
+//! "Where the bias comes from"). The ground fixes roll, pitch and height; levelling applies exactly
 //! that and nothing else (the shortest rotation between the two normals, about a point on the
 //! plane under the ROI), so yaw and the in-plane translation are left to the registration.
 
-use nalgebra::{Matrix3, Point3, SymmetricEigen, U3, UnitQuaternion, Vector3};
+use crate::cloud::{Aabb, is_valid_point};
+pub use crate::plane::Plane;
+use crate::plane::principal_axes;
+use crate::se3::{Pose, rotation_about};
+use nalgebra::{Point3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
-use serde::{Deserialize, Serialize};
-
-use super::bev::BevAlignment;
-use crate::cloud::{Aabb, is_valid_point};
-use crate::se3::{Pose, rotation_about};
-
-/// A plane `normal . p + offset = 0` with a unit normal pointing up (+z).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Plane {
-    pub normal: Vector3<f64>,
-    pub offset: f64,
-}
-
-impl Plane {
-    /// Signed distance (m) of `p` above the plane.
-    pub fn distance(&self, p: &Vector3<f64>) -> f64 {
-        self.normal.dot(p) + self.offset
-    }
-
-    /// The point of the plane nearest to `p`.
-    pub fn project(&self, p: &Vector3<f64>) -> Vector3<f64> {
-        p - self.normal * self.distance(p)
-    }
-}
 
 /// How the ground is searched for.
 #[derive(Clone, Debug, PartialEq)]
@@ -67,27 +47,6 @@ impl Default for GroundSettings {
             normal_band: 0.03,
         }
     }
-}
-
-/// The ground of one sensor and the levelling applied to its points.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Levelling {
-    pub sensor: String,
-    /// The sensor's ground plane, in the nominal vehicle frame (before levelling).
-    pub ground: Option<Plane>,
-    /// Points on it (all frames).
-    pub inliers: usize,
-    /// Applied to the sensor's pre-aligned points before cropping: the levelling, then the
-    /// bird's-eye search's motion; identity when either this sensor's or the reference's
-    /// ground was not found.
-    pub applied: Pose,
-    /// The bird's-eye search's yaw and shift (non-reference sensors with a ground, when on).
-    pub bev: Option<BevAlignment>,
-    /// Why nothing was applied, if nothing was.
-    pub note: Option<String>,
-    /// What the user should check, if anything: a bird's-eye search that suggests the nominal
-    /// is further off than it reaches (`bev::warning`).
-    pub warning: Option<String>,
 }
 
 /// RANSAC plane fit over `points` with a normal within `max_tilt` of +z, refined by least
@@ -157,23 +116,6 @@ fn least_squares_plane(points: &[&Vector3<f64>]) -> Option<(Plane, f64)> {
         .iter()
         .all(|c| c.is_finite())
         .then(|| (Plane { normal, offset: -normal.dot(&centroid) }, extent))
-}
-
-/// The centroid of `points` (at least one) and the eigen-decomposition of their covariance
-/// about it: the least-squares plane's normal is the eigenvector of the smallest eigenvalue.
-pub(super) fn principal_axes<'a, I>(points: I) -> Option<(Vector3<f64>, SymmetricEigen<f64, U3>)>
-where
-    I: IntoIterator<Item = &'a Vector3<f64>>,
-    I::IntoIter: Clone + ExactSizeIterator,
-{
-    let points = points.into_iter();
-    let n = points.len() as f64;
-    let centroid = points.clone().fold(Vector3::zeros(), |s, p| s + p) / n;
-    let covariance = points.fold(Matrix3::zeros(), |s, p| {
-        let d = p - centroid;
-        s + d * d.transpose()
-    }) / n;
-    Some((centroid, SymmetricEigen::try_new(covariance, f64::EPSILON, 1000)?))
 }
 
 /// The smallest rigid motion taking `from` onto `to`: the shortest rotation between the

@@ -1,34 +1,37 @@
-//! What the user chooses: the method, the prior and how wide the mixture starts, and the
+//! What the user chooses: the method, the target and how wide the mixture starts, and the
 //! settings of every stage. Every default number lives here or in the stage it belongs to.
+//! [`Stages::of`] resolves the method, once, into the stages that run.
 
 use std::str::FromStr;
 
 use super::CalibError;
 use super::bev::BevSettings;
 use super::level::GroundSettings;
+use super::pairs::PairSettings;
 use super::planes::PlaneSettings;
-use super::refine::RefineSettings;
 use crate::icp::{self, IcpSettings};
-use crate::jrmpc::{self, Prior};
+use crate::jrmpc;
+use crate::target::Target;
 
 /// How the per-frame corrections are found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
-    /// JRMPC, then per-frame point-to-plane refinement: the product's default.
+    /// Levelling, the bird's-eye search, JRMPC, GICP of each frame pair, the joint plane
+    /// adjustment: the product's default.
     Gmm,
     /// Plain JRMPC, as GMMCalib computes it.
     Jrmpc,
     /// An ICP baseline from the nominal pre-alignment.
-    Icp(icp::Method),
+    Icp(icp::Metric),
 }
 
 impl Method {
     pub const ALL: [Method; 5] = [
         Method::Gmm,
         Method::Jrmpc,
-        Method::Icp(icp::Method::PointToPoint),
-        Method::Icp(icp::Method::PointToPlane),
-        Method::Icp(icp::Method::Gicp),
+        Method::Icp(icp::Metric::PointToPoint),
+        Method::Icp(icp::Metric::PointToPlane),
+        Method::Icp(icp::Metric::Gicp),
     ];
 
     /// `gmm`, `jrmpc`, `p2p`, `p2l` or `gicp`.
@@ -40,8 +43,12 @@ impl Method {
         }
     }
 
-    pub fn uses_jrmpc(&self) -> bool {
-        matches!(self, Method::Gmm | Method::Jrmpc)
+    /// `all` (every method, compared) or one method's name.
+    pub fn parse_list(s: &str) -> Result<Vec<Method>, CalibError> {
+        if s.trim().eq_ignore_ascii_case("all") {
+            return Ok(Method::ALL.to_vec());
+        }
+        s.split(',').map(str::parse).collect()
     }
 }
 
@@ -63,68 +70,132 @@ pub enum InitialSigma {
     /// of all points and means. Every mean collapses onto the data's centroid in the first
     /// iteration and the mixture then unfolds along the data's principal directions; with a
     /// ground patch in the ROI (the usual case) that guides every view, but a ROI holding only
-    /// a cube (isotropic second moments) leaves the views free to drift (README, "Initial
-    /// width").
+    /// a cube (isotropic second moments) leaves the views free to drift (docs/method.md,
+    /// "Initial width").
     BoundingBox,
-    /// The size of the prior (cube edge, sphere diameter): the mixture keeps the prior's shape
-    /// and catches the target under a few degrees of mounting error. Right for a ROI that holds
-    /// only the target; user-given means fall back to the bounding-box rule.
-    PriorSize,
+    /// The target's size (cube edge, sphere diameter): the mixture keeps the target's shape
+    /// and catches it under a few degrees of mounting error. Right for a ROI that holds only
+    /// the target.
+    TargetSize,
     /// A fixed standard deviation (m).
     Fixed(f64),
 }
 
-/// Calibration settings; every default number lives here or in `jrmpc::Settings`.
+impl InitialSigma {
+    /// What a setting of the initial width may be, in words.
+    pub const EXPECTED: &str = "expected a positive number (m), \"prior\" or \"bbox\"";
+
+    /// `"prior"` (the target's size) or `"bbox"` (the bounding box).
+    pub fn from_rule(rule: &str) -> Result<Self, String> {
+        match rule {
+            "prior" => Ok(InitialSigma::TargetSize),
+            "bbox" => Ok(InitialSigma::BoundingBox),
+            _ => Err(Self::EXPECTED.to_string()),
+        }
+    }
+
+    /// A fixed width (m): positive and finite.
+    pub fn fixed(sigma: f64) -> Result<Self, String> {
+        if sigma.is_finite() && sigma > 0.0 {
+            Ok(InitialSigma::Fixed(sigma))
+        } else {
+            Err(Self::EXPECTED.to_string())
+        }
+    }
+}
+
+/// Calibration settings; every default number lives here or in the settings of its stage.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
     pub method: Method,
-    pub prior: Prior,
+    pub target: Target,
     /// Number of mixture components K (GMMCalib: about 400).
     pub components: usize,
-    /// Seeds the prior sampler.
+    /// Seeds every random choice (the target's surface samples, RANSAC).
     pub seed: u64,
     /// Views with fewer points than this inside the ROI are skipped.
     pub min_view_points: usize,
     pub initial_sigma: InitialSigma,
-    pub jrmpc: jrmpc::Settings,
-    /// For the ICP baselines.
+    pub jrmpc: jrmpc::EmSettings,
+    /// For the ICP methods.
     pub icp: IcpSettings,
-    /// For `gmm`'s refinement.
-    pub refine: RefineSettings,
+    /// For `gmm`'s frame pairs (the refinement of JRMPC's corrections).
+    pub refine: PairSettings,
     /// For `gmm`'s joint plane adjustment after the refinement; `None`: off.
     pub planes: Option<PlaneSettings>,
-    /// Level each sensor's ground onto the reference's before cropping (README, "Where the
-    /// bias comes from"); `None`: only for `gmm` (the paper's methods run as published).
+    /// Level each sensor's ground onto the reference's before cropping (docs/method.md,
+    /// "Where the bias comes from"); `None`: only for `gmm` (the paper's methods run as
+    /// published).
     pub level_ground: Option<bool>,
     pub ground: GroundSettings,
-    /// After levelling, search yaw and in-plane shift from above (README, "Beyond the spec");
-    /// `None`: off.
+    /// After levelling, search yaw and in-plane shift from above (docs/method.md, "Beyond the
+    /// spec"); `None`: off.
     pub bev: Option<BevSettings>,
-}
-
-impl Settings {
-    /// Whether ground levelling runs.
-    pub fn levels_ground(&self) -> bool {
-        self.level_ground.unwrap_or(self.method == Method::Gmm)
-    }
 }
 
 impl Default for Settings {
     fn default() -> Self {
         Self {
             method: Method::Gmm,
-            prior: Prior::default(),
+            target: Target::default(),
             components: 400,
             seed: 0,
             min_view_points: 10,
             initial_sigma: InitialSigma::BoundingBox,
-            jrmpc: jrmpc::Settings::default(),
+            jrmpc: jrmpc::EmSettings::default(),
             icp: IcpSettings::default(),
-            refine: RefineSettings::default(),
+            refine: PairSettings::default(),
             planes: Some(PlaneSettings::default()),
             level_ground: None,
             ground: GroundSettings::default(),
             bev: Some(BevSettings::default()),
+        }
+    }
+}
+
+impl Settings {
+    /// Errors in settings no stage can run with.
+    pub(super) fn check(&self) -> Result<(), CalibError> {
+        if self.components == 0 {
+            return Err(CalibError::InvalidSetting("components must be at least 1"));
+        }
+        Ok(())
+    }
+}
+
+/// The stages a method runs, decided once from the settings: nothing downstream asks which
+/// method it is.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stages {
+    pub method: Method,
+    /// Level each sensor's ground onto the reference's, then (when set) search yaw and shift
+    /// from above.
+    pub level: bool,
+    pub bev: Option<BevSettings>,
+    /// Register every view jointly to one mixture; its reconstruction is fitted to the target.
+    pub jrmpc: bool,
+    /// Register each frame pair by ICP: from JRMPC's corrections (`gmm`) or the nominal.
+    pub pairs: Option<PairSettings>,
+    /// The joint plane adjustment of every sensor over all frames.
+    pub planes: Option<PlaneSettings>,
+}
+
+impl Stages {
+    pub fn of(settings: &Settings) -> Self {
+        let method = settings.method;
+        let level = settings.level_ground.unwrap_or(method == Method::Gmm);
+        let pairs = match method {
+            Method::Gmm => Some(settings.refine.clone()),
+            Method::Icp(metric) => Some(PairSettings::from_nominal(metric, &settings.icp)),
+            Method::Jrmpc => None,
+        };
+        Self {
+            method,
+            level,
+            bev: settings.bev.clone().filter(|_| level),
+            jrmpc: matches!(method, Method::Gmm | Method::Jrmpc),
+            pairs,
+            planes: settings.planes.clone().filter(|_| method == Method::Gmm),
         }
     }
 }

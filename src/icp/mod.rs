@@ -2,8 +2,8 @@
 //! GICP (Segal et al. 2009), as compared against in the GMMCalib paper.
 //!
 //! Two tiers, as in small_gicp: [`align`] with an [`IcpSettings`] for most uses; underneath, a
-//! [`Target`] prepared once (kd-tree, normals or covariances) and [`Target::align`]ed with many
-//! sources (or with a [`Source`] prepared once for several runs), plus the [`KdTree`] and the
+//! [`TargetCloud`] prepared once (kd-tree, normals or covariances) and [`TargetCloud::align`]ed with many
+//! sources (or with a [`SourceCloud`] prepared once for several runs), plus the [`KdTree`] and the
 //! [`normals`] estimators themselves.
 //!
 //! Frames: the result `T_target_source` maps source points into the target frame,
@@ -24,13 +24,13 @@ use serde::{Deserialize, Serialize};
 
 pub use kdtree::{KdTree, Neighbour};
 pub use point::kabsch;
-pub use target::{Source, Target};
+pub use target::{SourceCloud, TargetCloud};
 
 use crate::se3::Pose;
 
-/// The registration method.
+/// The registration metric.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Method {
+pub enum Metric {
     /// Point-to-point: closed-form SVD step each iteration.
     PointToPoint,
     /// Point-to-plane with PCA normals of the target: Levenberg-Marquardt on SE(3).
@@ -39,34 +39,34 @@ pub enum Method {
     Gicp,
 }
 
-impl Method {
-    pub const ALL: [Method; 3] = [Method::PointToPoint, Method::PointToPlane, Method::Gicp];
+impl Metric {
+    pub const ALL: [Metric; 3] = [Metric::PointToPoint, Metric::PointToPlane, Metric::Gicp];
 
     /// Short name: `"p2p"`, `"p2l"` or `"gicp"` (what [`FromStr`] accepts).
     pub fn name(&self) -> &'static str {
         match self {
-            Method::PointToPoint => "p2p",
-            Method::PointToPlane => "p2l",
-            Method::Gicp => "gicp",
+            Metric::PointToPoint => "p2p",
+            Metric::PointToPlane => "p2l",
+            Metric::Gicp => "gicp",
         }
     }
 }
 
-impl fmt::Display for Method {
+impl fmt::Display for Metric {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
     }
 }
 
-impl FromStr for Method {
+impl FromStr for Metric {
     type Err = IcpError;
 
     /// Parses a short name, ignoring ASCII case.
     fn from_str(s: &str) -> Result<Self, IcpError> {
-        Method::ALL
+        Metric::ALL
             .into_iter()
             .find(|m| m.name().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| IcpError::UnknownMethod(s.to_string()))
+            .ok_or_else(|| IcpError::UnknownMetric(s.to_string()))
     }
 }
 
@@ -171,8 +171,8 @@ pub enum IcpError {
     InvalidSettings(&'static str),
     /// The initial pose has a non-finite component.
     InvalidInitialPose,
-    /// A method name other than `p2p`, `p2l`, `gicp`.
-    UnknownMethod(String),
+    /// A metric name other than `p2p`, `p2l`, `gicp`.
+    UnknownMetric(String),
     /// A point has a NaN or infinite coordinate.
     NonFinitePoint { cloud: Role, index: usize },
     /// Fewer points (after downsampling) than a rigid transform needs.
@@ -192,8 +192,8 @@ impl fmt::Display for IcpError {
             IcpError::InvalidInitialPose => {
                 write!(f, "the initial pose has a non-finite component")
             }
-            IcpError::UnknownMethod(name) => {
-                write!(f, "unknown ICP method '{name}' (expected p2p, p2l or gicp)")
+            IcpError::UnknownMetric(name) => {
+                write!(f, "unknown ICP metric '{name}' (expected p2p, p2l or gicp)")
             }
             IcpError::NonFinitePoint { cloud, index } => {
                 write!(f, "{cloud} point {index} has a NaN or infinite coordinate")
@@ -227,16 +227,16 @@ impl fmt::Display for IcpError {
 impl std::error::Error for IcpError {}
 
 /// Registers `source` onto `target` from the initial guess `init` (`T_target_source`) and
-/// returns the refined `T_target_source`. Prepares a [`Target`] and calls [`Target::align`];
+/// returns the refined `T_target_source`. Prepares a [`TargetCloud`] and calls [`TargetCloud::align`];
 /// prepare the target yourself to reuse it for several sources.
 pub fn align(
     target: &[[f32; 3]],
     source: &[[f32; 3]],
     init: &Pose,
-    method: Method,
+    metric: Metric,
     settings: &IcpSettings,
 ) -> Result<Alignment, IcpError> {
-    Target::new(target, method, settings)?.align(source, init, settings)
+    TargetCloud::new(target, metric, settings)?.align(source, init, settings)
 }
 
 #[cfg(test)]
@@ -245,12 +245,12 @@ mod tests {
 
     #[test]
     fn method_names_round_trip() {
-        for m in Method::ALL {
-            assert_eq!(m.name().parse::<Method>(), Ok(m));
+        for m in Metric::ALL {
+            assert_eq!(m.name().parse::<Metric>(), Ok(m));
             assert_eq!(m.to_string(), m.name());
         }
-        assert_eq!(" GICP".parse::<Method>(), Ok(Method::Gicp));
-        let err = "ndt".parse::<Method>().unwrap_err();
+        assert_eq!(" GICP".parse::<Metric>(), Ok(Metric::Gicp));
+        let err = "ndt".parse::<Metric>().unwrap_err();
         assert!(err.to_string().contains("'ndt'"), "{err}");
     }
 

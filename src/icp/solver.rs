@@ -1,4 +1,4 @@
-//! The ICP loop shared by all methods: match every source point to its nearest target point
+//! The ICP loop shared by all metrics: match every source point to its nearest target point
 //! within range, let a [`Step`] propose the next `T_target_source`, stop when the update is small.
 //! Also the Levenberg-Marquardt step on SE(3) over any linearisable [`Factor`] (small_gicp's
 //! `LevenbergMarquardtOptimizer`).

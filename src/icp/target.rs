@@ -1,5 +1,5 @@
 //! A target cloud prepared once for registration (kd-tree plus normals or covariances, as the
-//! method needs) and reused for any number of sources, e.g. every sensor's view of one frame;
+//! metric needs) and reused for any number of sources, e.g. every sensor's view of one frame;
 //! and a source prepared once (tree order, GICP covariances) for several registrations, e.g.
 //! stages with a shrinking match distance.
 
@@ -11,7 +11,7 @@ use super::normals::{normals, plane_covariance, plane_covariances};
 use super::plane::PointToPlane;
 use super::point::PointToPoint;
 use super::solver::{self, LevenbergMarquardt};
-use super::{Alignment, IcpError, IcpSettings, Method, Role};
+use super::{Alignment, IcpError, IcpSettings, Metric, Role};
 use crate::cloud::Cloud;
 use crate::se3::Pose;
 
@@ -25,36 +25,36 @@ const MIN_SPREAD_RATIO: f64 = 1e-4;
 /// Largest principal variance (m^2) below which all points coincide (to a micrometre).
 const MIN_VARIANCE: f64 = 1e-12;
 
-/// The target side of a registration, prepared for one [`Method`].
+/// The target side of a registration, prepared for one [`Metric`].
 #[derive(Clone, Debug)]
-pub struct Target {
-    method: Method,
+pub struct TargetCloud {
+    metric: Metric,
     points: Vec<[f32; 3]>,
     tree: KdTree,
     normals: Vec<Vector3<f64>>,
     covariances: Vec<Matrix3<f64>>,
 }
 
-impl Target {
+impl TargetCloud {
     /// Checks and (when `settings.voxel` is set) downsamples `points`, builds the kd-tree and,
     /// from `settings.neighbours` nearest neighbours, the normals (point-to-plane) or the
     /// plane-regularised covariances (GICP).
     pub fn new(
         points: &[[f32; 3]],
-        method: Method,
+        metric: Metric,
         settings: &IcpSettings,
     ) -> Result<Self, IcpError> {
         let (points, tree) = indexed(points, Role::Target, settings)?;
         let k = settings.neighbours;
         let normals =
-            if method == Method::PointToPlane { normals(&points, &tree, k) } else { Vec::new() };
+            if metric == Metric::PointToPlane { normals(&points, &tree, k) } else { Vec::new() };
         let covariances =
-            if method == Method::Gicp { plane_covariances(&points, &tree, k) } else { Vec::new() };
-        Ok(Self { method, points, tree, normals, covariances })
+            if metric == Metric::Gicp { plane_covariances(&points, &tree, k) } else { Vec::new() };
+        Ok(Self { metric, points, tree, normals, covariances })
     }
 
-    pub fn method(&self) -> Method {
-        self.method
+    pub fn metric(&self) -> Metric {
+        self.metric
     }
 
     /// The points used (after downsampling), in f32 as given.
@@ -81,7 +81,7 @@ impl Target {
     /// neighbourhood to show the plane. Sets the normal (point-to-plane) or plane covariance
     /// (GICP). Returns how many points changed.
     pub fn set_normals(&mut self, normal_at: impl Fn(&[f32; 3]) -> Option<Vector3<f64>>) -> usize {
-        if self.method == Method::PointToPoint {
+        if self.metric == Metric::PointToPoint {
             return 0;
         }
         let mut changed = 0;
@@ -89,8 +89,8 @@ impl Target {
             let Some(n) = normal_at(&self.points[i]) else {
                 continue;
             };
-            match self.method {
-                Method::PointToPlane => self.normals[i] = n,
+            match self.metric {
+                Metric::PointToPlane => self.normals[i] = n,
                 _ => self.covariances[i] = plane_covariance(&n),
             }
             changed += 1;
@@ -106,14 +106,14 @@ impl Target {
         init: &Pose,
         settings: &IcpSettings,
     ) -> Result<Alignment, IcpError> {
-        self.align_prepared(&Source::new(source, self.method, settings)?, init, settings)
+        self.align_prepared(&SourceCloud::new(source, self.metric, settings)?, init, settings)
     }
 
-    /// [`Target::align`] for a source prepared once, with the same method; `neighbours` and
+    /// [`TargetCloud::align`] for a source prepared once, with the same metric; `neighbours` and
     /// `voxel` were taken when it was.
     pub fn align_prepared(
         &self,
-        source: &Source,
+        source: &SourceCloud,
         init: &Pose,
         settings: &IcpSettings,
     ) -> Result<Alignment, IcpError> {
@@ -121,17 +121,17 @@ impl Target {
         if !solver::is_finite(init) {
             return Err(IcpError::InvalidInitialPose);
         }
-        if source.method != self.method {
-            return Err(IcpError::InvalidSettings("the source was prepared for another method"));
+        if source.metric != self.metric {
+            return Err(IcpError::InvalidSettings("the source was prepared for another metric"));
         }
-        let Source { points: source, covariances: source_covariances, .. } = source;
+        let SourceCloud { points: source, covariances: source_covariances, .. } = source;
         let (tree, target) = (&self.tree, &self.points[..]);
-        match self.method {
-            Method::PointToPoint => {
+        match self.metric {
+            Metric::PointToPoint => {
                 let mut step = PointToPoint { target, source };
                 solver::run(tree, target, source, &mut step, init, settings)
             }
-            Method::PointToPlane => {
+            Metric::PointToPlane => {
                 let factor =
                     PointToPlane::new(target, &self.normals, source, settings.robust_scale);
                 solver::run(
@@ -143,7 +143,7 @@ impl Target {
                     settings,
                 )
             }
-            Method::Gicp => {
+            Metric::Gicp => {
                 let factor = Gicp::new(
                     target,
                     &self.covariances,
@@ -164,10 +164,10 @@ impl Target {
     }
 }
 
-/// The source side of a registration, prepared for one [`Method`].
+/// The source side of a registration, prepared for one [`Metric`].
 #[derive(Clone, Debug)]
-pub struct Source {
-    method: Method,
+pub struct SourceCloud {
+    metric: Metric,
     /// In kd-tree order: consecutive queries then land close together in the target tree,
     /// which stays in cache (merged clouds are not spatially ordered).
     points: Vec<Vector3<f64>>,
@@ -175,24 +175,24 @@ pub struct Source {
     covariances: Vec<Matrix3<f64>>,
 }
 
-impl Source {
+impl SourceCloud {
     /// Checks and (when `settings.voxel` is set) downsamples `points` and, for GICP, computes
     /// their covariances from `settings.neighbours` nearest neighbours.
     pub fn new(
         points: &[[f32; 3]],
-        method: Method,
+        metric: Metric,
         settings: &IcpSettings,
     ) -> Result<Self, IcpError> {
         let (points, tree) = indexed(points, Role::Source, settings)?;
         let order: Vec<usize> = tree.tree_order().collect();
-        let covariances = if method == Method::Gicp {
+        let covariances = if metric == Metric::Gicp {
             let covariances = plane_covariances(&points, &tree, settings.neighbours);
             order.iter().map(|&i| covariances[i]).collect()
         } else {
             Vec::new()
         };
         let points = order.iter().map(|&i| Vector3::from(points[i].map(f64::from))).collect();
-        Ok(Self { method, points, covariances })
+        Ok(Self { metric, points, covariances })
     }
 }
 

@@ -8,16 +8,15 @@
 
 mod estep;
 mod grid;
-pub mod init;
 mod kernel;
 pub mod model;
 mod mstep;
+pub mod wire;
 
 use std::fmt;
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
-pub use init::Prior;
 pub use model::Mixture;
 
 use crate::se3::Pose;
@@ -25,7 +24,7 @@ pub use model::ViewStats;
 
 /// EM settings. Defaults are GMMCalib's, except the variance floor and the convergence test.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Settings {
+pub struct EmSettings {
     /// Upper bound on EM iterations (GMMCalib runs exactly 100).
     pub max_iterations: usize,
     /// Stop once no view's transform relative to the first view's moves by more than this in
@@ -52,7 +51,7 @@ pub struct Settings {
     pub threads: usize,
 }
 
-impl Default for Settings {
+impl Default for EmSettings {
     fn default() -> Self {
         Self {
             max_iterations: 100,
@@ -68,7 +67,7 @@ impl Default for Settings {
 }
 
 /// What the progress callback sees after each iteration.
-pub struct Progress {
+pub struct Iteration {
     /// 1-based iteration just completed.
     pub iteration: usize,
     /// `T_model_view` for every view, in the caller's frame.
@@ -156,27 +155,56 @@ impl std::error::Error for JrmpcError {}
 /// Registers `views` (points in a common, roughly aligned frame) jointly to a mixture that
 /// starts at `initial_means`. `progress` runs after every iteration and may stop the run.
 ///
-/// The loop of [`Em`] and [`Shard`]s that a caller with its own workers drives step by step
-/// (the browser's worker pool, `src/wasm/session.rs`); with `settings.threads` > 1 the shards
-/// run on native threads.
+/// The loop of [`Em`] and [`Shards`] that a caller with its own workers drives step by step
+/// (the browser's worker pool); with `settings.threads` > 1 the shards run on native threads.
 pub fn register(
     views: &[&[[f32; 3]]],
     initial_means: &[[f64; 3]],
-    settings: &Settings,
-    mut progress: impl FnMut(&Progress) -> Control,
+    settings: &EmSettings,
+    mut progress: impl FnMut(&Iteration) -> Control,
 ) -> Result<Registration, JrmpcError> {
     let (mut em, points) = Em::start(views, initial_means, settings)?;
-    let threads = crate::threads_here(settings.threads);
-    let per = points.len().div_ceil(threads.min(points.len()).max(1));
-    let mut shards: Vec<Shard> = Vec::new();
-    let mut points = points.into_iter().peekable();
-    while points.peek().is_some() {
-        shards.push(Shard::new(points.by_ref().take(per).collect(), settings.dense));
-    }
-    let mut stats = em.empty_stats();
+    let mut shards = Shards::new(points, settings.threads, settings.dense);
     while !em.finished() {
+        shards.iterate(&mut em);
+        if progress(&em.latest()) == Control::Stop {
+            em.cancel();
+        }
+    }
+    Ok(em.into_registration())
+}
+
+/// The views split into contiguous [`Shard`]s, one per thread (native; one in wasm32), and
+/// the statistics they fill.
+pub struct Shards {
+    shards: Vec<Shard>,
+    /// Views per shard (the last may hold fewer).
+    per: usize,
+    stats: Vec<ViewStats>,
+}
+
+impl Shards {
+    pub fn new(points: CentredViews, threads: usize, dense: bool) -> Self {
+        let threads = crate::threads_here(threads);
+        let per = points.len().div_ceil(threads.min(points.len()).max(1));
+        let mut shards: Vec<Shard> = Vec::new();
+        let mut points = points.into_iter().peekable();
+        while points.peek().is_some() {
+            shards.push(Shard::new(points.by_ref().take(per).collect(), dense));
+        }
+        Self { shards, per, stats: Vec::new() }
+    }
+
+    /// One EM iteration: every shard's E-step (on threads when there are several), then
+    /// `em`'s M-step with all the views' statistics in view order.
+    pub fn iterate(&mut self, em: &mut Em) {
+        if self.stats.len() != em.transforms().len() {
+            self.stats = em.empty_stats();
+        }
         let (mixture, beta, transforms) = (em.mixture(), em.beta(), em.transforms());
-        let jobs = shards.iter_mut().zip(stats.chunks_mut(per)).zip(transforms.chunks(per));
+        let per = self.per.max(1);
+        let jobs =
+            self.shards.iter_mut().zip(self.stats.chunks_mut(per)).zip(transforms.chunks(per));
         let terms = if jobs.len() == 1 {
             jobs.map(|((shard, st), t)| shard.e_step(mixture, beta, t, st)).sum()
         } else {
@@ -187,12 +215,8 @@ pub fn register(
                 handles.into_iter().map(|h| h.join().expect("E-step thread")).sum()
             })
         };
-        em.m_step(&stats, terms);
-        if progress(&em.progress()) == Control::Stop {
-            em.cancel();
-        }
+        em.m_step(&self.stats, terms);
     }
-    Ok(em.into_registration())
 }
 
 /// Every view's points, centred on the views' common centroid: what the shards hold.
@@ -204,7 +228,7 @@ pub type CentredViews = Vec<Vec<Vector3<f64>>>;
 /// [`Em::m_step`] takes them all, in view order: so the result does not depend on how the views
 /// were split, or where the shards ran.
 pub struct Em {
-    settings: Settings,
+    settings: EmSettings,
     centre: Vector3<f64>,
     mixture: Mixture,
     beta: f64,
@@ -223,7 +247,7 @@ impl Em {
     pub fn start(
         views: &[&[[f32; 3]]],
         initial_means: &[[f64; 3]],
-        settings: &Settings,
+        settings: &EmSettings,
     ) -> Result<(Self, CentredViews), JrmpcError> {
         validate(views, initial_means, settings)?;
         let centre = common_centroid(views);
@@ -318,13 +342,13 @@ impl Em {
     }
 
     /// The last iteration, with the views' poses in the caller's frame.
-    pub fn progress(&self) -> Progress {
+    pub fn latest(&self) -> Iteration {
         let last = self.history.last().copied().unwrap_or(IterationStats {
             mean_sigma: self.mixture.mean_sigma(),
             max_change: f64::INFINITY,
             terms: 0,
         });
-        Progress {
+        Iteration {
             iteration: self.iteration(),
             poses: self.poses(),
             mean_sigma: last.mean_sigma,
@@ -370,7 +394,7 @@ pub struct Shard {
 }
 
 impl Shard {
-    /// `dense`: the exact reference E-step ([`Settings::dense`]).
+    /// `dense`: the exact reference E-step ([`EmSettings::dense`]).
     pub fn new(views: Vec<Vec<Vector3<f64>>>, dense: bool) -> Self {
         Self { views, dense, scratch: estep::Scratch::new(), dense_terms: Vec::new() }
     }
@@ -409,7 +433,7 @@ impl Shard {
 fn validate(
     views: &[&[[f32; 3]]],
     means: &[[f64; 3]],
-    settings: &Settings,
+    settings: &EmSettings,
 ) -> Result<(), JrmpcError> {
     if views.is_empty() {
         return Err(JrmpcError::NoViews);

@@ -1,20 +1,22 @@
-//! `calibrate(input, onProgress?)`: a rig in, the calibration out (README, "Wasm API").
+//! `calibrate(input, onProgress?)`: a rig in, the calibration out (docs/api.md); `methods()`:
+//! the methods the library offers, for the page's picker.
 
 use std::collections::BTreeMap;
 
-use js_sys::{Float32Array, Function, Reflect};
+use js_sys::{Array, Float32Array, Function, Reflect};
 use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
 use super::{Roi, XyzRpy, to_js};
-use crate::calib::{self, Calibration, InitialSigma, Rig, View};
+use crate::calib::{self, Calibration, InitialSigma, Method, MethodOutcome, Rig, Scan};
 use crate::cloud::Aabb;
-use crate::jrmpc::{Control, Prior};
+use crate::jrmpc::Control;
 use crate::report::Report;
 use crate::se3::{Pose, pose_from_xyz_rpy, to_row_major};
+use crate::target::Target;
 
 #[derive(Deserialize)]
-struct ViewInput {
+struct ScanInput {
     sensor: String,
     frame: String,
     #[serde(with = "serde_wasm_bindgen::preserve")]
@@ -25,16 +27,17 @@ struct ViewInput {
 #[serde(tag = "kind", rename_all = "lowercase")]
 enum TargetInput {
     Cube { edge: f64 },
-    Sphere { radius: f64 },
+    Sphere { diameter: f64 },
 }
 
 #[derive(Deserialize)]
 #[serde(rename_all = "camelCase")]
-struct CalibrateInput {
-    views: Vec<ViewInput>,
+pub(super) struct CalibrateInput {
+    scans: Vec<ScanInput>,
     nominal: BTreeMap<String, XyzRpy>,
     roi: Roi,
     reference: Option<String>,
+    /// A method's name, or `all`.
     method: Option<String>,
     target: Option<TargetInput>,
     components: Option<usize>,
@@ -55,6 +58,8 @@ enum InitialSigmaInput {
 #[derive(Serialize)]
 #[serde(rename_all = "camelCase")]
 struct ProgressOutput<'a> {
+    /// The method this progress is of.
+    method: &'static str,
     /// "jrmpc" (EM's iterations) or "framePairs" (pairs registered).
     stage: &'static str,
     iteration: usize,
@@ -66,6 +71,36 @@ struct ProgressOutput<'a> {
     sensors: &'a [String],
 }
 
+#[derive(Serialize)]
+struct MethodInfo {
+    name: &'static str,
+    /// What it does, in a few words.
+    label: &'static str,
+    /// Runs JRMPC (and reconstructs the target).
+    jrmpc: bool,
+    /// Registers frame pairs by ICP.
+    pairs: bool,
+}
+
+/// The methods `calibrate` takes (besides `all`, which compares them), with a label and the
+/// stages each runs.
+#[wasm_bindgen]
+pub fn methods() -> Result<JsValue, JsError> {
+    let list: Vec<MethodInfo> = Method::ALL
+        .iter()
+        .map(|&method| {
+            let stages = calib::Stages::of(&calib::Settings { method, ..Default::default() });
+            MethodInfo {
+                name: method.name(),
+                label: method.label(),
+                jrmpc: stages.jrmpc,
+                pairs: stages.pairs.is_some(),
+            }
+        })
+        .collect();
+    to_js(&list)
+}
+
 fn pose_of(name: &str, p: &XyzRpy) -> Result<Pose, JsError> {
     if p.xyz.iter().chain(&p.rpy).all(|v| v.is_finite()) {
         Ok(pose_from_xyz_rpy(p.xyz, p.rpy))
@@ -74,33 +109,62 @@ fn pose_of(name: &str, p: &XyzRpy) -> Result<Pose, JsError> {
     }
 }
 
-/// Calibrates a rig. `input` and the result are documented in the README ("Wasm API").
-/// `onProgress(progress)` runs after every EM iteration; returning `false` cancels the run.
+/// Calibrates a rig by one method, or by every method when `input.method` is `'all'` (an
+/// array of results, with `{method, error}` for a method that failed). `onProgress(progress)`
+/// runs after every EM iteration and frame pair; returning `false` cancels the run.
 #[wasm_bindgen]
 pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValue, JsError> {
-    let (rig, settings) = rig_and_settings(input)?;
-    let mut sink = ProgressSink::new(on_progress, calib::sensor_names(&rig));
-    let result = calib::calibrate(&rig, &settings, |p| sink.send(p));
+    let (rig, settings, methods) = rig_and_settings(input)?;
+    let mut sink = ProgressSink::new(on_progress, rig.sensors());
+    let mut run = calib::Run::new(std::borrow::Cow::Owned(rig), &settings, &methods);
+    run.drive(1, &mut |method, p| sink.send(method, p));
     sink.error()?;
-    output(&result.map_err(|e| JsError::new(&e.to_string()))?)
+    outcomes(run.into_outcomes(), methods.len() > 1)
 }
 
-/// The rig and the settings `input` describes.
-pub(super) fn rig_and_settings(input: JsValue) -> Result<(Rig, calib::Settings), JsError> {
+/// The result of a run's `outcomes`: one report (or its error), or when `compared` an array of
+/// every method's report or `{method, error}`.
+pub(super) fn outcomes(outcomes: Vec<MethodOutcome>, compared: bool) -> Result<JsValue, JsError> {
+    if !compared {
+        let (_, outcome) = outcomes.into_iter().next().ok_or_else(internal)?;
+        return output(&outcome.map_err(|e| JsError::new(&e.to_string()))?);
+    }
+    let array = Array::new();
+    for (method, outcome) in outcomes {
+        let value = match outcome {
+            Ok(c) => output(&c)?,
+            Err(e) => {
+                let failed = js_sys::Object::new();
+                Reflect::set(&failed, &"method".into(), &method.name().into())
+                    .map_err(|_| internal())?;
+                Reflect::set(&failed, &"error".into(), &e.to_string().into())
+                    .map_err(|_| internal())?;
+                failed.into()
+            }
+        };
+        array.push(&value);
+    }
+    Ok(array.into())
+}
+
+/// The rig, the settings and the methods `input` describes.
+pub(super) fn rig_and_settings(
+    input: JsValue,
+) -> Result<(Rig, calib::Settings, Vec<Method>), JsError> {
     let input: CalibrateInput = serde_wasm_bindgen::from_value(input)
         .map_err(|e| JsError::new(&format!("invalid calibrate input: {e}")))?;
-    let mut views = Vec::with_capacity(input.views.len());
-    for v in &input.views {
+    let mut scans = Vec::with_capacity(input.scans.len());
+    for v in &input.scans {
         let flat = v.points.to_vec();
         let cloud = crate::Cloud::from_flat(&flat).ok_or_else(|| {
             JsError::new(&format!(
-                "view {}/{}: points length {} is not a multiple of 3",
+                "scan {}/{}: points length {} is not a multiple of 3",
                 v.sensor,
                 v.frame,
                 flat.len()
             ))
         })?;
-        views.push(View { sensor: v.sensor.clone(), frame: v.frame.clone(), points: cloud.points });
+        scans.push(Scan { sensor: v.sensor.clone(), frame: v.frame.clone(), points: cloud.points });
     }
     let nominal = input
         .nominal
@@ -108,39 +172,38 @@ pub(super) fn rig_and_settings(input: JsValue) -> Result<(Rig, calib::Settings),
         .map(|(name, p)| Ok((name.clone(), pose_of(name, p)?)))
         .collect::<Result<Vec<_>, JsError>>()?;
     let rig = Rig {
-        views,
+        scans,
         nominal,
         roi: Aabb::new(input.roi.min, input.roi.max),
         reference: input.reference,
     };
+    let error = |e: String| JsError::new(&e);
     let mut settings = calib::Settings::default();
-    if let Some(method) = &input.method {
-        settings.method =
-            method.parse().map_err(|e: calib::CalibError| JsError::new(&e.to_string()))?;
-    }
+    let methods = match &input.method {
+        Some(name) => Method::parse_list(name).map_err(|e| error(e.to_string()))?,
+        None => vec![settings.method],
+    };
+    settings.method = methods[0];
     if let Some(target) = input.target {
-        settings.prior = match target {
-            TargetInput::Cube { edge } if edge.is_finite() && edge > 0.0 => Prior::Cube { edge },
-            TargetInput::Sphere { radius } if radius.is_finite() && radius > 0.0 => {
-                Prior::Sphere { radius }
-            }
-            _ => return Err(JsError::new("target size must be a positive number")),
-        };
+        settings.target = match target {
+            TargetInput::Cube { edge } => Target::Cube { edge },
+            TargetInput::Sphere { diameter } => Target::Sphere { diameter },
+        }
+        .checked()
+        .map_err(error)?;
     }
     settings.components = input.components.unwrap_or(settings.components);
     settings.jrmpc.max_iterations = input.iterations.unwrap_or(settings.jrmpc.max_iterations);
     settings.jrmpc.tolerance = input.tolerance.unwrap_or(settings.jrmpc.tolerance);
     settings.seed = input.seed.unwrap_or(settings.seed);
-    settings.initial_sigma = match input.initial_sigma {
-        None => settings.initial_sigma,
-        Some(InitialSigmaInput::Fixed(s)) if s.is_finite() && s > 0.0 => InitialSigma::Fixed(s),
-        Some(InitialSigmaInput::Rule(r)) if r == "prior" => InitialSigma::PriorSize,
-        Some(InitialSigmaInput::Rule(r)) if r == "bbox" => InitialSigma::BoundingBox,
-        Some(_) => {
-            return Err(JsError::new("initialSigma must be a positive number, 'prior' or 'bbox'"));
+    if let Some(sigma) = input.initial_sigma {
+        settings.initial_sigma = match sigma {
+            InitialSigmaInput::Fixed(s) => InitialSigma::fixed(s),
+            InitialSigmaInput::Rule(r) => InitialSigma::from_rule(&r),
         }
-    };
-    Ok((rig, settings))
+        .map_err(|e| error(format!("initialSigma: {e}")))?;
+    }
+    Ok((rig, settings, methods))
 }
 
 /// Passes the library's progress to the JS callback, if any: `false` from it cancels; an
@@ -156,9 +219,9 @@ impl ProgressSink {
         Self { callback, sensors, error: None }
     }
 
-    pub(super) fn send(&mut self, p: &calib::Progress) -> Control {
+    pub(super) fn send(&mut self, method: Method, p: &calib::Progress) -> Control {
         let Some(f) = &self.callback else { return Control::Continue };
-        let answer = Self::value(&self.sensors, p)
+        let answer = Self::value(method, &self.sensors, p)
             .map_err(JsValue::from)
             .and_then(|v| f.call1(&JsValue::NULL, &v));
         match answer {
@@ -171,9 +234,14 @@ impl ProgressSink {
         }
     }
 
-    /// `p` as JS sees it.
-    pub(super) fn value(sensors: &[String], p: &calib::Progress) -> Result<JsValue, JsError> {
+    /// `p` of `method` as JS sees it.
+    pub(super) fn value(
+        method: Method,
+        sensors: &[String],
+        p: &calib::Progress,
+    ) -> Result<JsValue, JsError> {
         to_js(&ProgressOutput {
+            method: method.name(),
             stage: p.stage.name(),
             iteration: p.iteration,
             max_iterations: p.max_iterations,
@@ -197,20 +265,21 @@ impl ProgressSink {
     }
 }
 
-/// The library's [`Report`], with the target's bulk arrays as `Float32Array`s for transfer.
-pub(super) fn output(c: &Calibration) -> Result<JsValue, JsError> {
+/// The library's [`Report`], with the reconstruction's bulk arrays as `Float32Array`s for
+/// transfer.
+fn output(c: &Calibration) -> Result<JsValue, JsError> {
     let report = Report::from(c);
     let value = to_js(&report)?;
-    let t = &report.target;
-    let target = Reflect::get(&value, &"target".into()).map_err(|_| internal())?;
+    let t = &report.reconstruction;
+    let reconstruction = Reflect::get(&value, &"reconstruction".into()).map_err(|_| internal())?;
     for (key, values) in [("means", &t.means), ("sigmas", &t.sigmas), ("priors", &t.priors)] {
         let v: Vec<f32> = values.iter().map(|&x| x as f32).collect();
-        Reflect::set(&target, &key.into(), &Float32Array::from(v.as_slice()))
+        Reflect::set(&reconstruction, &key.into(), &Float32Array::from(v.as_slice()))
             .map_err(|_| internal())?;
     }
     Ok(value)
 }
 
 fn internal() -> JsError {
-    JsError::new("internal: cannot set the target arrays of the result")
+    JsError::new("internal: cannot build the result")
 }

@@ -1,13 +1,14 @@
 //! The JavaScript surface (wasm-bindgen). Converts JS values to the library's types and back;
-//! no algorithm lives here. Bulk data crosses as flat typed arrays (`x, y, z, x, y, z, ...`).
-//! Every failure becomes a JS `Error` with a message; nothing here may panic, since a panic
-//! aborts the whole wasm instance. One file per exported job, as in `www/src/worker.js`.
+//! no algorithm and no control flow lives here. Bulk data crosses as flat typed arrays (`x, y,
+//! z, x, y, z, ...`). Every failure becomes a JS `Error` with a message; nothing here may
+//! panic, since a panic aborts the whole wasm instance. One file per exported job, as in
+//! `www/src/worker.js`.
 
 mod calibrate;
+mod config;
 mod files;
 mod session;
 mod simulate;
-mod synthetic;
 
 use std::collections::BTreeMap;
 
@@ -17,11 +18,11 @@ use wasm_bindgen::prelude::*;
 
 use crate::se3::{Pose, xyz_rpy};
 
-pub use calibrate::calibrate;
+pub use calibrate::{calibrate, methods};
+pub use config::parse_config;
 pub use files::parse_cloud;
-pub use session::{CalibrationSession, JrmpcShard, align_frames};
+pub use session::{CalibrationSession, JrmpcShard, align_pairs};
 pub use simulate::simulate_rig;
-pub use synthetic::synthetic_rig;
 
 /// A pose as JS sees it: translation (m) and roll, pitch, yaw (rad).
 #[derive(Serialize, Deserialize)]
@@ -46,7 +47,7 @@ struct Roi {
 
 /// One scan of a generated rig, in the sensor frame.
 #[derive(Serialize)]
-struct RigView {
+struct RigScan {
     sensor: String,
     frame: String,
     #[serde(with = "serde_wasm_bindgen::preserve")]
@@ -58,7 +59,7 @@ struct RigView {
 /// A generated rig in the shape `calibrate` takes, plus `truth` (true `T_vehicle_sensor`).
 #[derive(Serialize)]
 struct RigOutput {
-    views: Vec<RigView>,
+    scans: Vec<RigScan>,
     nominal: BTreeMap<String, XyzRpy>,
     truth: BTreeMap<String, XyzRpy>,
     roi: Roi,

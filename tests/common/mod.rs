@@ -3,30 +3,60 @@
 
 #![allow(dead_code)]
 
-use gmmcalib::calib::{self, Calibration, Rig, View};
+use gmmcalib::calib::{self, Calibration, Rig};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::Pose;
-use gmmcalib::synth::{self, RigSpec, SyntheticRig};
+use gmmcalib::twin::{Miscalibration, Model, Sampling, Twin};
 
-pub fn rig_of(synthetic: &SyntheticRig) -> Rig {
-    Rig {
-        views: synthetic
-            .views
-            .iter()
-            .map(|v| View {
-                sensor: v.sensor.clone(),
-                frame: v.frame.clone(),
-                points: v.points.clone(),
-            })
-            .collect(),
-        nominal: synthetic.nominal.clone(),
-        roi: synthetic.roi,
-        reference: None,
+/// A sampled rig: how many sensors, frames and points, the noise, the miscalibration's bounds
+/// (rad, m per axis) and the seed (the twin's seed rule).
+#[derive(Clone, Debug)]
+pub struct RigSpec {
+    pub sensors: usize,
+    pub frames: usize,
+    pub points_per_view: usize,
+    pub noise: f64,
+    pub partial: bool,
+    pub max_rotation_error: f64,
+    pub max_translation_error: f64,
+    pub seed: u64,
+}
+
+impl Default for RigSpec {
+    fn default() -> Self {
+        let sampling = Sampling::default();
+        Self {
+            sensors: sampling.sensors,
+            frames: 10,
+            points_per_view: sampling.points_per_view,
+            noise: sampling.noise,
+            partial: sampling.partial,
+            max_rotation_error: 3f64.to_radians(),
+            max_translation_error: 0.1,
+            seed: 1,
+        }
     }
 }
 
+/// The sampled twin of `spec`.
+pub fn generate(spec: &RigSpec) -> Twin {
+    let sampling = Sampling {
+        sensors: spec.sensors,
+        points_per_view: spec.points_per_view,
+        noise: spec.noise,
+        partial: spec.partial,
+        ..Sampling::default()
+    };
+    let bounds = Miscalibration::within(spec.max_rotation_error, spec.max_translation_error);
+    Twin::new(&Model::Sampled(sampling), spec.frames, spec.seed, &bounds)
+}
+
+pub fn rig_of(twin: &Twin) -> Rig {
+    twin.rig()
+}
+
 /// Rotation (deg) and translation (m) error of one sensor's corrected extrinsic.
-pub fn extrinsic_error(result: &Calibration, truth: &SyntheticRig, i: usize) -> (f64, f64) {
+pub fn extrinsic_error(result: &Calibration, truth: &Twin, i: usize) -> (f64, f64) {
     let est: &Pose = &result.sensors[i].extrinsic;
     let tru = &truth.truth[i].1;
     let d = est.inverse() * tru;
@@ -34,14 +64,14 @@ pub fn extrinsic_error(result: &Calibration, truth: &SyntheticRig, i: usize) -> 
 }
 
 /// Worst error over the non-reference sensors.
-pub fn worst_error(result: &Calibration, truth: &SyntheticRig) -> (f64, f64) {
+pub fn worst_error(result: &Calibration, truth: &Twin) -> (f64, f64) {
     (1..truth.truth.len())
         .map(|i| extrinsic_error(result, truth, i))
         .fold((0.0, 0.0), |(a, t), (da, dt)| (f64::max(a, da), f64::max(t, dt)))
 }
 
-pub fn run(spec: &RigSpec, settings: &calib::Settings) -> (Calibration, SyntheticRig) {
-    let truth = synth::generate(spec);
+pub fn run(spec: &RigSpec, settings: &calib::Settings) -> (Calibration, Twin) {
+    let truth = generate(spec);
     let result =
         calib::calibrate(&rig_of(&truth), settings, |_| Control::Continue).expect("calibration");
     (result, truth)

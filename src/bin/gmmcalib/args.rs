@@ -1,4 +1,4 @@
-//! Command-line arguments: `calibrate`, `simulate`, `experiment`; `--flag VALUE` or
+//! Command-line arguments: `calibrate`, `simulate`, `experiment`, `study`; `--flag VALUE` or
 //! `--flag=VALUE`.
 
 use std::path::PathBuf;
@@ -8,11 +8,16 @@ usage: gmmcalib calibrate --config CONFIG.yaml --data DIR
                           [--method gmm|jrmpc|p2p|p2l|gicp|all] [--reference NAME]
                           [--iterations N] [--components K] [--threads T]
                           [--json OUT.json]
-       gmmcalib simulate --out DIR [--preset paper|os1-128] [--frames F] [--seed S]
-                          [--max-angle-deg 3] [--max-translation 0.1]
-       gmmcalib experiment --out DIR [--preset paper|os1-128] [--trials N] [--frames F]
+       gmmcalib simulate --out DIR [--preset paper|paper-roof|os1-128|sampled] [--frames F]
+                          [--seed S] [--max-angle-deg 3] [--max-translation 0.1]
+       gmmcalib experiment --out DIR [--preset paper|...] [--trials N] [--frames F]
                           [--seed S] [--methods gmm,jrmpc,p2p,p2l,gicp] [--threads T]
                           [--max-angle-deg 3] [--max-translation 0.1]
+       gmmcalib study [--preset paper|paper-roof|...] [--seeds 20] [--starts 5] [--frames 5]
+                          [--max-angle-deg 3] [--max-yaw-deg DEG] [--max-translation 0.1]
+                          [--method gmm] [--components K] [--iterations N] [--tolerance T]
+                          [--bev on|off] [--planes on|off] [--level on|off] [--noise M]
+                          [--columns N] [--threads T] [--notes]
 
   calibrate: DIR holds one folder per sensor (sensor_1, sensor_2, ...), each with frames
   1.pcd, 2.pcd, ... (.pcd, .ply or .bin); frames pair across sensors by file stem. Flags
@@ -22,7 +27,10 @@ usage: gmmcalib calibrate --config CONFIG.yaml --data DIR
   extrinsics, DIR/data/sensor_N/F.pcd) plus DIR/truth.json; the first sensor is the reference
   and keeps its true mount.
   experiment: the paper's experiment; every method on the same frames of each trial; writes
-  DIR/summary.json, trials.csv, table.md and SVG plots.";
+  DIR/summary.json, trials.csv, table.md and SVG plots.
+  study: accuracy on the twin: seeds 1..=N of the scans, each calibrated from --starts wrong
+  nominals (start k of seed s draws from seed 1000 s + k); prints the error distributions,
+  per trial, per sensor, and the precision claimed against the errors.";
 
 /// What the user asked for.
 #[derive(Debug)]
@@ -31,6 +39,7 @@ pub enum Command {
     Calibrate(CalibrateArgs),
     Simulate(SimulateArgs),
     Experiment(ExperimentArgs),
+    Study(StudyArgs),
 }
 
 #[derive(Debug, Default)]
@@ -66,8 +75,8 @@ impl Default for TwinArgs {
             preset: "paper".into(),
             frames: 5,
             seed: 0,
-            max_angle_deg: gmmcalib::sim::MAX_MISCALIBRATION_ANGLE.to_degrees(),
-            max_translation: gmmcalib::sim::MAX_MISCALIBRATION_TRANSLATION,
+            max_angle_deg: gmmcalib::twin::MAX_MISCALIBRATION_ANGLE.to_degrees(),
+            max_translation: gmmcalib::twin::MAX_MISCALIBRATION_TRANSLATION,
         }
     }
 }
@@ -89,15 +98,68 @@ pub struct ExperimentArgs {
     pub out: PathBuf,
 }
 
+#[derive(Debug, Clone, PartialEq)]
+pub struct StudyArgs {
+    pub preset: String,
+    pub seeds: u64,
+    pub starts: u64,
+    pub frames: usize,
+    pub max_angle_deg: f64,
+    /// Yaw's bound when it differs from the other axes'.
+    pub max_yaw_deg: Option<f64>,
+    pub max_translation: f64,
+    pub method: String,
+    pub components: Option<usize>,
+    pub iterations: Option<usize>,
+    /// JRMPC's convergence tolerance (rad and m per iteration).
+    pub tolerance: Option<f64>,
+    pub bev: bool,
+    pub planes: bool,
+    /// Ground levelling on or off; default: the method's.
+    pub level: Option<bool>,
+    /// The LiDARs' range noise (m).
+    pub noise: Option<f64>,
+    /// The LiDARs' columns over 360 deg.
+    pub columns: Option<usize>,
+    pub threads: Option<usize>,
+    /// Print each trial's notes (plane adjustment, refinement guards, bird's-eye overlap).
+    pub notes: bool,
+}
+
+impl Default for StudyArgs {
+    fn default() -> Self {
+        Self {
+            preset: "paper".into(),
+            seeds: 20,
+            starts: 5,
+            frames: 5,
+            max_angle_deg: 3.0,
+            max_yaw_deg: None,
+            max_translation: 0.1,
+            method: "gmm".into(),
+            components: None,
+            iterations: None,
+            tolerance: None,
+            bev: true,
+            planes: true,
+            level: None,
+            noise: None,
+            columns: None,
+            threads: None,
+            notes: false,
+        }
+    }
+}
+
 /// Parses the arguments after the program name.
 pub fn parse(args: impl IntoIterator<Item = String>) -> Result<Command, String> {
     let mut args = args.into_iter();
     let command = match args.next().as_deref() {
         None | Some("-h" | "--help" | "help") => return Ok(Command::Help),
-        Some(c @ ("calibrate" | "simulate" | "experiment")) => c.to_string(),
+        Some(c @ ("calibrate" | "simulate" | "experiment" | "study")) => c.to_string(),
         Some(other) => {
             return Err(format!(
-                "unknown command '{other}' (expected calibrate, simulate or experiment)"
+                "unknown command '{other}' (expected calibrate, simulate, experiment or study)"
             ));
         }
     };
@@ -105,6 +167,7 @@ pub fn parse(args: impl IntoIterator<Item = String>) -> Result<Command, String> 
     match command.as_str() {
         "calibrate" => calibrate(flags),
         "simulate" => simulate(flags),
+        "study" => study(flags),
         _ => experiment(flags),
     }
 }
@@ -119,6 +182,11 @@ fn flags(args: impl Iterator<Item = String>) -> Result<Option<Vec<(String, Strin
         }
         if !arg.starts_with("--") {
             return Err(format!("unknown argument '{arg}' (see gmmcalib --help)"));
+        }
+        // The one flag without a value.
+        if arg == "--notes" {
+            out.push((arg, "on".into()));
+            continue;
         }
         let (flag, value) = match arg.split_once('=') {
             Some((f, v)) => (f.to_string(), v.to_string()),
@@ -203,6 +271,43 @@ fn experiment(flags: Vec<(String, String)>) -> Result<Command, String> {
     Ok(Command::Experiment(ExperimentArgs { twin, trials, methods, threads, out }))
 }
 
+fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
+    let mut out = StudyArgs::default();
+    for (flag, value) in flags {
+        let number = |v: &str| non_negative(&flag, v);
+        match flag.as_str() {
+            "--preset" => out.preset = value,
+            "--seeds" => out.seeds = positive(&flag, &value)? as u64,
+            "--starts" => out.starts = positive(&flag, &value)? as u64,
+            "--frames" => out.frames = positive(&flag, &value)?,
+            "--max-angle-deg" => out.max_angle_deg = number(&value)?,
+            "--max-yaw-deg" => out.max_yaw_deg = Some(number(&value)?),
+            "--max-translation" => out.max_translation = number(&value)?,
+            "--method" => out.method = value,
+            "--components" => out.components = Some(positive(&flag, &value)?),
+            "--iterations" => out.iterations = Some(positive(&flag, &value)?),
+            "--tolerance" => out.tolerance = Some(number(&value)?),
+            "--bev" => out.bev = on_off(&flag, &value)?,
+            "--planes" => out.planes = on_off(&flag, &value)?,
+            "--level" => out.level = Some(on_off(&flag, &value)?),
+            "--noise" => out.noise = Some(number(&value)?),
+            "--columns" => out.columns = Some(positive(&flag, &value)?),
+            "--threads" => out.threads = Some(positive(&flag, &value)?),
+            "--notes" => out.notes = true,
+            _ => return Err(unknown(&flag)),
+        }
+    }
+    Ok(Command::Study(out))
+}
+
+fn on_off(flag: &str, value: &str) -> Result<bool, String> {
+    match value {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("{flag} expects on or off, got '{value}'")),
+    }
+}
+
 fn unknown(flag: &str) -> String {
     format!("unknown argument '{flag}' (see gmmcalib --help)")
 }
@@ -279,5 +384,17 @@ mod tests {
         assert!(parse(args("simulate --out o --seed -1")).unwrap_err().contains("--seed"));
         assert!(parse(args("experiment --out o --max-translation -1")).is_err());
         assert!(parse(args("experiment --out o --trials 0")).is_err());
+        assert!(parse(args("study --bev maybe")).unwrap_err().contains("on or off"));
+    }
+
+    #[test]
+    fn parses_study() {
+        let Ok(Command::Study(s)) =
+            parse(args("study --preset paper-roof --seeds 3 --max-yaw-deg 8 --planes off --notes"))
+        else {
+            panic!("expected study");
+        };
+        assert_eq!((s.preset.as_str(), s.seeds, s.starts), ("paper-roof", 3, 5));
+        assert_eq!((s.max_yaw_deg, s.planes, s.bev, s.notes), (Some(8.0), false, true, true));
     }
 }

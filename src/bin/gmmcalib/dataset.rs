@@ -1,4 +1,4 @@
-//! GMMCalib's data layout: `DIR/sensor_N/<frame>.{pcd,ply,bin}`, read into calibration views.
+//! GMMCalib's data layout: `DIR/sensor_N/<frame>.{pcd,ply,bin}`, read into calibration scans.
 //! Sensors and frames are ordered naturally (`sensor_2` before `sensor_10`); a view's sensor is
 //! its folder name and its frame the file stem, so frames pair across sensors by stem.
 
@@ -6,20 +6,20 @@ use std::cmp::Ordering;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use gmmcalib::calib::View;
+use gmmcalib::calib::Scan;
 use gmmcalib::io::parse_cloud;
 
 const EXTENSIONS: [&str; 3] = ["pcd", "ply", "bin"];
 
-/// Every view under `dir`, sensor by sensor, frames in natural order.
-pub fn read_views(dir: &Path) -> Result<Vec<View>, String> {
+/// Every scan under `dir`, sensor by sensor, frames in natural order.
+pub fn read_scans(dir: &Path) -> Result<Vec<Scan>, String> {
     let mut views = Vec::new();
     for (sensor, folder) in sensor_folders(dir)? {
         for (frame, file) in frame_files(&folder)? {
             let label = file.display().to_string();
             let bytes = fs::read(&file).map_err(|e| format!("{label}: {e}"))?;
             let parsed = parse_cloud(&bytes, &label).map_err(|e| e.to_string())?;
-            views.push(View { sensor: sensor.clone(), frame, points: parsed.cloud.points });
+            views.push(Scan { sensor: sensor.clone(), frame, points: parsed.cloud.points });
         }
     }
     Ok(views)

@@ -14,7 +14,7 @@ use gmmcalib::se3::{Pose, to_row_major};
 use serde::Serialize;
 
 use crate::args::{SimulateArgs, TwinArgs};
-use crate::twin::Twin;
+use crate::layout::TwinFiles;
 
 type Matrix = [[f64; 4]; 4];
 
@@ -43,18 +43,19 @@ struct SensorTruth<'a> {
 }
 
 pub fn run(a: &SimulateArgs) -> Result<(), String> {
-    let twin = Twin::new(&a.twin, a.twin.seed)?;
-    write(&twin, &a.twin, &a.out)?;
-    let n = twin.sensors.len();
+    let files = TwinFiles::new(&a.twin, a.twin.seed)?;
+    write(&files, &a.twin, &a.out)?;
+    let n = files.folders.len();
     println!("wrote {} frames of {n} sensors to {}", a.twin.frames, a.out.display());
     Ok(())
 }
 
 /// Writes `twin` under `dir` (created if needed).
-pub fn write(twin: &Twin, args: &TwinArgs, dir: &Path) -> Result<(), String> {
+pub fn write(files: &TwinFiles, args: &TwinArgs, dir: &Path) -> Result<(), String> {
     let fail = |path: &Path, e: std::io::Error| format!("{}: {e}", path.display());
-    for view in &twin.views {
-        let folder = dir.join("data").join(&twin.sensors[twin.sensor_of(view)].folder);
+    let twin = &files.twin;
+    for view in &twin.scans {
+        let folder = dir.join("data").join(&files.folders[files.sensor_of(&view.sensor)]);
         fs::create_dir_all(&folder).map_err(|e| fail(&folder, e))?;
         let file = folder.join(format!("{}.pcd", view.frame));
         // A flat cloud is still a valid scan, should the shape not match.
@@ -63,23 +64,21 @@ pub fn write(twin: &Twin, args: &TwinArgs, dir: &Path) -> Result<(), String> {
         fs::write(&file, bytes).map_err(|e| fail(&file, e))?;
     }
     let config = dir.join("config.yaml");
-    fs::write(&config, config_yaml(twin)).map_err(|e| fail(&config, e))?;
+    fs::write(&config, config_yaml(files)).map_err(|e| fail(&config, e))?;
     let truth = Truth {
         preset: &args.preset,
         seed: args.seed,
         frames: args.frames,
         max_angle: args.max_angle_deg.to_radians(),
         max_translation: args.max_translation,
-        reference: &twin.sensors[0].folder,
-        sensors: twin
-            .sensors
-            .iter()
-            .map(|s| SensorTruth {
-                name: &s.name,
-                folder: &s.folder,
-                truth: matrix(&s.truth),
-                nominal: matrix(&s.nominal),
-                correction: matrix(&s.correction),
+        reference: &files.folders[0],
+        sensors: (0..files.folders.len())
+            .map(|i| SensorTruth {
+                name: &twin.truth[i].0,
+                folder: &files.folders[i],
+                truth: matrix(&twin.truth[i].1),
+                nominal: matrix(&twin.nominal[i].1),
+                correction: matrix(&twin.correction(i)),
             })
             .collect(),
     };
@@ -89,26 +88,25 @@ pub fn write(twin: &Twin, args: &TwinArgs, dir: &Path) -> Result<(), String> {
 }
 
 /// GMMCalib's config: `transform_sensor_N: - [roll, pitch, yaw, x, y, z]` and the ROI.
-fn config_yaml(twin: &Twin) -> String {
+fn config_yaml(files: &TwinFiles) -> String {
+    let twin = &files.twin;
     // `{:?}` prints the shortest text that parses back to the same f64.
     let list = |v: &[f64]| v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ");
     let mut yaml = format!(
         "# gmmcalib simulate: the first sensor is the reference (true mount); the others are\n\
          # miscalibrated. The truth is in truth.json.\nnumber_of_sensors: {}\n",
-        twin.sensors.len()
+        files.folders.len()
     );
-    for s in &twin.sensors {
-        let (xyz, rpy) = s.nominal_xyz_rpy;
+    let numbers = files.nominal_numbers.iter().zip(&files.folders);
+    for ((name, _), ((xyz, rpy), folder)) in twin.truth.iter().zip(numbers) {
         let values = [rpy[0], rpy[1], rpy[2], xyz[0], xyz[1], xyz[2]];
         yaml += &format!(
-            "transform_{}:  # {}\n  - [{}]  # [roll, pitch, yaw, x, y, z]\n",
-            s.folder,
-            s.name,
+            "transform_{folder}:  # {name}\n  - [{}]  # [roll, pitch, yaw, x, y, z]\n",
             list(&values)
         );
     }
-    yaml += &format!("min_bound:\n  - [{}]\n", list(&twin.preset.roi.min));
-    yaml += &format!("max_bound:\n  - [{}]\n", list(&twin.preset.roi.max));
+    yaml += &format!("min_bound:\n  - [{}]\n", list(&twin.roi.min));
+    yaml += &format!("max_bound:\n  - [{}]\n", list(&twin.roi.max));
     yaml
 }
 

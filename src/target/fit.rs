@@ -1,19 +1,21 @@
-//! Plausibility of a reconstruction: fit the prior shape (cube or sphere) to the reconstructed
+//! Plausibility of a reconstruction: fit the target's shape (cube or sphere) to the reconstructed
 //! means. A good calibration reconstructs a crisp target of the right size; a poor one a blurred
 //! or doubled shape, which shows as a large RMS or a wrong size.
 //!
 //! A scene may hold several targets on a ground (the paper's three cubes): [`fit_targets`] drops
 //! the components on the ground, splits the rest into groups separated by gaps, and fits the
-//! prior to each group. One shape fitted across all of them would measure nothing.
+//! shape to each group. One shape fitted across all of them would measure nothing.
 
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 
-use crate::jrmpc::Prior;
+use super::Target;
 
 /// The fitted shape.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShapeFit {
-    /// Prior-weighted RMS distance (m) of the means from the fitted surface.
+    /// The shape fitted: `cube` or `sphere` ([`Target::kind`]).
+    pub shape: &'static str,
+    /// RMS distance (m) of the means from the fitted surface, weighted by the mixture's priors.
     pub rms: f64,
     /// Fitted size (m): cube edge or sphere diameter.
     pub size: f64,
@@ -30,18 +32,17 @@ pub struct ShapeFit {
 /// A group smaller than this share of the weight off the ground is clutter, not a target.
 const MIN_TARGET_WEIGHT: f64 = 0.05;
 
-/// The prior fitted to each target among `means` (weighted by `priors`), largest share first.
-/// Components within a tenth of the prior's size of `ground` (`normal . p + offset = 0`) are
-/// left out; the rest split where a gap wider than half the prior's size separates them.
+/// The target's shape fitted to each target among `means` (weighted by the mixture's `priors`),
+/// largest share first. Components within a tenth of the target's size of `ground`
+/// (`normal . p + offset = 0`) are left out; the rest split where a gap wider than half the
+/// target's size separates them.
 pub fn fit_targets(
-    prior: &Prior,
+    target: &Target,
     means: &[Vector3<f64>],
     priors: &[f64],
     ground: Option<(Vector3<f64>, f64)>,
 ) -> Vec<ShapeFit> {
-    let Some(size) = prior.size() else {
-        return Vec::new();
-    };
+    let size = target.size();
     let kept: Vec<usize> = (0..means.len().min(priors.len()))
         .filter(|&k| priors[k] > 0.0)
         .filter(|&k| ground.is_none_or(|(n, d)| (n.dot(&means[k]) + d).abs() > 0.1 * size))
@@ -54,7 +55,7 @@ pub fn fit_targets(
             let members: Vec<Vector3<f64>> = group.iter().map(|&k| means[k]).collect();
             let weights: Vec<f64> = group.iter().map(|&k| priors[k]).collect();
             (weight >= MIN_TARGET_WEIGHT)
-                .then(|| fit_prior(prior, &members, &weights))
+                .then(|| fit_shape(target, &members, &weights))
                 .flatten()
                 .map(|fit| ShapeFit { weight, ..fit })
         })
@@ -91,9 +92,9 @@ fn groups(indices: &[usize], means: &[Vector3<f64>], gap: f64) -> Vec<Vec<usize>
     groups
 }
 
-/// Fits the prior's shape to `means` weighted by `priors`. `None` for user-given means or when
-/// no component holds data.
-pub fn fit_prior(prior: &Prior, means: &[Vector3<f64>], priors: &[f64]) -> Option<ShapeFit> {
+/// Fits the target's shape to `means` weighted by `priors`. `None` when fewer than four
+/// components hold data.
+pub fn fit_shape(target: &Target, means: &[Vector3<f64>], priors: &[f64]) -> Option<ShapeFit> {
     let points: Vec<(Vector3<f64>, f64)> =
         means.iter().zip(priors).filter(|(_, w)| **w > 0.0).map(|(m, w)| (*m, *w)).collect();
     if points.len() < 4 {
@@ -101,8 +102,8 @@ pub fn fit_prior(prior: &Prior, means: &[Vector3<f64>], priors: &[f64]) -> Optio
     }
     let total: f64 = points.iter().map(|(_, w)| w).sum();
     let centroid = points.iter().fold(Vector3::zeros(), |c, (m, w)| c + m * *w) / total;
-    match prior {
-        Prior::Cube { edge } => {
+    match target {
+        Target::Cube { edge } => {
             // The cube's yaw in the scene is unknown: start from several and keep the best.
             (0..6)
                 .map(|i| {
@@ -111,14 +112,13 @@ pub fn fit_prior(prior: &Prior, means: &[Vector3<f64>], priors: &[f64]) -> Optio
                     fit(&points, &start, cube_distance)
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0))
-                .map(|(_, p)| summary(&points, &p, cube_distance, 2.0 * p[6].abs()))
+                .map(|(_, p)| summary(target, &points, &p, cube_distance, 2.0 * p[6].abs()))
         }
-        Prior::Sphere { radius } => {
-            let start = [0.0, 0.0, 0.0, centroid.x, centroid.y, centroid.z, *radius];
+        Target::Sphere { diameter } => {
+            let start = [0.0, 0.0, 0.0, centroid.x, centroid.y, centroid.z, 0.5 * diameter];
             let (_, p) = fit(&points, &start, sphere_distance);
-            Some(summary(&points, &p, sphere_distance, 2.0 * p[6].abs()))
+            Some(summary(target, &points, &p, sphere_distance, 2.0 * p[6].abs()))
         }
-        Prior::Means(_) => None,
     }
 }
 
@@ -182,6 +182,7 @@ fn fit(
 }
 
 fn summary(
+    target: &Target,
     points: &[(Vector3<f64>, f64)],
     p: &Params,
     dist: fn(&Params, &Vector3<f64>) -> f64,
@@ -197,6 +198,7 @@ fn summary(
         }
     }
     ShapeFit {
+        shape: target.kind(),
         rms: (sq / total).sqrt(),
         size,
         centre: [p[3], p[4], p[5]],
@@ -209,7 +211,7 @@ fn summary(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::jrmpc::init::{cube_surface, sphere_surface};
+    use crate::target::{cube_surface, sphere_surface};
 
     #[test]
     fn recovers_a_rotated_cube_and_a_sphere() {
@@ -217,14 +219,14 @@ mod tests {
         let c = Vector3::new(10.0, -1.0, 0.3);
         let means: Vec<_> =
             cube_surface(0.6, 300, 3).iter().map(|p| r * Vector3::from(*p) + c).collect();
-        let fit = fit_prior(&Prior::Cube { edge: 0.5 }, &means, &vec![1.0; 300]).unwrap();
+        let fit = fit_shape(&Target::Cube { edge: 0.5 }, &means, &vec![1.0; 300]).unwrap();
         assert!((fit.size - 0.6).abs() < 1e-3, "{fit:?}");
         assert!(fit.rms < 1e-3 && fit.inlier_share > 0.99, "{fit:?}");
         let means: Vec<_> =
             sphere_surface(0.3, 200).iter().map(|p| Vector3::from(*p) + c).collect();
-        let fit = fit_prior(&Prior::Sphere { radius: 0.25 }, &means, &vec![1.0; 200]).unwrap();
+        let fit = fit_shape(&Target::Sphere { diameter: 0.5 }, &means, &vec![1.0; 200]).unwrap();
         assert!((fit.size - 0.6).abs() < 1e-6 && fit.rms < 1e-6, "{fit:?}");
-        assert!(fit_prior(&Prior::Means(vec![]), &means, &vec![1.0; 200]).is_none());
+        assert!(fit_shape(&Target::Cube { edge: 0.5 }, &means[..3], &[1.0; 3]).is_none());
     }
 
     #[test]
@@ -250,7 +252,7 @@ mod tests {
         }
         let priors = vec![1.0; means.len()];
         let ground = Some((Vector3::z(), 0.0));
-        let fits = fit_targets(&Prior::Cube { edge: 0.5 }, &means, &priors, ground);
+        let fits = fit_targets(&Target::Cube { edge: 0.5 }, &means, &priors, ground);
         assert_eq!(fits.len(), 3, "{fits:?}");
         for fit in &fits {
             assert!((fit.size - 0.5).abs() < 0.01 && fit.rms < 0.01, "{fit:?}");
@@ -262,7 +264,7 @@ mod tests {
             assert!((fit.weight - 1.0 / 3.0).abs() < 0.05, "{fit:?}");
         }
         // Without the ground dropped, the sheet joins the cubes into one group.
-        let joined = fit_targets(&Prior::Cube { edge: 0.5 }, &means, &priors, None);
+        let joined = fit_targets(&Target::Cube { edge: 0.5 }, &means, &priors, None);
         assert_eq!(joined.len(), 1);
     }
 }

@@ -1,10 +1,10 @@
 //! One result shape for programs: what `gmmcalib calibrate --json` writes and what the wasm
-//! `calibrate` returns (README, "Wasm API"). camelCase keys; matrices as 16 numbers, row-major;
-//! m and rad.
+//! `calibrate` returns (docs/api.md). camelCase keys; matrices as 16 numbers, row-major; m and
+//! rad. Notes carry their kind and their sentence.
 
 use serde::Serialize;
 
-use crate::calib::{Calibration, FrameNote, SensorResult};
+use crate::calib::{Calibration, Note, SensorResult};
 use crate::se3::{to_row_major, xyz_rpy};
 
 #[derive(Clone, Debug, Serialize)]
@@ -16,7 +16,7 @@ pub struct Report {
     pub converged: bool,
     pub cancelled: bool,
     pub sensors: Vec<SensorReport>,
-    pub target: TargetReport,
+    pub reconstruction: ReconstructionReport,
     /// Views left out.
     pub skipped: Vec<NoteReport>,
     /// `gmm` frames whose refinement was rejected; they keep the JRMPC correction.
@@ -31,6 +31,7 @@ pub struct Report {
 }
 
 #[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
 pub struct LevellingReport {
     pub sensor: String,
     /// The ground plane `[nx, ny, nz, d]` (`n . p + d = 0`, m) in the nominal vehicle frame;
@@ -38,15 +39,18 @@ pub struct LevellingReport {
     pub ground: Option<[f64; 4]>,
     /// Ground points found (all frames).
     pub inliers: usize,
-    /// The levelling applied to the pre-aligned points, row-major.
-    pub applied: [f64; 16],
+    /// The motion applied to the pre-aligned points (levelling, then the bird's-eye search),
+    /// row-major.
+    pub motion: [f64; 16],
     /// Why no levelling was applied, if none was.
     pub note: Option<String>,
-    /// The bird's-eye search's yaw and shift, included in `applied`.
+    /// The bird's-eye search's yaw and shift, included in `motion`.
     pub bev: Option<BevReport>,
     /// What to check, if anything: a bird's-eye search that found nothing to overlay, little
     /// overlap, or its best at the edge of its range.
     pub warning: Option<String>,
+    /// `nothingToOverlay`, `lowOverlap` or `atEdge`, with `warning`.
+    pub warning_kind: Option<&'static str>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -96,24 +100,27 @@ pub struct SpreadReport {
     pub frames: usize,
 }
 
-/// The reconstructed target, in the mixture's own (floating) frame.
+/// The reconstructed target: the mixture in the vehicle frame (where the reference sensor sees
+/// it, by the mean of the reference views' poses).
 #[derive(Clone, Debug, Serialize)]
-pub struct TargetReport {
+pub struct ReconstructionReport {
     /// Component means, flat: x, y, z, x, y, z, ... (m).
     pub means: Vec<f64>,
     /// Component standard deviations (m).
     pub sigmas: Vec<f64>,
     pub priors: Vec<f64>,
-    /// The prior shape fitted to each target off the ground, largest first.
+    /// The target's shape fitted to each target off the ground, largest first.
     pub fits: Vec<FitReport>,
 }
 
 #[derive(Clone, Debug, Serialize)]
 pub struct FitReport {
+    /// `cube` or `sphere`: the shape fitted.
+    pub shape: &'static str,
     /// RMS distance (m) of the target's means from the fitted shape.
     pub rms: f64,
-    /// Fitted size (m): cube edge or sphere diameter.
-    pub edge: f64,
+    /// Fitted size (m): the cube's edge or the sphere's diameter.
+    pub size: f64,
     /// Centre (m), vehicle frame.
     pub centre: [f64; 3],
     /// Orientation as a rotation vector (rad), vehicle frame.
@@ -125,7 +132,11 @@ pub struct FitReport {
 #[derive(Clone, Debug, Serialize)]
 pub struct NoteReport {
     pub sensor: String,
+    /// The frame, or `all` for a note on every frame of the sensor.
     pub frame: String,
+    /// The note's kind (`tooFewPoints`, `frameOutlier`, `planesApplied`, ...).
+    pub kind: &'static str,
+    /// The note in words.
     pub reason: String,
 }
 
@@ -141,7 +152,7 @@ pub struct HistoryReport {
 
 impl From<&Calibration> for Report {
     fn from(c: &Calibration) -> Self {
-        let t = &c.target;
+        let t = &c.reconstruction;
         Report {
             method: c.method.name(),
             reference: c.reference.clone(),
@@ -149,7 +160,7 @@ impl From<&Calibration> for Report {
             converged: c.converged,
             cancelled: c.cancelled,
             sensors: c.sensors.iter().map(SensorReport::from).collect(),
-            target: TargetReport {
+            reconstruction: ReconstructionReport {
                 means: t.means.iter().flatten().copied().collect(),
                 sigmas: t.sigmas.clone(),
                 priors: t.priors.clone(),
@@ -157,8 +168,9 @@ impl From<&Calibration> for Report {
                     .fits
                     .iter()
                     .map(|f| FitReport {
+                        shape: f.shape,
                         rms: f.rms,
-                        edge: f.size,
+                        size: f.size,
                         centre: f.centre,
                         rotation: f.rotation,
                         weight: f.weight,
@@ -175,8 +187,8 @@ impl From<&Calibration> for Report {
                     sensor: l.sensor.clone(),
                     ground: l.ground.map(|g| [g.normal.x, g.normal.y, g.normal.z, g.offset]),
                     inliers: l.inliers,
-                    applied: to_row_major(&l.applied),
-                    note: l.note.clone(),
+                    motion: to_row_major(&l.motion),
+                    note: l.skipped.as_ref().map(ToString::to_string),
                     bev: l.bev.map(|b| BevReport {
                         yaw: b.yaw,
                         shift: b.shift.into(),
@@ -184,7 +196,8 @@ impl From<&Calibration> for Report {
                         score_unchanged: b.score_unchanged,
                         at_edge: b.at_edge,
                     }),
-                    warning: l.warning.clone(),
+                    warning: l.warning.as_ref().map(ToString::to_string),
+                    warning_kind: l.warning.as_ref().map(|w| w.name()),
                 })
                 .collect(),
             history: HistoryReport {
@@ -214,13 +227,14 @@ impl From<&SensorResult> for SensorReport {
     }
 }
 
-fn notes(notes: &[FrameNote]) -> Vec<NoteReport> {
+fn notes(notes: &[Note]) -> Vec<NoteReport> {
     notes
         .iter()
         .map(|n| NoteReport {
             sensor: n.sensor.clone(),
-            frame: n.frame.clone(),
-            reason: n.reason.clone(),
+            frame: n.frame.clone().unwrap_or_else(|| "all".into()),
+            kind: n.kind.name(),
+            reason: n.kind.to_string(),
         })
         .collect()
 }

@@ -9,7 +9,7 @@ use gmmcalib::calib::Method;
 use gmmcalib::eval;
 use plotters::prelude::*;
 
-use crate::experiment::{Trial, frame_values, global};
+use super::trials::{Trial, frame_values, global};
 
 /// Smallest value shown on the log axes (m); zero errors are drawn here.
 const FLOOR: f64 = 1e-5;

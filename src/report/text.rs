@@ -1,10 +1,9 @@
-//! Results for people: text on stdout, angles in deg. Programs get `gmmcalib::report::Report`
-//! as JSON.
+//! Results for people: the CLI's text, angles in deg. Programs get [`super::Report`] as JSON.
 
 use std::fmt::Write;
 
-use gmmcalib::calib::{Calibration, FrameNote};
-use gmmcalib::se3::xyz_rpy;
+use crate::calib::{Calibration, Note};
+use crate::se3::xyz_rpy;
 
 /// The human summary of one calibration.
 pub fn summary(c: &Calibration) -> String {
@@ -39,13 +38,14 @@ pub fn summary(c: &Calibration) -> String {
             );
         }
     }
-    for fit in &c.target.fits {
+    for fit in &c.reconstruction.fits {
         let [x, y, z] = fit.centre;
         let _ = writeln!(
             out,
-            "\ntarget at {x:.3}, {y:.3}, {z:.3} m ({:.0} % of the weight): rms {:.4} m, edge {:.4} m",
+            "\ntarget at {x:.3}, {y:.3}, {z:.3} m ({:.0} % of the weight): rms {:.4} m, {} {:.4} m",
             fit.weight * 100.0,
             fit.rms,
+            if fit.shape == "sphere" { "diameter" } else { "edge" },
             fit.size
         );
     }
@@ -105,13 +105,14 @@ fn warnings(out: &mut String, prefix: &str, c: &Calibration) {
     }
 }
 
-fn notes(out: &mut String, title: &str, notes: &[FrameNote]) {
+fn notes(out: &mut String, title: &str, notes: &[Note]) {
     if notes.is_empty() {
         return;
     }
     let _ = writeln!(out, "\n{title}:");
     for n in notes {
-        let _ = writeln!(out, "  {}/{}: {}", n.sensor, n.frame, n.reason);
+        let frame = n.frame.as_deref().unwrap_or("all");
+        let _ = writeln!(out, "  {}/{frame}: {}", n.sensor, n.kind);
     }
 }
 

@@ -1,20 +1,16 @@
-//! Presets of the digital twin (paper section V) and its ground truth: sensors with their true
-//! mounts, the scene, the ROI, simulation of organized scans, and the miscalibration sampler.
+//! The ray-cast presets of the digital twin (paper section V): sensors with their true mounts
+//! and LiDAR models, the scene, the ROI, and simulation of organized scans.
 
 use std::f64::consts::PI;
 
-use rand::{Rng, RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
+use super::OrganizedScan;
 use super::lidar::Lidar;
 use super::scene::{OrientedBox, Scene};
-use crate::cloud::{Aabb, Cloud};
+use crate::cloud::Aabb;
 use crate::se3::{Pose, pose_from_xyz_rpy};
-
-/// Default miscalibration bound per rotation axis (rad): 3 deg, as in the paper.
-pub const MAX_MISCALIBRATION_ANGLE: f64 = 3.0 * PI / 180.0;
-/// Default miscalibration bound per translation axis (m).
-pub const MAX_MISCALIBRATION_TRANSLATION: f64 = 0.1;
 
 /// One simulated sensor.
 #[derive(Clone, Debug, PartialEq)]
@@ -36,18 +32,6 @@ pub struct Preset {
     pub validation_box: Option<usize>,
 }
 
-/// One simulated scan, labelled (sensor, frame) like real data. The cloud is organized
-/// (`width * height` points, row-major, one row per channel), in the sensor's own frame, with
-/// misses as exact zeros.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SimView {
-    pub sensor: String,
-    pub frame: String,
-    pub cloud: Cloud,
-    pub width: usize,
-    pub height: usize,
-}
-
 /// Edge of the calibration and validation cubes (m).
 const CUBE_EDGE: f64 = 0.5;
 
@@ -65,6 +49,18 @@ impl Preset {
     pub fn os1_128() -> Self {
         let d = PI / 180.0;
         Self::with_lidar(Lidar::uniform(128, -22.5 * d, 22.5 * d, 2048, 120.0, 0.01))
+    }
+
+    /// The paper's rig plus a third sensor on the roof centre, pitched down 10 deg.
+    pub fn paper_roof() -> Self {
+        let mut preset = Self::paper();
+        let lidar = preset.sensors[0].lidar.clone();
+        preset.sensors.push(SensorSpec {
+            name: "roof".into(),
+            mount: pose_from_xyz_rpy([1.2, 0.0, 2.0], [0.0, 10f64.to_radians(), 0.0]),
+            lidar,
+        });
+        preset
     }
 
     /// Two mounts and the cube scene around one sensor model.
@@ -112,12 +108,12 @@ impl Preset {
     /// world frame), each frame with fresh noise and dropout. Views are ordered frame by frame,
     /// sensor by sensor within a frame; frames are named "1", "2", ... Seeded: same seed, same
     /// views.
-    pub fn simulate(&self, frames: usize, seed: u64) -> Vec<SimView> {
+    pub fn simulate(&self, frames: usize, seed: u64) -> Vec<OrganizedScan> {
         let mut rng = Pcg64::seed_from_u64(seed);
         let mut views = Vec::with_capacity(frames * self.sensors.len());
         for frame in 1..=frames {
             for s in &self.sensors {
-                views.push(SimView {
+                views.push(OrganizedScan {
                     sensor: s.name.clone(),
                     frame: frame.to_string(),
                     cloud: s.lidar.scan(&self.scene, &s.mount, &mut rng),
@@ -128,26 +124,4 @@ impl Preset {
         }
         views
     }
-}
-
-/// A wrong nominal mount: roll, pitch, yaw uniform in `+-max_angle` (rad) and translation
-/// uniform in `+-max_translation` (m) per axis, applied in the VEHICLE frame:
-/// `nominal = delta * truth` (the convention of `synth`). Paper defaults:
-/// [`MAX_MISCALIBRATION_ANGLE`], [`MAX_MISCALIBRATION_TRANSLATION`].
-pub fn miscalibrate(
-    true_mount: &Pose,
-    max_angle: f64,
-    max_translation: f64,
-    rng: &mut impl Rng,
-) -> Pose {
-    let (a, t) = (max_angle, max_translation);
-    let rpy = [(); 3].map(|_| rng.random_range(-a..=a));
-    let xyz = [(); 3].map(|_| rng.random_range(-t..=t));
-    pose_from_xyz_rpy(xyz, rpy) * true_mount
-}
-
-/// The correction a calibration should find: `truth * nominal^-1`, which maps points
-/// pre-aligned with the nominal mount onto where the true mount puts them.
-pub fn expected_correction(truth: &Pose, nominal: &Pose) -> Pose {
-    truth * nominal.inverse()
 }

@@ -1,50 +1,9 @@
-//! Initial component means: a geometric prior of the calibration target, placed at the centroid
-//! of the region-of-interest points (GMMCalib hard-codes a position; the centroid follows the data).
+//! Points on a target's surface: the initial means of JRMPC's mixture, placed by the caller at
+//! the centroid of the ROI's points (GMMCalib hard-codes a position; the centroid follows the
+//! data).
 
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
-
-/// The target shape the mixture starts from.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Prior {
-    /// Points on the surface of an axis-aligned cube of this edge (m).
-    Cube { edge: f64 },
-    /// Points on a sphere of this radius (m).
-    Sphere { radius: f64 },
-    /// Means given by the caller, used as they are (m, vehicle frame).
-    Means(Vec<[f64; 3]>),
-}
-
-impl Default for Prior {
-    /// GMMCalib's target: a 0.5 m cube.
-    fn default() -> Self {
-        Prior::Cube { edge: 0.5 }
-    }
-}
-
-impl Prior {
-    /// The prior's overall size (m): cube edge or sphere diameter; `None` for given means.
-    pub fn size(&self) -> Option<f64> {
-        match self {
-            Prior::Cube { edge } => Some(*edge),
-            Prior::Sphere { radius } => Some(2.0 * radius),
-            Prior::Means(_) => None,
-        }
-    }
-
-    /// `k` initial means centred on `centre`; `seed` drives the cube sampler.
-    /// For `Means`, `k`, `centre` and `seed` are ignored.
-    pub fn means(&self, k: usize, centre: [f64; 3], seed: u64) -> Vec<[f64; 3]> {
-        let offset = |p: [f64; 3]| [p[0] + centre[0], p[1] + centre[1], p[2] + centre[2]];
-        match self {
-            Prior::Cube { edge } => cube_surface(*edge, k, seed).into_iter().map(offset).collect(),
-            Prior::Sphere { radius } => {
-                sphere_surface(*radius, k).into_iter().map(offset).collect()
-            }
-            Prior::Means(means) => means.clone(),
-        }
-    }
-}
 
 /// `k` points uniformly distributed over the surface of a cube of edge `edge` centred on the
 /// origin (faces have equal area, so each point picks a face uniformly).
@@ -103,7 +62,7 @@ mod tests {
 
     #[test]
     fn sphere_points_lie_on_the_sphere_and_prior_is_centred() {
-        let means = Prior::Sphere { radius: 2.0 }.means(100, [1.0, 2.0, 3.0], 0);
+        let means = super::super::Target::Sphere { diameter: 4.0 }.surface(100, [1.0, 2.0, 3.0], 0);
         let n = means.len() as f64;
         let c = [0, 1, 2].map(|i| means.iter().map(|p| p[i]).sum::<f64>() / n);
         assert!(

@@ -94,7 +94,7 @@ impl Lidar {
 mod tests {
     use super::*;
     use crate::se3::pose_from_xyz_rpy;
-    use crate::sim::scene::OrientedBox;
+    use crate::twin::scene::OrientedBox;
     use rand::SeedableRng;
     use rand_pcg::Pcg64;
 

@@ -1,0 +1,266 @@
+//! `gmmcalib study`: accuracy on the digital twin. Seeds `1..=seeds` of the scans, each
+//! calibrated from `starts` wrong nominals (start `k` of seed `s` draws its miscalibration from
+//! seed `1000 s + k`); prints the error distributions, every trial, each sensor's own, and the
+//! precision the calibrations claimed against their errors. Trials run on worker threads and
+//! are printed in order: the output does not depend on the thread count.
+
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use gmmcalib::calib::{self, Method, Settings};
+use gmmcalib::eval::{self, SensorError};
+use gmmcalib::jrmpc::Control;
+use gmmcalib::se3::xyz_rpy;
+use gmmcalib::twin::{Miscalibration, Model, Twin};
+
+use crate::args::StudyArgs;
+use crate::layout::model;
+
+/// One trial: the errors per non-reference sensor, and what the run cost and said.
+struct Trial {
+    errors: Vec<SensorError>,
+    micros: u128,
+    iterations: usize,
+    warnings: usize,
+    notes: Vec<String>,
+}
+
+pub fn run(a: &StudyArgs) -> Result<(), String> {
+    let mut model = model(&a.preset)?;
+    if let Model::RayCast(preset) = &mut model {
+        for s in &mut preset.sensors {
+            s.lidar.horizontal_steps = a.columns.unwrap_or(s.lidar.horizontal_steps);
+            s.lidar.range_noise = a.noise.unwrap_or(s.lidar.range_noise);
+        }
+    }
+    let settings = settings(a)?;
+    let angle = a.max_angle_deg.to_radians();
+    let yaw = a.max_yaw_deg.map_or(angle, f64::to_radians);
+    let translation = a.max_translation;
+    let jobs: Vec<(u64, u64)> =
+        (1..=a.seeds).flat_map(|s| (0..a.starts).map(move |k| (s, k))).collect();
+    let trials = on_threads(jobs.len(), a.threads, |j| {
+        let (seed, start) = jobs[j];
+        let draw = Miscalibration {
+            angle: [angle, angle, yaw],
+            translation: [translation; 3],
+            seed: Some(seed * 1000 + start),
+        };
+        trial(&model, a.frames, seed, &draw, &settings, a.notes)
+    })?;
+    for (&(seed, start), t) in jobs.iter().zip(&trials) {
+        for note in &t.notes {
+            println!("seed {seed} start {start}: {note}");
+        }
+    }
+    report(&jobs, &trials);
+    Ok(())
+}
+
+/// The settings the flags make.
+fn settings(a: &StudyArgs) -> Result<Settings, String> {
+    let mut settings = Settings {
+        method: a.method.parse::<Method>().map_err(|e| e.to_string())?,
+        ..Default::default()
+    };
+    if let Some(k) = a.components {
+        settings.components = k;
+    }
+    if let Some(n) = a.iterations {
+        settings.jrmpc.max_iterations = n;
+    }
+    if let Some(t) = a.tolerance {
+        settings.jrmpc.tolerance = t;
+    }
+    if !a.bev {
+        settings.bev = None;
+    }
+    if !a.planes {
+        settings.planes = None;
+    }
+    settings.level_ground = a.level;
+    Ok(settings)
+}
+
+/// One trial: `frames` scans of `model` from `seed`, nominals drawn by `draw`, calibrated.
+fn trial(
+    model: &Model,
+    frames: usize,
+    seed: u64,
+    draw: &Miscalibration,
+    settings: &Settings,
+    notes: bool,
+) -> Result<Trial, String> {
+    let twin = Twin::new(model, frames, seed, draw);
+    let clock = Instant::now();
+    let result = calib::calibrate(&twin.rig(), settings, |_| Control::Continue)
+        .map_err(|e| format!("seed {seed}: {e}"))?;
+    let micros = clock.elapsed().as_micros();
+    let errors = eval::sensor_errors(&twin, &result)
+        .into_iter()
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| format!("seed {seed}: a sensor has no result"))?;
+    let mut said = Vec::new();
+    if notes {
+        for note in result.plane_adjustment.iter().chain(&result.kept_jrmpc) {
+            said.push(format!("{}: {}", note.sensor, note.kind));
+        }
+        for l in &result.levelling {
+            if let Some(b) = &l.bev {
+                let share = b.score / b.points as f64;
+                said.push(format!("{}: bird's-eye overlap {share:.3}", l.sensor));
+            }
+        }
+    }
+    Ok(Trial {
+        errors,
+        micros,
+        iterations: result.iterations,
+        warnings: result.levelling.iter().filter(|l| l.warning.is_some()).count(),
+        notes: said,
+    })
+}
+
+/// Prints the study's figures.
+fn report(jobs: &[(u64, u64)], trials: &[Trial]) {
+    let errors: Vec<&SensorError> = trials.iter().flat_map(|t| &t.errors).collect();
+    for line in precision_check(&errors) {
+        println!("{line}");
+    }
+    // Per error: |roll, pitch, yaw| (deg) and |x, y, z| (mm).
+    let axes: Vec<[f64; 6]> = errors
+        .iter()
+        .map(|e| {
+            let (xyz, rpy) = xyz_rpy(&e.error);
+            [0, 1, 2, 3, 4, 5]
+                .map(|i| if i < 3 { rpy[i].to_degrees().abs() } else { xyz[i - 3].abs() * 1e3 })
+        })
+        .collect();
+    let mean_axis = |i: usize| axes.iter().map(|a| a[i]).sum::<f64>() / axes.len() as f64;
+    println!(
+        "mean |roll pitch yaw| (deg) {:.4} {:.4} {:.4}, |x y z| (mm) {:.2} {:.2} {:.2}",
+        mean_axis(0),
+        mean_axis(1),
+        mean_axis(2),
+        mean_axis(3),
+        mean_axis(4),
+        mean_axis(5)
+    );
+    // Signed means: a bias shows here, seed noise averages out.
+    let signed: Vec<[f64; 2]> = errors
+        .iter()
+        .map(|e| {
+            let (xyz, rpy) = xyz_rpy(&e.error);
+            [rpy[2].to_degrees(), xyz[1] * 1e3]
+        })
+        .collect();
+    let n = signed.len() as f64;
+    println!(
+        "signed mean yaw {:.4} deg, y {:.2} mm",
+        signed.iter().map(|s| s[0]).sum::<f64>() / n,
+        signed.iter().map(|s| s[1]).sum::<f64>() / n
+    );
+    for ((seed, start), t) in jobs.iter().zip(trials) {
+        let cells: Vec<String> = t
+            .errors
+            .iter()
+            .map(SensorError::deg_m)
+            .map(|(a, m)| format!("{a:.4} deg {:.2} mm", m * 1e3))
+            .collect();
+        println!("seed {seed} start {start}: {}", cells.join(" | "));
+    }
+    let all: Vec<(f64, f64)> = errors.iter().map(|e| e.deg_m()).collect();
+    let columns = |errors: &[(f64, f64)]| -> (Vec<f64>, Vec<f64>) {
+        errors.iter().map(|(a, t)| (*a, t * 1e3)).unzip()
+    };
+    let (angles, shifts) = columns(&all);
+    let good = all.iter().filter(|(a, t)| *a <= 0.1 && *t <= 0.01).count();
+    println!("rotation (deg): {}", summary(&angles));
+    println!("translation (mm): {}", summary(&shifts));
+    println!("within 0.1 deg & 1 cm: {good} of {}", all.len());
+    // With several non-reference sensors, each one's own distribution.
+    let sensors = trials.first().map_or(0, |t| t.errors.len());
+    for s in (0..sensors).filter(|_| sensors > 1) {
+        let own: Vec<(f64, f64)> = trials.iter().map(|t| t.errors[s].deg_m()).collect();
+        let (angles, shifts) = columns(&own);
+        println!("sensor {}: {} deg, {} mm", s + 1, summary(&angles), summary(&shifts));
+    }
+    let count = trials.len().max(1) as f64;
+    let seconds = trials.iter().map(|t| t.micros).sum::<u128>() as f64 * 1e-6;
+    println!("calibration: {:.2} s each (trials run in parallel)", seconds / count);
+    let iterations = trials.iter().map(|t| t.iterations).sum::<usize>() as f64;
+    println!("JRMPC iterations: {:.1} each", iterations / count);
+    println!("levelling warnings: {}", trials.iter().map(|t| t.warnings).sum::<usize>());
+}
+
+/// Median and maximum.
+fn summary(values: &[f64]) -> String {
+    match eval::stats(values) {
+        Some(s) => format!("median {:.4}, max {:.4}", s.median, s.max),
+        None => "none".into(),
+    }
+}
+
+/// Per axis (rotation about x, y, z; position x, y, z): the RMS error over `errors` against
+/// the RMS of the one-sigma precision claimed. Sensors without a claim are left out.
+fn precision_check(errors: &[&SensorError]) -> Vec<String> {
+    let claimed: Vec<(&SensorError, calib::Precision)> =
+        errors.iter().filter_map(|e| Some((*e, e.precision?))).collect();
+    let n = claimed.len().max(1) as f64;
+    let rms = |f: &dyn Fn(&(&SensorError, calib::Precision)) -> f64| {
+        (claimed.iter().map(|c| f(c).powi(2)).sum::<f64>() / n).sqrt()
+    };
+    let mut lines =
+        vec![format!("precision claimed by {} of {} calibrations", claimed.len(), errors.len())];
+    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+        let (error, claim) = (rms(&|c| c.0.rotation[i]), rms(&|c| c.1.rotation[i]));
+        lines.push(format!(
+            "rotation about {axis}: RMS error {:.4} deg, claimed {:.4} deg (ratio {:.2})",
+            error.to_degrees(),
+            claim.to_degrees(),
+            error / claim
+        ));
+    }
+    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+        let (error, claim) = (rms(&|c| c.0.position[i]), rms(&|c| c.1.position[i]));
+        lines.push(format!(
+            "position {axis}: RMS error {:.2} mm, claimed {:.2} mm (ratio {:.2})",
+            error * 1e3,
+            claim * 1e3,
+            error / claim
+        ));
+    }
+    lines
+}
+
+/// `f` of `0..count` on up to `threads` threads (default: the cores), in order.
+fn on_threads<T: Send>(
+    count: usize,
+    threads: Option<usize>,
+    f: impl Fn(usize) -> Result<T, String> + Sync,
+) -> Result<Vec<T>, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = threads.unwrap_or(cores).clamp(1, count.max(1));
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<Result<T, String>>>> =
+        Mutex::new((0..count).map(|_| None).collect());
+    std::thread::scope(|scope| {
+        for _ in 0..threads {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    if i >= count {
+                        break;
+                    }
+                    let r = f(i);
+                    if let Ok(mut all) = results.lock() {
+                        all[i] = Some(r);
+                    }
+                }
+            });
+        }
+    });
+    let results = results.into_inner().map_err(|_| "a study thread panicked".to_string())?;
+    results.into_iter().map(|r| r.unwrap_or_else(|| Err("a trial did not run".into()))).collect()
+}

@@ -1,0 +1,133 @@
+//! The last stages of a calibration, once its registrations are done: the joint plane
+//! adjustment, the average over frames, the corrected extrinsics and the reconstruction.
+
+use nalgebra::Vector3;
+
+use super::CalibError;
+use super::average::robust_average;
+use super::notes::{Note, NoteKind};
+use super::pairs::FramePairs;
+use super::planes;
+use super::reconstruction::reconstruct;
+use super::result::{Calibration, SensorResult};
+use super::views::{Views, jrmpc_per_pair};
+use crate::jrmpc::Registration;
+use crate::se3::Pose;
+
+/// The calibration from `views`, JRMPC's `registration` (the methods that run it) and the
+/// frame pairs as far as they were registered.
+pub(super) fn finish(
+    views: Views,
+    registration: Option<Registration>,
+    pairs: Option<FramePairs>,
+) -> Result<Calibration, CalibError> {
+    let reference_ground = views.reference_ground();
+    let Views {
+        settings,
+        stages,
+        sensors,
+        reference: r,
+        nominals,
+        levelling,
+        levelled,
+        pre_aligned,
+        views,
+        mut skipped,
+        pairs: frame_pairs,
+        ground,
+    } = views;
+    let name = |view: usize| (sensors[views[view].sensor].clone(), views[view].frame.clone());
+    let mut kept_jrmpc = Vec::new();
+
+    // The per-frame corrections: the frame pairs' where they ran, else JRMPC's.
+    let mut per_pair = match (&pairs, &registration) {
+        (Some(pairs), _) => {
+            let (per_pair, failures) = pairs.corrections();
+            for failure in failures {
+                let (sensor, frame) = name(failure.view);
+                let kept = failure.kept_start();
+                let note = Note { sensor, frame: Some(frame), kind: failure.kind };
+                if kept { kept_jrmpc.push(note) } else { skipped.push(note) }
+            }
+            per_pair
+        }
+        (None, Some(registration)) => jrmpc_per_pair(&frame_pairs, registration),
+        (None, None) => return Err(CalibError::InvalidSetting("no registration to finish")),
+    };
+
+    // The joint plane adjustment: one motion per sensor on every frame.
+    let clouds: Vec<&[[f32; 3]]> = views.iter().map(|v| v.cloud.points.as_slice()).collect();
+    let mut precision = vec![None; sensors.len()];
+    let mut plane_adjustment = Vec::new();
+    if let Some(plane_settings) = &stages.planes {
+        // The clouds are pre-aligned: each sensor sits at its levelled nominal.
+        let origins: Vec<Vector3<f64>> = pre_aligned.iter().map(|p| p.translation.vector).collect();
+        let ground = reference_ground.map(|(plane, _)| plane);
+        let adjustments = planes::adjust(
+            &clouds,
+            &origins,
+            &frame_pairs,
+            r,
+            &mut per_pair,
+            ground,
+            plane_settings,
+        );
+        for a in &adjustments {
+            if a.accepted {
+                precision[a.sensor] = a.precision;
+            }
+            let kind = a.note(plane_settings.max_departure);
+            plane_adjustment.push(Note { sensor: sensors[a.sensor].clone(), frame: None, kind });
+        }
+    }
+
+    // Average over frames, leaving out frames far from the others.
+    let reference_nominal = nominals[r];
+    let mut results = Vec::with_capacity(sensors.len());
+    for (s, sensor) in sensors.iter().enumerate() {
+        let corrections: Vec<Pose> = per_pair[s].iter().map(|(_, c)| c * levelled[s]).collect();
+        let Some((correction, spread, outliers)) = robust_average(&corrections) else {
+            return Err(CalibError::FramesFailed { sensor: sensor.clone() });
+        };
+        for i in outliers {
+            let (_, view) = per_pair[s][i].0;
+            let d = correction.inverse() * corrections[i];
+            let (angle, distance) = (d.rotation.angle(), d.translation.vector.norm());
+            let kind = NoteKind::FrameOutlier { angle, distance };
+            skipped.push(Note { sensor: sensor.clone(), frame: Some(name(view).1), kind });
+        }
+        let extrinsic = correction * nominals[s];
+        results.push(SensorResult {
+            name: sensor.clone(),
+            correction,
+            extrinsic,
+            relative: reference_nominal.inverse() * extrinsic,
+            spread,
+            precision: precision[s],
+        });
+    }
+
+    // The reconstruction and its plausibility.
+    let (reconstruction, iterations, converged, cancelled, history) = match registration {
+        Some(reg) => {
+            let reference_views: Vec<usize> = frame_pairs[r].iter().map(|&(v, _)| v).collect();
+            let reconstruction = reconstruct(&reg, &reference_views, ground, &settings.target);
+            (reconstruction, reg.iterations, reg.converged, reg.cancelled, reg.history)
+        }
+        None => (Default::default(), 0, true, false, Vec::new()),
+    };
+    Ok(Calibration {
+        method: stages.method,
+        reference: sensors[r].clone(),
+        sensors: results,
+        reconstruction,
+        iterations,
+        converged,
+        cancelled,
+        skipped,
+        kept_jrmpc,
+        plane_adjustment,
+        levelling,
+        history,
+    })
+}

@@ -1,0 +1,82 @@
+//! What the user supplies: scans labelled (sensor, frame), a nominal extrinsic per sensor, the
+//! region of interest and the reference sensor; and the checks every calibration starts with.
+
+use super::CalibError;
+use crate::cloud::Aabb;
+use crate::se3::Pose;
+
+/// One scan: points `x, y, z` in the sensor's own frame (m). Scans of different sensors with
+/// the same frame name were captured at the same time.
+#[derive(Clone, Debug)]
+pub struct Scan {
+    pub sensor: String,
+    pub frame: String,
+    pub points: Vec<[f32; 3]>,
+}
+
+/// Everything about the rig the user supplies.
+#[derive(Clone, Debug)]
+pub struct Rig {
+    pub scans: Vec<Scan>,
+    /// Nominal `T_vehicle_sensor` per sensor.
+    pub nominal: Vec<(String, Pose)>,
+    /// Region of interest in the vehicle frame (m), bounds inclusive.
+    pub roi: Aabb,
+    /// The sensor the others are calibrated to; default: the sensor of the first scan.
+    pub reference: Option<String>,
+}
+
+impl Rig {
+    /// Sensor names in order of first appearance among the scans: the order of
+    /// `Calibration::sensors` and `Progress::corrections`.
+    pub fn sensors(&self) -> Vec<String> {
+        let mut names: Vec<String> = Vec::new();
+        for scan in &self.scans {
+            if !names.contains(&scan.sensor) {
+                names.push(scan.sensor.clone());
+            }
+        }
+        names
+    }
+
+    /// The nominal `T_vehicle_sensor` of `sensor` (identity if it has none).
+    pub fn nominal_of(&self, sensor: &str) -> Pose {
+        self.nominal.iter().find(|(n, _)| n == sensor).map_or_else(Pose::identity, |(_, p)| *p)
+    }
+
+    /// The sensors in result order and the reference's index among them, after checking the
+    /// ROI, the nominals, the points and the reference.
+    pub(super) fn checked(&self) -> Result<(Vec<String>, usize), CalibError> {
+        if !self.roi.is_valid() {
+            return Err(CalibError::InvalidRoi);
+        }
+        let sensors = self.sensors();
+        for name in &sensors {
+            let (_, pose) = self
+                .nominal
+                .iter()
+                .find(|(n, _)| n == name)
+                .ok_or_else(|| CalibError::UnknownSensor(name.clone()))?;
+            if !pose.to_homogeneous().iter().all(|x| x.is_finite()) {
+                return Err(CalibError::NonFiniteNominal(name.clone()));
+            }
+        }
+        if sensors.len() < 2 {
+            return Err(CalibError::TooFewSensors(sensors.len()));
+        }
+        let reference = self.reference.clone().unwrap_or_else(|| sensors[0].clone());
+        let Some(r) = sensors.iter().position(|n| *n == reference) else {
+            return Err(CalibError::UnknownReference(reference));
+        };
+        for scan in &self.scans {
+            if let Some(index) = scan.points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+                return Err(CalibError::NonFinitePoint {
+                    sensor: scan.sensor.clone(),
+                    frame: scan.frame.clone(),
+                    index,
+                });
+            }
+        }
+        Ok((sensors, r))
+    }
+}

@@ -1,0 +1,261 @@
+//! A calibration run as a state machine over its methods and each method's stages. A driver
+//! asks for the current [`Phase`], does that phase's work where it likes — native threads
+//! ([`Run::drive`]) or the page's Web Workers (`wasm::CalibrationSession`) — and calls
+//! [`Run::advance`]. With several methods (`compare all`) the run moves on to the next method
+//! once one is done; a method that fails leaves its error as its outcome and the others still
+//! run. So the control flow of a calibration exists once, here, whoever drives it.
+
+use std::borrow::Cow;
+
+use super::finish::finish;
+use super::pairs::FramePairs;
+use super::result::{Calibration, Progress, Stage};
+use super::settings::{Method, Settings};
+use super::views::Views;
+use super::{CalibError, Rig};
+use crate::jrmpc::{CentredViews, Control, Em, Registration, Shards};
+use crate::se3::Pose;
+
+/// What the current method needs next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// JRMPC's EM: E-steps of every view, then [`Em::m_step`], until [`Em::finished`].
+    Em,
+    /// The frame pairs' ICP: register every pair of [`Run::frame_pairs`].
+    FramePairs,
+    /// Every method has its outcome.
+    Done,
+}
+
+/// One method's calibration, or why it failed.
+pub type MethodOutcome = (Method, Result<Calibration, CalibError>);
+
+pub struct Run<'r> {
+    rig: Cow<'r, Rig>,
+    settings: Settings,
+    methods: Vec<Method>,
+    /// The method under way: its index in `methods`, its views and its state.
+    current: Option<(usize, Views, State)>,
+    outcomes: Vec<MethodOutcome>,
+    cancelled: bool,
+}
+
+enum State {
+    /// EM under way; the views' centred points until a driver takes them for its shards.
+    Em(Em, Option<CentredViews>),
+    /// The frame pairs, registered as far as they are; JRMPC's result for the GMM methods.
+    Pairs(Option<Registration>, FramePairs),
+}
+
+impl<'r> Run<'r> {
+    /// A run of `methods` (each with `settings`, its method replaced) on `rig`; the first
+    /// method's views are prepared.
+    pub fn new(rig: Cow<'r, Rig>, settings: &Settings, methods: &[Method]) -> Self {
+        let mut run = Self {
+            rig,
+            settings: settings.clone(),
+            methods: methods.to_vec(),
+            current: None,
+            outcomes: Vec::with_capacity(methods.len()),
+            cancelled: false,
+        };
+        run.start(0);
+        run
+    }
+
+    pub fn phase(&self) -> Phase {
+        match &self.current {
+            Some((_, _, State::Em(..))) => Phase::Em,
+            Some((_, _, State::Pairs(..))) => Phase::FramePairs,
+            None => Phase::Done,
+        }
+    }
+
+    /// The method under way and its index among the run's methods.
+    pub fn method(&self) -> Option<(usize, Method)> {
+        self.current.as_ref().map(|(i, _, _)| (*i, self.methods[*i]))
+    }
+
+    pub fn methods(&self) -> &[Method] {
+        &self.methods
+    }
+
+    /// The method under way's views.
+    pub fn views(&self) -> Option<&Views> {
+        self.current.as_ref().map(|(_, views, _)| views)
+    }
+
+    /// EM, in [`Phase::Em`].
+    pub fn em(&mut self) -> Option<&mut Em> {
+        match &mut self.current {
+            Some((_, _, State::Em(em, _))) => Some(em),
+            _ => None,
+        }
+    }
+
+    /// The views' centred points for EM's shards, in [`Phase::Em`] (until taken).
+    pub fn em_points(&self) -> Option<&CentredViews> {
+        match &self.current {
+            Some((_, _, State::Em(_, points))) => points.as_ref(),
+            _ => None,
+        }
+    }
+
+    /// The frame pairs, in [`Phase::FramePairs`].
+    pub fn frame_pairs(&mut self) -> Option<&mut FramePairs> {
+        match &mut self.current {
+            Some((_, _, State::Pairs(_, pairs))) => Some(pairs),
+            _ => None,
+        }
+    }
+
+    /// Registers the frame pairs `which` here (see [`FramePairs::run`]); `progress` sees the
+    /// corrections as the caller does, levelling included.
+    pub fn register_pairs(
+        &mut self,
+        which: impl IntoIterator<Item = usize>,
+        threads: usize,
+        progress: &mut impl FnMut(&Progress) -> Control,
+    ) {
+        let Some((_, views, State::Pairs(_, pairs))) = &mut self.current else { return };
+        pairs.run(&views.clouds(), which, threads, &mut |p: &Progress| {
+            let corrections = views.levelled(p.corrections);
+            progress(&Progress { corrections: &corrections, ..*p })
+        });
+    }
+
+    /// Records frame pair `pair`'s outcome, registered elsewhere, and returns what the progress
+    /// callback would see.
+    pub fn record_pair<R>(
+        &mut self,
+        pair: usize,
+        outcome: Result<Pose, String>,
+        then: impl FnOnce(&Progress) -> R,
+    ) -> Option<R> {
+        let Some((_, views, State::Pairs(_, pairs))) = &mut self.current else { return None };
+        pairs.record(pair, outcome);
+        let corrections = views.levelled(&pairs.running());
+        Some(then(&pairs.progress(&corrections)))
+    }
+
+    /// What the progress callback sees after EM's latest iteration.
+    pub fn em_progress<R>(&self, then: impl FnOnce(&Progress) -> R) -> Option<R> {
+        let Some((_, views, State::Em(em, _))) = &self.current else { return None };
+        let latest = em.latest();
+        let corrections = views.jrmpc_corrections(&latest.poses);
+        Some(then(&Progress {
+            stage: Stage::Jrmpc,
+            iteration: latest.iteration,
+            max_iterations: views.settings.jrmpc.max_iterations,
+            mean_sigma: latest.mean_sigma,
+            max_change: latest.max_change,
+            corrections: &corrections,
+        }))
+    }
+
+    /// Ends the current phase (EM even if unfinished; the frame pairs as far as registered)
+    /// and moves on: to the frame pairs, to the method's result, to the next method.
+    pub fn advance(&mut self) {
+        let Some((index, views, state)) = self.current.take() else { return };
+        match state {
+            State::Em(em, _) => {
+                let registration = em.into_registration();
+                match views.frame_pairs(Some(&registration)) {
+                    Some(pairs) => {
+                        self.current = Some((index, views, State::Pairs(Some(registration), pairs)))
+                    }
+                    None => self.done(index, finish(views, Some(registration), None)),
+                }
+            }
+            State::Pairs(registration, pairs) => {
+                self.done(index, finish(views, registration, Some(pairs)))
+            }
+        }
+    }
+
+    /// Stops the current phase after its current step; no later method starts.
+    pub fn cancel(&mut self) {
+        self.cancelled = true;
+        match &mut self.current {
+            Some((_, _, State::Em(em, _))) => em.cancel(),
+            Some((_, _, State::Pairs(_, pairs))) => pairs.stop(),
+            None => {}
+        }
+    }
+
+    /// Ends the current method with `error` (its work failed elsewhere, say a worker crashed)
+    /// and moves on to the next.
+    pub fn fail(&mut self, error: CalibError) {
+        if let Some((index, _, _)) = self.current.take() {
+            self.done(index, Err(error));
+        }
+    }
+
+    /// Every method's outcome, in the run's order (after [`Phase::Done`]; methods never
+    /// started, after a cancel, are left out).
+    pub fn into_outcomes(self) -> Vec<MethodOutcome> {
+        self.outcomes
+    }
+
+    /// Runs every phase of every method here: EM's shards and the frame pairs on `threads`
+    /// threads (native; one in wasm32). `progress` sees the method and its progress, and may
+    /// stop the run.
+    pub fn drive(
+        &mut self,
+        threads: usize,
+        progress: &mut impl FnMut(Method, &Progress) -> Control,
+    ) {
+        while let Some((_, method)) = self.method() {
+            let progress = &mut |p: &Progress| progress(method, p);
+            match self.phase() {
+                Phase::Em => self.drive_em(threads, progress),
+                Phase::FramePairs => {
+                    let count = self.frame_pairs().map_or(0, |p| p.pairs().len());
+                    self.register_pairs(0..count, threads, progress);
+                }
+                Phase::Done => return,
+            }
+            self.advance();
+        }
+    }
+
+    fn drive_em(&mut self, threads: usize, progress: &mut impl FnMut(&Progress) -> Control) {
+        let Some((_, views, State::Em(_, points))) = &mut self.current else { return };
+        let dense = views.settings.jrmpc.dense;
+        let mut shards = Shards::new(points.take().unwrap_or_default(), threads, dense);
+        while let Some(em) = self.em().filter(|em| !em.finished()) {
+            shards.iterate(em);
+            if self.em_progress(|p| progress(p)) == Some(Control::Stop) {
+                self.cancel();
+            }
+        }
+    }
+
+    /// Records method `index`'s outcome and starts the next method, unless cancelled.
+    fn done(&mut self, index: usize, outcome: Result<Calibration, CalibError>) {
+        self.outcomes.push((self.methods[index], outcome));
+        if !self.cancelled {
+            self.start(index + 1);
+        }
+    }
+
+    /// Prepares method `index` (and, if it fails at once, the ones after it).
+    fn start(&mut self, index: usize) {
+        let Some(&method) = self.methods.get(index) else { return };
+        let settings = Settings { method, ..self.settings.clone() };
+        let started = Views::new(&self.rig, &settings).and_then(|views| {
+            if views.stages().jrmpc {
+                let (em, points) = views.start_jrmpc()?;
+                return Ok((views, Some(State::Em(em, Some(points)))));
+            }
+            let pairs = views.frame_pairs(None);
+            Ok((views, pairs.map(|p| State::Pairs(None, p))))
+        });
+        match started {
+            Ok((views, Some(state))) => self.current = Some((index, views, state)),
+            // No stage to run (a method without registrations cannot be configured today).
+            Ok((views, None)) => self.done(index, finish(views, None, None)),
+            Err(e) => self.done(index, Err(e)),
+        }
+    }
+}

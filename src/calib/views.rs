@@ -1,0 +1,317 @@
+//! The first stage of every calibration: a [`Rig`]'s scans become views — each sensor levelled
+//! onto the reference's ground and searched from above (when its stages say so), pre-aligned
+//! with its nominal, cropped to the ROI, and paired with the reference's view of the same
+//! frame. [`Views`] owns what the later stages need.
+
+use nalgebra::{Point3, Vector3};
+
+use super::bev;
+use super::level::{self, points_in};
+use super::notes::{LevellingSkipped, Note, NoteKind};
+use super::pairs::{FramePairs, PairCorrections, PairIcp};
+use super::result::Levelling;
+use super::settings::{InitialSigma, Settings, Stages};
+use super::{CalibError, Rig};
+use crate::cloud::Cloud;
+use crate::jrmpc::{self, Em, Registration};
+use crate::plane::Plane;
+use crate::se3::Pose;
+
+/// One cropped, pre-aligned view and whose it is.
+pub(super) struct View {
+    pub sensor: usize,
+    pub frame: String,
+    pub cloud: Cloud,
+}
+
+/// A rig's scans as views, ready for registration.
+pub struct Views {
+    pub(super) settings: Settings,
+    pub(super) stages: Stages,
+    pub(super) sensors: Vec<String>,
+    /// Index of the reference in `sensors`.
+    pub(super) reference: usize,
+    /// Nominal `T_vehicle_sensor`, per sensor.
+    pub(super) nominals: Vec<Pose>,
+    pub(super) levelling: Vec<Levelling>,
+    /// The motion levelling applied on top of each sensor's nominal (identity without).
+    pub(super) levelled: Vec<Pose>,
+    /// Each sensor's levelled nominal, `levelled * nominal`: what its points are pre-aligned by.
+    pub(super) pre_aligned: Vec<Pose>,
+    /// The views left after cropping.
+    pub(super) views: Vec<View>,
+    /// Scans left out, and why.
+    pub(super) skipped: Vec<Note>,
+    /// Per sensor, its frame pairs: (reference view, sensor view) of the frames both have.
+    pub(super) pairs: Vec<Vec<(usize, usize)>>,
+    /// The reference's ground, for the reconstruction's fit.
+    pub(super) ground: Option<Plane>,
+}
+
+/// What JRMPC registers: the views, the target's surface at their centroid, and EM's
+/// settings.
+pub struct JrmpcInput<'a> {
+    pub clouds: Vec<&'a [[f32; 3]]>,
+    pub means: Vec<[f64; 3]>,
+    pub settings: jrmpc::EmSettings,
+}
+
+impl Views {
+    /// Levels, searches, crops and pairs `rig`'s scans as `settings` ask.
+    pub fn new(rig: &Rig, settings: &Settings) -> Result<Self, CalibError> {
+        let (sensors, r) = rig.checked()?;
+        settings.check()?;
+        let stages = Stages::of(settings);
+        let nominals: Vec<Pose> = sensors.iter().map(|s| rig.nominal_of(s)).collect();
+
+        // Level, then search from above, when the stages say so.
+        let levelling = if stages.level {
+            level_grounds(rig, &sensors, &nominals, r, settings, &stages)
+        } else {
+            Vec::new()
+        };
+        let levelled: Vec<Pose> = (0..sensors.len())
+            .map(|s| levelling.get(s).map_or_else(Pose::identity, |l| l.motion))
+            .collect();
+
+        // Pre-align and crop.
+        let pre_aligned: Vec<Pose> = levelled.iter().zip(&nominals).map(|(l, n)| l * n).collect();
+        let (views, skipped) = crop(rig, &sensors, &pre_aligned, settings);
+        for (s, name) in sensors.iter().enumerate() {
+            if !views.iter().any(|v| v.sensor == s) {
+                return Err(CalibError::NoPointsInRoi(name.clone()));
+            }
+        }
+        let pairs = frame_pairs(&views, sensors.len(), r);
+        for (s, name) in sensors.iter().enumerate() {
+            if pairs[s].is_empty() {
+                return Err(CalibError::NoCommonFrames(name.clone()));
+            }
+        }
+        // Without levelling, the reference's ground is found for the reconstruction's fit.
+        let ground = match levelling.get(r) {
+            Some(l) => l.ground,
+            None if stages.jrmpc => {
+                sensor_ground(rig, &sensors, &nominals, r, settings).1.map(|(g, _)| g)
+            }
+            None => None,
+        };
+        Ok(Self {
+            settings: settings.clone(),
+            stages,
+            sensors,
+            reference: r,
+            nominals,
+            levelling,
+            levelled,
+            pre_aligned,
+            views,
+            skipped,
+            pairs,
+            ground,
+        })
+    }
+
+    /// Sensor names, in result order.
+    pub fn sensors(&self) -> &[String] {
+        &self.sensors
+    }
+
+    /// The stages this calibration runs.
+    pub fn stages(&self) -> &Stages {
+        &self.stages
+    }
+
+    /// The cropped, pre-aligned views' points, numbered as JRMPC's views and the frame pairs'
+    /// view indices number them.
+    pub fn clouds(&self) -> Vec<&[[f32; 3]]> {
+        self.views.iter().map(|v| v.cloud.points.as_slice()).collect()
+    }
+
+    /// JRMPC's input: every view, the target's surface at their centroid, EM's settings.
+    pub fn jrmpc_input(&self) -> JrmpcInput<'_> {
+        let settings = &self.settings;
+        let clouds = self.clouds();
+        let centre =
+            crate::cloud::centroid(clouds.iter().flat_map(|c| c.iter())).unwrap_or([0.0; 3]);
+        let means = settings.target.surface(settings.components, centre, settings.seed);
+        let jrmpc_settings = jrmpc::EmSettings {
+            initial_sigma: match settings.initial_sigma {
+                InitialSigma::TargetSize => Some(settings.target.size()),
+                InitialSigma::BoundingBox => None,
+                InitialSigma::Fixed(sigma) => Some(sigma),
+            },
+            ..settings.jrmpc.clone()
+        };
+        JrmpcInput { clouds, means, settings: jrmpc_settings }
+    }
+
+    /// EM started on [`Views::jrmpc_input`], and the views' centred points for its shards.
+    pub fn start_jrmpc(&self) -> Result<(Em, jrmpc::CentredViews), CalibError> {
+        let input = self.jrmpc_input();
+        Ok(Em::start(&input.clouds, &input.means, &input.settings)?)
+    }
+
+    /// The running correction per sensor from JRMPC's views' poses: the mean over frames of
+    /// `T_ref,f^-1 T_s,f`, levelling included.
+    pub fn jrmpc_corrections(&self, poses: &[Pose]) -> Vec<Pose> {
+        self.pairs
+            .iter()
+            .zip(&self.levelled)
+            .map(|(frames, levelled)| {
+                let per_frame: Vec<Pose> =
+                    frames.iter().map(|&(r, s)| poses[r].inverse() * poses[s]).collect();
+                super::average::average(&per_frame).map_or_else(Pose::identity, |(c, _)| c)
+                    * levelled
+            })
+            .collect()
+    }
+
+    /// Corrections of the pre-aligned clouds, one per sensor, as the caller sees them: of the
+    /// nominal pre-alignment, levelling included.
+    pub fn levelled(&self, corrections: &[Pose]) -> Vec<Pose> {
+        corrections.iter().zip(&self.levelled).map(|(c, l)| c * l).collect()
+    }
+
+    /// The frame pairs to register, when the stages register them: from `registration`'s
+    /// corrections (`gmm`), else from the nominal.
+    pub fn frame_pairs(&self, registration: Option<&Registration>) -> Option<FramePairs> {
+        let settings = self.stages.pairs.clone()?;
+        // Only a refinement of JRMPC's corrections leans on the reference's ground.
+        let ground = self.reference_ground().filter(|_| registration.is_some());
+        let starts = match registration {
+            Some(registration) => jrmpc_per_pair(&self.pairs, registration),
+            None => vec![Vec::new(); self.sensors.len()],
+        };
+        Some(FramePairs::new(PairIcp { settings, ground }, &self.pairs, self.reference, &starts))
+    }
+
+    /// The reference's levelled ground plane and the band whose points take its normal.
+    pub(super) fn reference_ground(&self) -> Option<(Plane, f64)> {
+        let ground = self.levelling.get(self.reference).and_then(|l| l.ground)?;
+        Some((ground, self.settings.ground.normal_band))
+    }
+}
+
+/// Per sensor, JRMPC's correction of each of its frame pairs: `T_ref,f^-1 T_s,f`.
+pub(super) fn jrmpc_per_pair(
+    pairs: &[Vec<(usize, usize)>],
+    registration: &Registration,
+) -> Vec<PairCorrections> {
+    let poses = &registration.poses;
+    pairs
+        .iter()
+        .map(|p| p.iter().map(|&(r, s)| ((r, s), poses[r].inverse() * poses[s])).collect())
+        .collect()
+}
+
+/// Each scan pre-aligned by its sensor's pose and cropped to the ROI; scans left with too few
+/// points are noted instead.
+fn crop(
+    rig: &Rig,
+    sensors: &[String],
+    poses: &[Pose],
+    settings: &Settings,
+) -> (Vec<View>, Vec<Note>) {
+    let mut views = Vec::new();
+    let mut skipped = Vec::new();
+    for scan in &rig.scans {
+        let s = sensors.iter().position(|n| n == &scan.sensor).unwrap_or(0);
+        let cloud =
+            Cloud::from_points(scan.points.clone()).transformed(&poses[s]).cropped(&rig.roi);
+        let distinct = cloud.points.iter().any(|p| p != &cloud.points[0]);
+        let needed = settings.min_view_points.max(3);
+        if cloud.len() < needed || !distinct {
+            let kind = if distinct || cloud.is_empty() {
+                NoteKind::TooFewPoints { points: cloud.len(), needed }
+            } else {
+                NoteKind::PointsCoincide
+            };
+            let frame = Some(scan.frame.clone());
+            skipped.push(Note { sensor: scan.sensor.clone(), frame, kind });
+            continue;
+        }
+        views.push(View { sensor: s, frame: scan.frame.clone(), cloud });
+    }
+    (views, skipped)
+}
+
+/// Every sensor's ground in a box around the ROI (all its frames, pre-aligned with its
+/// nominal), and the motion putting it on the reference's ground; then, when on, the
+/// bird's-eye search for each levelled sensor's yaw and in-plane shift.
+fn level_grounds(
+    rig: &Rig,
+    sensors: &[String],
+    nominals: &[Pose],
+    r: usize,
+    settings: &Settings,
+    stages: &Stages,
+) -> Vec<Levelling> {
+    let (near_roi, grounds): (Vec<_>, Vec<_>) =
+        (0..sensors.len()).map(|s| sensor_ground(rig, sensors, nominals, s, settings)).unzip();
+    let pivot = Vector3::from_fn(|i, _| 0.5 * (rig.roi.min[i] + rig.roi.max[i]));
+    sensors
+        .iter()
+        .enumerate()
+        .map(|(s, name)| {
+            let (ground, inliers) = grounds[s].map_or((None, 0), |(p, n)| (Some(p), n));
+            let (mut motion, skipped) = match (ground, grounds[r]) {
+                (Some(_), _) if s == r => (Pose::identity(), None),
+                (Some(own), Some((reference, _))) => {
+                    (level::levelling(&own, &reference, &pivot), None)
+                }
+                (None, _) => (Pose::identity(), Some(LevellingSkipped::NoGround)),
+                (Some(_), None) => (
+                    Pose::identity(),
+                    Some(LevellingSkipped::ReferenceWithoutGround {
+                        reference: sensors[r].clone(),
+                    }),
+                ),
+            };
+            // The bird's-eye search runs for every non-reference sensor levelled.
+            let searched = stages.bev.as_ref().filter(|_| s != r && skipped.is_none());
+            let bev = searched.zip(grounds[r]).and_then(|(bev_settings, (reference, _))| {
+                let levelled: Vec<_> =
+                    near_roi[s].iter().map(|p| (motion * Point3::from(*p)).coords).collect();
+                let sensor = (motion * nominals[s]).translation.vector;
+                bev::search(&levelled, &near_roi[r], &reference, &sensor, bev_settings)
+            });
+            if let Some(found) = &bev {
+                motion = found.applied * motion;
+            }
+            let warning = searched.and_then(|b| bev::warning(bev.as_ref(), b));
+            Levelling { sensor: name.clone(), ground, inliers, motion, bev, skipped, warning }
+        })
+        .collect()
+}
+
+/// Sensor `s`'s points (all frames, pre-aligned with its nominal) in the box around the ROI
+/// where the ground is searched, and the ground plane found among them.
+fn sensor_ground(
+    rig: &Rig,
+    sensors: &[String],
+    nominals: &[Pose],
+    s: usize,
+    settings: &Settings,
+) -> (Vec<Vector3<f64>>, Option<(Plane, usize)>) {
+    let bounds = level::search_box(&rig.roi, settings.ground.margin);
+    let points: Vec<_> = rig
+        .scans
+        .iter()
+        .filter(|v| v.sensor == sensors[s])
+        .flat_map(|v| points_in(&v.points, &nominals[s], &bounds))
+        .collect();
+    let ground = level::fit_ground(&points, &settings.ground, settings.seed.wrapping_add(s as u64));
+    (points, ground)
+}
+
+/// For each sensor, the (reference view, sensor view) index pairs of the frames both have.
+fn frame_pairs(views: &[View], sensors: usize, r: usize) -> Vec<Vec<(usize, usize)>> {
+    let mut pairs = vec![Vec::new(); sensors];
+    for (i, view) in views.iter().enumerate() {
+        if let Some(j) = views.iter().position(|u| u.sensor == r && u.frame == view.frame) {
+            pairs[view.sensor].push((j, i));
+        }
+    }
+    pairs
+}

@@ -1,0 +1,262 @@
+//! Rig descriptions: GMMCalib's `config.yaml` plus a few optional keys of ours. One reader, one
+//! set of rules, for the CLI and the page (through wasm).
+//!
+//! ```yaml
+//! number_of_sensors: 2
+//! transform_sensor_1:                      # sensor -> vehicle
+//!   - [-0.346, 0.0165, -0.0163, 2.31, 0.58, 1.61]   # [roll, pitch, yaw (rad), x, y, z (m)]
+//! min_bound:
+//!   - [8.5, -3, -1]                        # ROI in the vehicle frame (m)
+//! max_bound: [11, 4, 2]                    # the plain form, without the extra list, works too
+//! # ours, all optional: reference, method (a name or "all"), components, iterations,
+//! # target_edge (cube edge, m), initial_sigma (m, or "prior" / "bbox")
+//! ```
+//!
+//! Rules: `transform_<name>` gives sensor `<name>`'s nominal (the data folder of that name);
+//! `number_of_sensors`, when present, must count them; the ROI is optional, but `min_bound`
+//! and `max_bound` come together, with min <= max on every axis; unknown keys are ignored, as
+//! GMMCalib's own configs carry keys this tool does not use.
+
+use serde_norway::{Mapping, Value};
+
+use super::IoError;
+use crate::calib::{InitialSigma, Method, Settings};
+use crate::cloud::Aabb;
+use crate::se3::{Pose, pose_from_xyz_rpy};
+use crate::target::Target;
+
+/// What a config sets; everything but the nominals is optional.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Config {
+    /// Nominal `T_vehicle_sensor` by sensor (folder) name, in the file's order.
+    pub nominal: Vec<(String, Pose)>,
+    pub roi: Option<Aabb>,
+    pub reference: Option<String>,
+    /// A method's name or `all`, checked when used ([`Config::methods`]): a command-line
+    /// flag may override a bad one.
+    pub method: Option<String>,
+    pub components: Option<usize>,
+    pub iterations: Option<usize>,
+    pub target: Option<Target>,
+    pub initial_sigma: Option<InitialSigma>,
+}
+
+impl Config {
+    /// Parses the config text; `file` names it in every error.
+    pub fn from_yaml(text: &str, file: &str) -> Result<Config, IoError> {
+        let fail = |problem: String| IoError { file: file.to_string(), offset: None, problem };
+        let value: Value = serde_norway::from_str(text)
+            .map_err(|e| fail(format!("bad YAML: {}", one_line(&e.to_string()))))?;
+        let Value::Mapping(map) = value else {
+            return Err(fail("expected a mapping of keys to values".into()));
+        };
+        let mut nominal = Vec::new();
+        for (key, value) in &map {
+            let Some(sensor) = key.as_str().and_then(|k| k.strip_prefix("transform_")) else {
+                continue;
+            };
+            let v = numbers::<6>(value, "[roll, pitch, yaw, x, y, z]")
+                .map_err(|e| fail(format!("transform_{sensor}: {e}")))?;
+            let pose = pose_from_xyz_rpy([v[3], v[4], v[5]], [v[0], v[1], v[2]]);
+            nominal.push((sensor.to_string(), pose));
+        }
+        let bound = |key: &str| {
+            let value = map.get(key).ok_or_else(|| fail(format!("missing key {key}")))?;
+            numbers::<3>(value, "[x, y, z]").map_err(|e| fail(format!("{key}: {e}")))
+        };
+        let roi = match (map.contains_key("min_bound"), map.contains_key("max_bound")) {
+            (false, false) => None,
+            _ => {
+                let roi = Aabb::new(bound("min_bound")?, bound("max_bound")?);
+                if !roi.is_valid() {
+                    return Err(fail("min_bound must be <= max_bound on every axis".into()));
+                }
+                Some(roi)
+            }
+        };
+        // GMMCalib's sensor count, kept only as a check that no transform is missing.
+        if let Some(n) = count(&map, "number_of_sensors").map_err(fail)? {
+            if n != nominal.len() {
+                let keys = nominal.len();
+                return Err(fail(format!(
+                    "number_of_sensors is {n} but {keys} transform_sensor_N keys"
+                )));
+            }
+        }
+        let target =
+            positive_number(&map, "target_edge").map_err(fail)?.map(|edge| Target::Cube { edge });
+        Ok(Config {
+            nominal,
+            roi,
+            reference: string(&map, "reference").map_err(fail)?,
+            method: string(&map, "method").map_err(fail)?,
+            components: count(&map, "components").map_err(fail)?,
+            iterations: count(&map, "iterations").map_err(fail)?,
+            target,
+            initial_sigma: initial_sigma(&map).map_err(fail)?,
+        })
+    }
+
+    /// The methods the config names, if it names any; `file` names it in the error.
+    pub fn methods(&self, file: &str) -> Result<Option<Vec<Method>>, IoError> {
+        let Some(method) = &self.method else { return Ok(None) };
+        Method::parse_list(method).map(Some).map_err(|e| IoError {
+            file: file.to_string(),
+            offset: None,
+            problem: format!("method: {e}"),
+        })
+    }
+
+    /// `settings` with what this config sets, its method aside ([`Config::methods`]).
+    pub fn apply(&self, settings: &mut Settings) {
+        if let Some(k) = self.components {
+            settings.components = k;
+        }
+        if let Some(n) = self.iterations {
+            settings.jrmpc.max_iterations = n;
+        }
+        if let Some(target) = &self.target {
+            settings.target = target.clone();
+        }
+        if let Some(sigma) = self.initial_sigma {
+            settings.initial_sigma = sigma;
+        }
+    }
+}
+
+/// `N` numbers, as `[a, b, ...]` or GMMCalib's `- [a, b, ...]` (a list holding one list).
+fn numbers<const N: usize>(value: &Value, layout: &str) -> Result<[f64; N], String> {
+    let mut seq = value.as_sequence().ok_or_else(|| format!("expected a list {layout}"))?;
+    if let [Value::Sequence(inner)] = seq.as_slice() {
+        seq = inner;
+    }
+    if seq.len() != N {
+        return Err(format!("expected {N} numbers {layout}, got {}", seq.len()));
+    }
+    let mut out = [0.0; N];
+    for (o, v) in out.iter_mut().zip(seq) {
+        *o = v
+            .as_f64()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("expected finite numbers {layout}, got {}", show(v)))?;
+    }
+    Ok(out)
+}
+
+fn count(map: &Mapping, key: &str) -> Result<Option<usize>, String> {
+    map.get(key)
+        .map(|v| match v.as_u64() {
+            Some(n) if n > 0 => Ok(n as usize),
+            _ => Err(format!("{key}: expected a positive integer, got {}", show(v))),
+        })
+        .transpose()
+}
+
+fn string(map: &Mapping, key: &str) -> Result<Option<String>, String> {
+    map.get(key)
+        .map(|v| {
+            v.as_str()
+                .map(String::from)
+                .ok_or_else(|| format!("{key}: expected a string, got {}", show(v)))
+        })
+        .transpose()
+}
+
+fn positive_number(map: &Mapping, key: &str) -> Result<Option<f64>, String> {
+    map.get(key)
+        .map(|v| match v.as_f64() {
+            Some(x) if x > 0.0 && x.is_finite() => Ok(x),
+            _ => Err(format!("{key}: expected a positive number (m), got {}", show(v))),
+        })
+        .transpose()
+}
+
+fn initial_sigma(map: &Mapping) -> Result<Option<InitialSigma>, String> {
+    let Some(v) = map.get("initial_sigma") else {
+        return Ok(None);
+    };
+    match (v.as_str(), v.as_f64()) {
+        (Some(rule), _) => InitialSigma::from_rule(rule).map(Some),
+        (_, Some(x)) => InitialSigma::fixed(x).map(Some),
+        _ => Err(InitialSigma::EXPECTED.to_string()),
+    }
+    .map_err(|e| format!("initial_sigma: {e}, got {}", show(v)))
+}
+
+/// A YAML value on one line, for error messages.
+fn show(v: &Value) -> String {
+    serde_norway::to_string(v).map_or_else(|_| "?".into(), |s| one_line(s.trim()))
+}
+
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::se3::xyz_rpy;
+
+    const GMMCALIB: &str = "\
+number_of_sensors: 2
+transform_sensor_1:
+  - [-0.3461248, 0.0165291, -0.0162606, 2.31205, 0.581505, 1.610277] #[roll, pitch, yaw, x, y z]
+transform_sensor_2:
+  - [0.3551248, 0.0165291, 0.0061281, 2.311906, -0.664888, 1.612698]
+min_bound:
+  - [8.5, -3, -1]
+max_bound:
+  - [11, 4, 2]
+";
+
+    fn parse(text: &str) -> Result<Config, String> {
+        Config::from_yaml(text, "c.yaml").map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn reads_gmmcalib_config() {
+        let c = parse(GMMCALIB).unwrap();
+        assert_eq!(c.nominal.len(), 2);
+        let roi = c.roi.unwrap();
+        assert_eq!(roi.min, [8.5, -3.0, -1.0]);
+        assert_eq!(roi.max, [11.0, 4.0, 2.0]);
+        let (name, pose) = &c.nominal[1];
+        assert_eq!(name, "sensor_2");
+        let (xyz, rpy) = xyz_rpy(pose);
+        assert!((xyz[1] + 0.664888).abs() < 1e-12 && (rpy[0] - 0.3551248).abs() < 1e-12);
+        assert!(c.method.is_none() && c.initial_sigma.is_none());
+    }
+
+    #[test]
+    fn reads_plain_form_and_our_keys() {
+        let text = "transform_sensor_1: [0, 0, 0, 1, 2, 3]\nmin_bound: [0, 0, 0]\n\
+                    max_bound: [1, 1, 1]\nmethod: jrmpc\niterations: 5\ninitial_sigma: prior\n\
+                    target_edge: 0.6\n";
+        let c = parse(text).unwrap();
+        assert_eq!(xyz_rpy(&c.nominal[0].1).0, [1.0, 2.0, 3.0]);
+        assert_eq!(c.methods("c.yaml").unwrap(), Some(vec![Method::Jrmpc]));
+        assert_eq!(c.iterations, Some(5));
+        assert_eq!(c.initial_sigma, Some(InitialSigma::TargetSize));
+        assert_eq!(c.target, Some(Target::Cube { edge: 0.6 }));
+        let all = parse("method: all\n").unwrap();
+        assert_eq!(all.methods("c.yaml").unwrap(), Some(Method::ALL.to_vec()));
+        assert_eq!(all.roi, None, "the ROI is optional");
+    }
+
+    #[test]
+    fn errors_name_the_key() {
+        let err = |t: &str| parse(t).unwrap_err();
+        assert!(err("min_bound: [0, 0, 0]\n").contains("missing key max_bound"));
+        let short = "number_of_sensors: 2\ntransform_sensor_1: [0, 0, 0, 0, 0, 0]\n\
+                     min_bound: [0, 0, 0]\nmax_bound: [1, 1, 1]\n";
+        assert!(err(short).contains("number_of_sensors is 2 but 1"));
+        assert!(err("transform_sensor_1: [1, 2]\n").contains("transform_sensor_1: expected 6"));
+        assert!(err("a: [1, 2\n").starts_with("c.yaml: bad YAML"));
+        assert!(err("- 1\n").contains("c.yaml: expected a mapping"));
+        let bad_sigma = "min_bound: [0,0,0]\nmax_bound: [1,1,1]\ninitial_sigma: wide\n";
+        assert!(err(bad_sigma).contains("initial_sigma"));
+        let bad = parse("method: ndt\n").unwrap().methods("c.yaml").unwrap_err().to_string();
+        assert!(bad.contains("c.yaml: method: unknown method 'ndt'"), "{bad}");
+        assert!(!err("a: [1, 2\n").contains('\n'));
+    }
+}

@@ -1,0 +1,13 @@
+//! The edge where results meet people and programs: the JSON shape (`gmmcalib calibrate
+//! --json`, the wasm `calibrate`, the page), the CLI's text, and every sentence made from the
+//! calibration's typed notes. Compute code returns typed data; prose is made here.
+
+mod json;
+mod sentences;
+mod text;
+
+pub use json::{
+    BevReport, FitReport, HistoryReport, LevellingReport, NoteReport, PrecisionReport,
+    ReconstructionReport, Report, SensorReport, SpreadReport,
+};
+pub use text::{comparison, summary};
