@@ -25,11 +25,28 @@ use crate::cloud::Aabb;
 use crate::se3::{Pose, pose_from_xyz_rpy};
 use crate::target::Target;
 
+/// A sensor's nominal `T_vehicle_sensor` as the file gives it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Nominal {
+    /// The sensor's (data folder's) name.
+    pub sensor: String,
+    /// Translation (m).
+    pub xyz: [f64; 3],
+    /// Roll, pitch, yaw (rad).
+    pub rpy: [f64; 3],
+}
+
+impl Nominal {
+    pub fn pose(&self) -> Pose {
+        pose_from_xyz_rpy(self.xyz, self.rpy)
+    }
+}
+
 /// What a config sets; everything but the nominals is optional.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Config {
-    /// Nominal `T_vehicle_sensor` by sensor (folder) name, in the file's order.
-    pub nominal: Vec<(String, Pose)>,
+    /// Nominal extrinsics, in the file's order.
+    pub nominal: Vec<Nominal>,
     pub roi: Option<Aabb>,
     pub reference: Option<String>,
     /// A method's name or `all`, checked when used ([`Config::methods`]): a command-line
@@ -57,8 +74,8 @@ impl Config {
             };
             let v = numbers::<6>(value, "[roll, pitch, yaw, x, y, z]")
                 .map_err(|e| fail(format!("transform_{sensor}: {e}")))?;
-            let pose = pose_from_xyz_rpy([v[3], v[4], v[5]], [v[0], v[1], v[2]]);
-            nominal.push((sensor.to_string(), pose));
+            let (xyz, rpy) = ([v[3], v[4], v[5]], [v[0], v[1], v[2]]);
+            nominal.push(Nominal { sensor: sensor.to_string(), xyz, rpy });
         }
         let bound = |key: &str| {
             let value = map.get(key).ok_or_else(|| fail(format!("missing key {key}")))?;
@@ -95,6 +112,11 @@ impl Config {
             target,
             initial_sigma: initial_sigma(&map).map_err(fail)?,
         })
+    }
+
+    /// The nominals as poses, by sensor name.
+    pub fn nominal_poses(&self) -> Vec<(String, Pose)> {
+        self.nominal.iter().map(|n| (n.sensor.clone(), n.pose())).collect()
     }
 
     /// The methods the config names, if it names any; `file` names it in the error.
@@ -195,7 +217,6 @@ fn one_line(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::se3::xyz_rpy;
 
     const GMMCALIB: &str = "\
 number_of_sensors: 2
@@ -220,10 +241,9 @@ max_bound:
         let roi = c.roi.unwrap();
         assert_eq!(roi.min, [8.5, -3.0, -1.0]);
         assert_eq!(roi.max, [11.0, 4.0, 2.0]);
-        let (name, pose) = &c.nominal[1];
-        assert_eq!(name, "sensor_2");
-        let (xyz, rpy) = xyz_rpy(pose);
-        assert!((xyz[1] + 0.664888).abs() < 1e-12 && (rpy[0] - 0.3551248).abs() < 1e-12);
+        let n = &c.nominal[1];
+        assert_eq!(n.sensor, "sensor_2");
+        assert_eq!((n.xyz[1], n.rpy[0]), (-0.664888, 0.3551248), "the numbers as written");
         assert!(c.method.is_none() && c.initial_sigma.is_none());
     }
 
@@ -233,7 +253,7 @@ max_bound:
                     max_bound: [1, 1, 1]\nmethod: jrmpc\niterations: 5\ninitial_sigma: prior\n\
                     target_edge: 0.6\n";
         let c = parse(text).unwrap();
-        assert_eq!(xyz_rpy(&c.nominal[0].1).0, [1.0, 2.0, 3.0]);
+        assert_eq!(c.nominal[0].xyz, [1.0, 2.0, 3.0]);
         assert_eq!(c.methods("c.yaml").unwrap(), Some(vec![Method::Jrmpc]));
         assert_eq!(c.iterations, Some(5));
         assert_eq!(c.initial_sigma, Some(InitialSigma::TargetSize));

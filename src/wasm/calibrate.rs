@@ -201,7 +201,7 @@ pub(super) fn rig_and_settings(
             InitialSigmaInput::Fixed(s) => InitialSigma::fixed(s),
             InitialSigmaInput::Rule(r) => InitialSigma::from_rule(&r),
         }
-        .map_err(|e| error(format!("initialSigma: {e}")))?;
+        .map_err(|_| error("initialSigma must be a positive number, 'prior' or 'bbox'".into()))?;
     }
     Ok((rig, settings, methods))
 }

@@ -43,7 +43,11 @@ pub fn parse_config(text: &str, file_name: &str) -> Result<JsValue, JsError> {
         InitialSigma::BoundingBox => SigmaOutput::Rule("bbox"),
     });
     to_js(&ConfigOutput {
-        nominal: c.nominal.iter().map(|(n, p)| (n.clone(), XyzRpy::from(p))).collect(),
+        nominal: c
+            .nominal
+            .iter()
+            .map(|n| (n.sensor.clone(), XyzRpy { xyz: n.xyz, rpy: n.rpy }))
+            .collect(),
         roi: c.roi.map(|r| Roi { min: r.min, max: r.max }),
         reference: c.reference,
         method: c.method,

@@ -8,7 +8,9 @@
 import { execFileSync } from 'node:child_process';
 import { readFile } from 'node:fs/promises';
 import { performance } from 'node:perf_hooks';
-import init, { calibrate, parseCloud, syntheticRig } from '../pkg/gmmcalib.js';
+import init, { calibrate, parseCloud, simulateRig } from '../pkg/gmmcalib.js';
+
+const sampledRig = (options) => simulateRig({ preset: 'sampled', ...options });
 
 const pkg = await init({ module_or_path: await readFile(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
 const quick = process.argv.includes('--quick');
@@ -23,7 +25,7 @@ const { instance } = await WebAssembly.instantiate(
   new Proxy({}, { get: () => stub }));
 const benchJrmpc = instance.exports.bench_jrmpc;
 
-const rigInput = (rig, extra) => ({ views: rig.views, nominal: rig.nominal, roi: rig.roi, ...extra });
+const rigInput = (rig, extra) => ({ scans: rig.scans, nominal: rig.nominal, roi: rig.roi, ...extra });
 const pad = (s, n) => String(s).padStart(n);
 const mib = (bytes) => `${(bytes / 2 ** 20).toFixed(0)} MiB`;
 
@@ -33,8 +35,8 @@ const jobs = [
   { name: 'paper scale: 212 views x 1850 points, K=400', frames: 106, pointsPerView: 1850, components: 400, denseIterations: 2 },
 ];
 for (const [index, job] of (quick ? jobs.slice(0, 1) : jobs).entries()) {
-  const rig = syntheticRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
-  const points = rig.views.reduce((n, v) => n + v.points.length / 3, 0);
+  const rig = sampledRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
+  const points = rig.scans.reduce((n, v) => n + v.points.length / 3, 0);
   let started = performance.now();
   const result = calibrate(rigInput(rig, { method: 'jrmpc', components: job.components, tolerance: 0 }));
   const seconds = (performance.now() - started) / 1000;
@@ -59,7 +61,7 @@ for (const [index, job] of (quick ? jobs.slice(0, 1) : jobs).entries()) {
 // here: this rig never meets the convergence test), then the frame pairs' GICP, the plane
 // adjustment and the target fit (their share is the time after EM's last progress).
 for (const job of quick ? jobs.slice(0, 1) : jobs) {
-  const rig = syntheticRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
+  const rig = sampledRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
   let emEnded = 0;
   const started = performance.now();
   const result = calibrate(rigInput(rig, { method: 'gmm', components: job.components }), (p) => {
@@ -74,7 +76,7 @@ for (const job of quick ? jobs.slice(0, 1) : jobs) {
 // ICP baselines: per frame pair, on partial views of the synthetic rig.
 for (const pointsPerView of quick ? [2000] : [2000, 65000]) {
   const frames = pointsPerView > 10000 ? 1 : 5;
-  const rig = syntheticRig({ frames, pointsPerView, partial: true, seed: 2 });
+  const rig = sampledRig({ frames, pointsPerView, partial: true, seed: 2 });
   for (const method of ['p2p', 'p2l', 'gicp']) {
     const started = performance.now();
     calibrate(rigInput(rig, { method }));

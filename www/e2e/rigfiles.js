@@ -2,11 +2,14 @@
 // and of any CLI): a synthetic rig with its truth, written in GMMCalib's layout as PCD (ascii)
 // and PLY (binary little-endian) files plus config.yaml, as file payloads for setInputFiles.
 import { readFileSync } from 'node:fs';
-import { initSync, simulateRig, syntheticRig } from '../pkg/gmmcalib.js';
+import { initSync, simulateRig } from '../pkg/gmmcalib.js';
 
 initSync({ module: readFileSync(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
 
-export { simulateRig, syntheticRig };
+// The twin's sampled preset: a cube seen by `sensors` sensors, `pointsPerView` points a scan.
+export const sampledRig = (options) => simulateRig({ preset: 'sampled', ...options });
+
+export { simulateRig };
 
 export function pcdAscii(points) {
   const n = points.length / 3;
@@ -36,7 +39,7 @@ export function configYaml(rig, extra = '') {
 // The last sensor's frames are PLY, the others PCD.
 export function gmmcalibFolder(rig, root, extraYaml = '') {
   const sensors = Object.keys(rig.nominal);
-  const files = rig.views.map((v) => {
+  const files = rig.scans.map((v) => {
     const ply = v.sensor === sensors.at(-1);
     return {
       name: `${root}/${v.sensor}/${v.frame}.${ply ? 'ply' : 'pcd'}`,

@@ -7,7 +7,7 @@ import { tmpdir } from 'node:os';
 import { dirname, join } from 'node:path';
 import { browserSession, waitForStatus } from './harness.js';
 import { calibrate } from '../pkg/gmmcalib.js';
-import { configYaml, errorOf, gmmcalibFolder, pcdAscii, syntheticRig } from './rigfiles.js';
+import { configYaml, errorOf, gmmcalibFolder, pcdAscii, sampledRig } from './rigfiles.js';
 
 // Against the truth: this synthetic rig (3 sensors, 3 frames of 3000 points, cube and no
 // ground) calibrates to 0.08 and 0.06 deg, 3 mm. At 1000 points a view, one sparse frame's
@@ -18,7 +18,7 @@ const UPLOAD_ERROR_BOUND = { deg: 0.3, mm: 20 };
 const session = browserSession();
 
 test('upload a GMMCalib folder through file-input and calibrate it', async () => {
-  const rig = syntheticRig({ sensors: 3, frames: 3, pointsPerView: 3000, seed: 2 });
+  const rig = sampledRig({ sensors: 3, frames: 3, pointsPerView: 3000, seed: 2 });
   const files = gmmcalibFolder(rig, 'rig', 'initial_sigma: prior\ncomponents: 200\n');
   const { page, problems } = await session.open();
   await page.getByTestId('file-input').setInputFiles(files);
@@ -50,10 +50,10 @@ test('upload a GMMCalib folder through file-input and calibrate it', async () =>
     assert.ok(e.deg < UPLOAD_ERROR_BOUND.deg && e.mm < UPLOAD_ERROR_BOUND.mm, `${s.name}: ${e.deg} deg / ${e.mm} mm`);
     assert.equal(s.spread.frames, 3);
   }
-  assert.equal(result.target.means.length, 3 * 200);
+  assert.equal(result.reconstruction.means.length, 3 * 200);
   // The same rig straight into the wasm package (views in the page's order: by sensor, frame).
-  const views = [...rig.views].sort((a, b) => a.sensor.localeCompare(b.sensor) || a.frame.localeCompare(b.frame));
-  const direct = calibrate({ views, nominal: rig.nominal, roi: rig.roi, reference: 'sensor_1', target: { kind: 'cube', edge: 0.5 }, components: 200, iterations: 100, initialSigma: 'prior' });
+  const views = [...rig.scans].sort((a, b) => a.sensor.localeCompare(b.sensor) || a.frame.localeCompare(b.frame));
+  const direct = calibrate({ scans: views, nominal: rig.nominal, roi: rig.roi, reference: 'sensor_1', target: { kind: 'cube', edge: 0.5 }, components: 200, iterations: 100, initialSigma: 'prior' });
   result.sensors.forEach((s, i) => {
     const worst = Math.max(...s.extrinsic.map((v, k) => Math.abs(v - direct.sensors[i].extrinsic[k])));
     assert.ok(worst < 1e-12, `${s.name}: the page's extrinsic differs from the direct call by ${worst}`);
@@ -64,7 +64,7 @@ test('upload a GMMCalib folder through file-input and calibrate it', async () =>
 });
 
 test('a malformed file shows a named error; the good files still calibrate', async () => {
-  const rig = syntheticRig({ sensors: 2, frames: 2, pointsPerView: 800, seed: 3 });
+  const rig = sampledRig({ sensors: 2, frames: 2, pointsPerView: 800, seed: 3 });
   const files = gmmcalibFolder(rig, 'rig', 'initial_sigma: prior\ncomponents: 150\n');
   files.push({ name: 'rig/sensor_2/3.pcd', mimeType: 'application/octet-stream', buffer: Buffer.from('VERSION 0.7\nFIELDS x y z\nDATA ascii\n1 2 3\n') });
   const { page, problems } = await session.open();
@@ -83,7 +83,7 @@ test('a malformed file shows a named error; the good files still calibrate', asy
 });
 
 test('a folder picked from disk keeps its sensor_N layout', async () => {
-  const rig = syntheticRig({ sensors: 2, frames: 2, pointsPerView: 300, seed: 4 });
+  const rig = sampledRig({ sensors: 2, frames: 2, pointsPerView: 300, seed: 4 });
   const dir = mkdtempSync(join(tmpdir(), 'gmmcalib-e2e-'));
   try {
     for (const f of gmmcalibFolder(rig, 'rig')) {
@@ -103,9 +103,9 @@ test('a folder picked from disk keeps its sensor_N layout', async () => {
 });
 
 test('loose files dropped on the view are grouped by <sensor>_<frame> and can be reassigned', async () => {
-  const rig = syntheticRig({ sensors: 2, frames: 2, pointsPerView: 300, seed: 6 });
+  const rig = sampledRig({ sensors: 2, frames: 2, pointsPerView: 300, seed: 6 });
   const names = { sensor_1: 'left', sensor_2: 'right' };
-  const files = rig.views.map((v) => ({ name: `${names[v.sensor]}_00${v.frame}.pcd`, mimeType: 'application/octet-stream', buffer: pcdAscii(v.points) }));
+  const files = rig.scans.map((v) => ({ name: `${names[v.sensor]}_00${v.frame}.pcd`, mimeType: 'application/octet-stream', buffer: pcdAscii(v.points) }));
   const { page, problems } = await session.open();
   await page.locator('#view').drop({ files });
   await waitForStatus(page, /4 scans of 2 sensors loaded\.$/);
@@ -123,10 +123,10 @@ test('loose files dropped on the view are grouped by <sensor>_<frame> and can be
 test('recorded scans: a folder per sensor, timestamps for names, paired and calibrated', async () => {
   // As a bag export leaves them: per-topic folders, each scan named by its own timestamp (the
   // rear's 4 ms after the front's), and a config naming the sensors after the folders.
-  const rig = syntheticRig({ sensors: 2, frames: 3, pointsPerView: 3000, seed: 2 });
+  const rig = sampledRig({ sensors: 2, frames: 3, pointsPerView: 3000, seed: 2 });
   const topic = { sensor_1: 'lidar_front', sensor_2: 'lidar_rear' };
   const stamp = (v) => (1700000000.1 + 0.1 * (Number(v.frame) - 1) + (v.sensor === 'sensor_2' ? 0.004 : 0)).toFixed(3);
-  const files = rig.views.map((v) => ({ name: `bag/${topic[v.sensor]}/${stamp(v)}.pcd`, mimeType: 'application/octet-stream', buffer: pcdAscii(v.points) }));
+  const files = rig.scans.map((v) => ({ name: `bag/${topic[v.sensor]}/${stamp(v)}.pcd`, mimeType: 'application/octet-stream', buffer: pcdAscii(v.points) }));
   const named = { nominal: { lidar_front: rig.nominal.sensor_1, lidar_rear: rig.nominal.sensor_2 }, roi: rig.roi };
   files.push({ name: 'bag/config.yaml', mimeType: 'text/yaml', buffer: configYaml(named, 'initial_sigma: prior\ncomponents: 200\n') });
   const { page, problems } = await session.open();
@@ -150,11 +150,11 @@ test('recorded scans: a folder per sensor, timestamps for names, paired and cali
 });
 
 test('recorded scans picked folder by folder pair with the first sensor', async () => {
-  const rig = syntheticRig({ sensors: 2, frames: 2, pointsPerView: 300, seed: 4 });
+  const rig = sampledRig({ sensors: 2, frames: 2, pointsPerView: 300, seed: 4 });
   const dir = mkdtempSync(join(tmpdir(), 'gmmcalib-e2e-'));
   try {
     const topic = { sensor_1: 'front', sensor_2: 'rear' };
-    for (const v of rig.views) {
+    for (const v of rig.scans) {
       const stamp = 100 + 10 * Number(v.frame) + (v.sensor === 'sensor_2' ? 1 : 0);
       mkdirSync(join(dir, topic[v.sensor]), { recursive: true });
       writeFileSync(join(dir, topic[v.sensor], `${stamp}.pcd`), pcdAscii(v.points));

@@ -53,19 +53,19 @@ export class Display {
 
   // `poses`: sensor -> row-major T_vehicle_sensor to draw with. `preview`: draw a sample of the
   // points only (the viewer's budget), for redraws on every iteration of a run.
-  update({ views, rig, colour, allFrames }, poses, { preview = false } = {}) {
+  update({ scans, rig, colour, allFrames }, poses, { preview = false } = {}) {
     const firstFrame = new Map();
-    for (const v of views) if (!firstFrame.has(v.sensor)) firstFrame.set(v.sensor, v.frame);
-    const live = new Set(views.map((v) => v.id));
+    for (const v of scans) if (!firstFrame.has(v.sensor)) firstFrame.set(v.sensor, v.frame);
+    const live = new Set(scans.map((v) => v.id));
     for (const id of this.#uploaded.keys()) {
       if (!live.has(id)) {
         this.#viewer.remove(id);
         this.#uploaded.delete(id);
       }
     }
-    const shown = views.filter((v) => allFrames || firstFrame.get(v.sensor) === v.frame);
+    const shown = scans.filter((v) => allFrames || firstFrame.get(v.sensor) === v.frame);
     this.#viewer.setPreview(preview);
-    for (const view of views) {
+    for (const view of scans) {
       const index = rig.sensors.indexOf(view.sensor);
       const pose = poses[view.sensor];
       if (this.#uploaded.get(view.id) !== `${colour}/${view.sensor}`) {

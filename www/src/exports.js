@@ -63,8 +63,8 @@ export function exportsOf(result, { roi, parent = 'vehicle' }) {
     { key: 'urdf', title: 'URDF origins', direction, file: 'extrinsics.urdf.xml', text: urdf(result, parent) },
     { key: 'ros2', title: 'ROS 2 static_transform_publisher', direction: `--frame-id ${parent} (parent), --child-frame-id the sensor`, file: 'static_transforms.sh', text: ros2(result, parent) },
   ];
-  if (result.target.priors.length) {
-    out.push({ key: 'ply', title: 'Reconstructed target (PLY)', direction: 'points in the mixture frame', file: 'target.ply', text: targetPly(result.target) });
+  if (result.reconstruction.priors.length) {
+    out.push({ key: 'ply', title: 'Reconstructed target (PLY)', direction: 'points in the vehicle frame (where the reference sees the target)', file: 'target.ply', text: targetPly(result.reconstruction) });
   }
   return out;
 }

@@ -1,14 +1,14 @@
 // The loaded files: per file its sensor (editable: reassign by hand), frame, format, point
 // count and dropped invalid points; per bad file its error.
 
-export function renderFiles(container, { views, bad, sensors }, onReassign) {
+export function renderFiles(container, { scans, bad, sensors }, onReassign) {
   const table = document.createElement('table');
   table.className = 'files';
   table.innerHTML = '<tr><th>file</th><th>sensor</th><th>frame</th><th>format</th><th>points</th><th>dropped</th></tr>';
   const list = document.createElement('datalist');
   list.id = 'sensor-names';
   list.append(...sensors.map((s) => Object.assign(document.createElement('option'), { value: s })));
-  for (const view of views) {
+  for (const view of scans) {
     const tr = document.createElement('tr');
     const sensor = Object.assign(document.createElement('input'), { value: view.sensor, size: 10 });
     sensor.setAttribute('list', 'sensor-names');

@@ -1,7 +1,6 @@
 // Which files were given and what they are: paths from a drop (folders walked), the picker or
 // a folder picker; point-cloud files assigned to (sensor, frame) and parsed by `parse` (the
 // worker), the GMMCalib config read; every bad file kept with its error.
-import { parseConfig } from './config.js';
 
 const CLOUD = /\.(pcd|ply|bin)$/i;
 const CONFIG = /(^|\/)[^/]*\.ya?ml$/i;
@@ -128,13 +127,15 @@ function groupBy(items, key) {
 export const natural = (a, b) => a.localeCompare(b, undefined, { numeric: true });
 
 // Reads `entries` ([{path, file}]): {scans: [{path, sensor, frame, ...parsed}], bad: [{path,
-// error}], config}. `parse(bytes, path)` parses one cloud; `onFile(path, i, n)` reports progress.
-export async function readEntries(entries, parse, onFile) {
+// error}], config}. `read.cloud(bytes, path)` parses one cloud and `read.config(text, path)` one
+// GMMCalib config (both the library's readers, in the worker); `onFile(path, i, n)` reports
+// progress.
+export async function readEntries(entries, read, onFile) {
   const bad = [];
   let config = {};
   for (const e of entries.filter((e) => isConfig(e.path))) {
     try {
-      config = { ...config, ...parseConfig(await e.file.text(), e.path) };
+      config = { ...config, ...(await read.config(await e.file.text(), e.path)) };
     } catch (error) {
       bad.push({ path: e.path, error: error.message });
     }
@@ -145,7 +146,7 @@ export async function readEntries(entries, parse, onFile) {
   for (const [i, { path, file }] of clouds.entries()) {
     onFile(path, i + 1, clouds.length);
     try {
-      scans.push({ path, ...assign(path), ...(await parse(await file.arrayBuffer(), path)) });
+      scans.push({ path, ...assign(path), ...(await read.cloud(await file.arrayBuffer(), path)) });
     } catch (error) {
       bad.push({ path, error: error.message });
     }

@@ -1,39 +1,28 @@
-// Wires the page: inputs and panels -> state -> worker requests -> view, results, exports.
-// Every error goes to one place (showError). The state lives here, not in the worker, so a
-// crashed or cancelled worker is replaced without losing the loaded files.
+// Wires the page: DOM events -> state (state.js) -> worker requests (run.js for a calibration)
+// -> view, results, exports. Every error goes to one place (showError). The state lives here,
+// not in the worker, so a crashed or cancelled worker is replaced without losing the loaded
+// files.
 import { WorkerClient } from './rpc.js';
 import { Viewer } from './viewer.js';
 import { Display, livePoses, sensorColour } from './display.js';
-import { fromDrop, fromInput, natural, pair, readEntries } from './files.js';
+import { fromDrop, fromInput, pair, readEntries } from './files.js';
 import { renderFiles } from './filelist.js';
 import { renderRig } from './rig.js';
 import { drawConvergence, renderResults } from './results.js';
 import { exportsOf, renderExports, resultJson } from './exports.js';
 import { targetBounds } from './target.js';
-import { matrixFromXyzRpy } from './transforms.js';
-import { DEFAULTS, readHash, writeHash } from './url.js';
-import { describeDone, describeProgress } from './progress.js';
+import { writeHash } from './url.js';
+import { describeDone } from './progress.js';
+import { clearState, createState, nominalPoses, rebuildRig, shownPoses, sortScans } from './state.js';
+import { runCalibration } from './run.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
 const mainViewer = new Viewer($('view'), { onError: showError });
 const display = new Display(mainViewer);
 const targetViewer = new Viewer($('target-view'), { grid: false, onError: showError });
-const METHODS = ['gmm', 'jrmpc', 'p2p', 'p2l', 'gicp'];
-
-const state = {
-  settings: readHash(),
-  views: [], // {id, path, sensor, frame, points, intensity?, count, dropped, format}
-  bad: [], // {path, error}
-  rig: { sensors: [], nominal: {}, roi: null, reference: '' },
-  truth: null, // sensor -> {xyz, rpy}, for a demo
-  results: null, // reports of the last run, one per method
-  show: 'before',
-  colour: 'sensor',
-  allFrames: false,
-  running: false,
-};
-let nextViewId = 1;
+const state = createState();
+let nextScanId = 1;
 
 function showError(error) {
   $('error').hidden = !error;
@@ -44,16 +33,7 @@ const nextTask = () => new Promise((resolve) => setTimeout(resolve));
 
 // --- view -------------------------------------------------------------------------------------
 
-const nominalPoses = () =>
-  Object.fromEntries(state.rig.sensors.map((s) => [s, matrixFromXyzRpy(state.rig.nominal[s].xyz, state.rig.nominal[s].rpy)]));
-
-function shownPoses() {
-  const poses = nominalPoses();
-  if (state.show === 'after' && state.results) for (const s of state.results[0].sensors) poses[s.name] = s.extrinsic;
-  return poses;
-}
-
-const redraw = (poses = shownPoses(), options) => display.update(state, poses, options);
+const redraw = (poses = shownPoses(state), options) => display.update(state, poses, options);
 
 function renderLegend() {
   $('legend').replaceChildren(...state.rig.sensors.map((s, i) => {
@@ -78,31 +58,22 @@ function forgetResults() {
   drawConvergence($('convergence'), { meanSigma: [], maxChange: [] });
 }
 
-// Sensors from the views (natural order); nominal, ROI and reference kept or defaulted.
-function rebuildRig(config = {}) {
-  const rig = state.rig;
-  rig.sensors = [...new Set(state.views.map((v) => v.sensor))].sort(natural);
-  for (const [name, pose] of Object.entries(config.nominal ?? {})) rig.nominal[name] = { xyz: [...pose.xyz], rpy: [...pose.rpy] };
-  for (const s of rig.sensors) rig.nominal[s] ??= { xyz: [0, 0, 0], rpy: [0, 0, 0] };
-  if (config.roi) rig.roi = { min: [...config.roi.min], max: [...config.roi.max] };
-  rig.roi ??= { min: [-5, -5, -2], max: [5, 5, 3] };
-  if (config.reference) rig.reference = String(config.reference);
-  if (!rig.sensors.includes(rig.reference)) rig.reference = rig.sensors[0] ?? '';
-  for (const [key, value] of Object.entries(config)) if (key in DEFAULTS) state.settings[key] = value;
+function rigFrom(config) {
+  rebuildRig(state, config);
   syncSettingsInputs();
 }
 
 function renderPanels() {
-  renderFiles($('files'), { views: state.views, bad: state.bad, sensors: state.rig.sensors }, reassign);
+  renderFiles($('files'), { scans: state.scans, bad: state.bad, sensors: state.rig.sensors }, reassign);
   if (state.rig.sensors.length) renderRig($('rig'), state.rig, rigChanged);
   renderLegend();
   $('calibrate').disabled = state.running || state.rig.sensors.length < 2;
 }
 
-function reassign(view, sensor, frame = view.frame) {
-  Object.assign(view, { sensor, frame });
-  state.views.sort((a, b) => natural(a.sensor, b.sensor) || natural(a.frame, b.frame));
-  rebuildRig();
+function reassign(scan, sensor, frame = scan.frame) {
+  Object.assign(scan, { sensor, frame });
+  sortScans(state);
+  rigFrom();
   forgetResults();
   renderPanels();
   redraw();
@@ -117,28 +88,31 @@ async function loadFiles(entries) {
   showError(null);
   if (!entries.length) return;
   if (state.truth) clearAll(); // user files replace a demo
-  const parse = (bytes, name) => client.request('parse', { bytes, name }, { transfer: [bytes] });
-  const { scans, bad, config } = await readEntries(entries, parse, (path, i, n) => setStatus(`Reading ${path} (${i}/${n})…`));
+  const read = {
+    cloud: (bytes, name) => client.request('parse', { bytes, name }, { transfer: [bytes] }),
+    config: (text, name) => client.request('config', { text, name }),
+  };
+  const { scans, bad, config } = await readEntries(entries, read, (path, i, n) => setStatus(`Reading ${path} (${i}/${n})…`));
   const paths = new Set(scans.map((s) => s.path));
-  const fresh = scans.map((s) => ({ id: `view:${nextViewId++}`, ...s }));
-  state.views = [...state.views.filter((v) => !paths.has(v.path)), ...fresh];
-  const paired = pair(state.views, fresh);
+  const fresh = scans.map((s) => ({ id: `scan:${nextScanId++}`, ...s }));
+  state.scans = [...state.scans.filter((v) => !paths.has(v.path)), ...fresh];
+  const paired = pair(state.scans, fresh);
   state.bad.push(...bad);
-  state.views.sort((a, b) => natural(a.sensor, b.sensor) || natural(a.frame, b.frame));
+  sortScans(state);
   state.settings.demo = '';
   writeHash(state.settings);
-  rebuildRig(config);
+  rigFrom(config);
   forgetResults();
   renderPanels();
   redraw();
   viewerLookAt();
   const sensors = state.rig.sensors.length;
-  setStatus(`${state.views.length} scans of ${sensors} sensor${sensors === 1 ? '' : 's'} loaded${paired ? ` (${paired})` : ''}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
+  setStatus(`${state.scans.length} scans of ${sensors} sensor${sensors === 1 ? '' : 's'} loaded${paired ? ` (${paired})` : ''}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
   if (state.bad.length) showError(state.bad.map((b) => `${b.path}: ${b.error}`).join('\n'));
 }
 
 function clearAll() {
-  Object.assign(state, { views: [], bad: [], truth: null, rig: { sensors: [], nominal: {}, roi: null, reference: '' } });
+  clearState(state);
   display.clear();
   forgetResults();
   $('rig').innerHTML = '<p class="hint">Load scans first.</p>';
@@ -158,9 +132,9 @@ async function loadDemo() {
     const options = { preset: s.demo, frames: s.frames, seed: s.seed, maxAngleDeg: s.maxAngleDeg, maxTranslation: s.maxTranslation };
     const rig = await client.request('simulate', { options });
     clearAll();
-    state.views = rig.views.map((v) => ({ id: `view:${nextViewId++}`, path: `${v.sensor}_${v.frame}`, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: v.dropped, format: 'simulated' }));
+    state.scans = rig.scans.map((v) => ({ id: `scan:${nextScanId++}`, path: `${v.sensor}_${v.frame}`, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: v.dropped, format: 'simulated' }));
     state.truth = rig.truth;
-    rebuildRig({ nominal: rig.nominal, roi: rig.roi, reference: rig.reference });
+    rigFrom({ nominal: rig.nominal, roi: rig.roi, reference: rig.reference });
     renderPanels();
     redraw();
     viewerLookAt();
@@ -175,36 +149,6 @@ async function loadDemo() {
 
 // --- run --------------------------------------------------------------------------------------
 
-// The views are copied (the originals stay loaded, whatever happens to the worker) one per task:
-// copying millions of points at once would block the page for 100 ms and more.
-async function calibrateInput(method) {
-  const s = state.settings;
-  const views = [];
-  for (const v of [...state.views]) {
-    views.push({ sensor: v.sensor, frame: v.frame, points: v.points.slice() });
-    await nextTask();
-  }
-  const input = {
-    views,
-    nominal: Object.fromEntries(state.rig.sensors.map((n) => [n, state.rig.nominal[n]])),
-    roi: state.rig.roi,
-    reference: state.rig.reference,
-    method,
-    target: { kind: 'cube', edge: s.edge },
-    components: s.components,
-    iterations: s.iterations,
-    initialSigma: s.initialSigma,
-  };
-  return { input, transfer: views.map((v) => v.points.buffer) };
-}
-
-// Workers sharing the registration: one per core (the page's own thread mostly waits), at
-// most 4; a single core runs it in the calibration worker alone.
-function workerCount(setting) {
-  const n = setting === 'auto' ? Math.min(navigator.hardwareConcurrency || 1, 4) : Number(setting);
-  return Number.isInteger(n) && n >= 1 ? n : 1;
-}
-
 function setRunning(running) {
   state.running = running;
   $('cancel').disabled = !running;
@@ -212,51 +156,21 @@ function setRunning(running) {
   $('calibrate').disabled = running || state.rig.sensors.length < 2;
 }
 
-async function runCalibration() {
+async function calibrate() {
   showError(null);
   forgetResults();
   setRunning(true);
-  const methods = state.settings.method === 'all' ? METHODS : [state.settings.method];
-  // Per method, in order: its report, or {method, error} when comparing and it failed. A method
-  // that fails is then a finding like any other: the others still run and are shown.
-  const outcomes = [];
-  const nominal = nominalPoses();
+  const nominal = nominalPoses(state);
   const started = performance.now();
+  setStatus('starting…');
   try {
-    for (const method of methods) {
-      const done = outcomes.length;
-      const label = methods.length > 1 ? `${method} (${done + 1}/${methods.length}): ` : '';
-      setStatus(`${label}starting…`);
-      const { input, transfer } = await calibrateInput(method);
-      // A stage starts at the method's start or at the previous stage's last message.
-      let stage = { name: null, started: performance.now() };
-      let lastMessage = stage.started;
-      const request = client.request('calibrate', { input, workers: workerCount(state.settings.workers) }, {
-        transfer,
-        onProgress: (p) => {
-          const now = performance.now();
-          if (p.stage !== stage.name) stage = { name: p.stage, started: stage.name ? lastMessage : stage.started };
-          lastMessage = now;
-          const { fraction, text } = describeProgress(method, p, (now - stage.started) / 1000);
-          $('progress').value = (done + fraction) / methods.length;
-          setStatus(label + text);
-          redraw(livePoses(p, nominal), { preview: true });
-        },
-      });
-      if (methods.length === 1) {
-        outcomes.push(await request);
-        continue;
-      }
-      outcomes.push(await request.catch((error) => {
-        if (error.cancelled) throw error;
-        return { method, error: error.message };
-      }));
-    }
-    const results = outcomes.filter((o) => !o.error);
-    const failures = outcomes.filter((o) => o.error);
-    if (!results.length) throw new Error(failures.map((f) => `${f.method}: ${f.error}`).join('\n'));
+    const { results, failures, json } = await runCalibration(client, state, ({ fraction, text, progress }) => {
+      $('progress').value = fraction;
+      setStatus(text);
+      redraw(livePoses(progress, nominal), { preview: true });
+    });
     $('progress').value = 1;
-    await showResults(results, failures, methods.length > 1 ? outcomes : results[0]);
+    await showResults(results, failures, json);
     setStatus(describeDone(results, (performance.now() - started) / 1000, failures));
   } catch (error) {
     $('progress').value = 0;
@@ -287,11 +201,11 @@ async function showResults(results, failures, json) {
   await nextTask();
   if (state.results !== results) return;
   $('result-json').textContent = resultJson(json);
-  const gmm = results.find((r) => r.target.priors.length);
+  const gmm = results.find((r) => r.reconstruction.priors.length);
   targetViewer.clear();
-  const bounds = gmm && targetBounds(gmm.target);
+  const bounds = gmm && targetBounds(gmm.reconstruction);
   if (bounds) {
-    targetViewer.setTarget('target', gmm.target, { kind: 'cube' });
+    targetViewer.setTarget('target', gmm.reconstruction);
     targetViewer.lookAt(bounds);
   }
 }
@@ -337,7 +251,7 @@ $('clear').addEventListener('click', () => {
   setStatus('Cleared.');
 });
 $('demo').addEventListener('click', loadDemo);
-$('calibrate').addEventListener('click', runCalibration);
+$('calibrate').addEventListener('click', calibrate);
 $('cancel').addEventListener('click', () => client.cancel());
 for (const radio of document.querySelectorAll('input[name=show]')) {
   radio.addEventListener('change', () => {
@@ -366,6 +280,14 @@ document.addEventListener('drop', async (e) => {
   await loadFiles(await fromDrop(e.dataTransfer));
 });
 
+// The method picker lists what the library offers (and compare all).
+async function loadMethods() {
+  state.methods = await client.request('methods', {});
+  const options = state.methods.map((m) => new Option(m.label, m.name));
+  $('method').replaceChildren(...options, new Option('compare all', 'all'));
+  $('method').value = state.settings.method;
+}
+
 syncSettingsInputs();
 drawConvergence($('convergence'), { meanSigma: [], maxChange: [] });
-if (state.settings.demo) loadDemo();
+loadMethods().then(() => state.settings.demo && loadDemo(), showError);

@@ -2,13 +2,14 @@
 // line from the worker's progress messages; then the status line for the results. A calibration reports two stages: JRMPC's iterations
 // (`gmm`, `jrmpc`), then the frame pairs registered (`gmm`'s refinement, the ICP methods).
 
-// Share of a method's bar for JRMPC: `gmm` spends about a fifth of its time on the frame pairs
-// (browser bench, both scales); `jrmpc` has no pairs, the ICP methods no JRMPC.
-const JRMPC_SHARE = { gmm: 0.8, jrmpc: 1 };
+// Share of a method's bar for JRMPC when it also registers frame pairs: `gmm` spends about a
+// fifth of its time on them (browser bench, both scales).
+const JRMPC_SHARE_WITH_PAIRS = 0.8;
 
-// {fraction, text} for progress `p` of `method`, `seconds` into the current stage.
-export function describeProgress(method, p, seconds) {
-  const jrmpcShare = JRMPC_SHARE[method] ?? 0;
+// {fraction, text} for progress `p` of a method running `stages` ({jrmpc, pairs}, as the
+// library's `methods()` lists them), `seconds` into the current stage.
+export function describeProgress(stages, p, seconds) {
+  const jrmpcShare = stages.jrmpc ? (stages.pairs ? JRMPC_SHARE_WITH_PAIRS : 1) : 0;
   const done = p.iteration / p.maxIterations;
   // Time left in this stage, while it is under way.
   const left = (seconds / p.iteration) * (p.maxIterations - p.iteration);

@@ -13,7 +13,7 @@
 //
 // Messages from viewer.js, {type, ...}: init {canvas, grid}, size {width, height, pixelRatio},
 // camera {position, quaternion, aspect}, cloud {id, positions, colors, size}, axes {id, length},
-// box {id, min, max, color}, target {id, target, prior}, pose {id, matrix}, visible {id, visible},
+// box {id, min, max, color}, target {id, target}, pose {id, matrix}, visible {id, visible},
 // remove {id}, clear, preview {on}, interacting {on}. After each frame: {type: 'frame', points}
 // (the points it drew).
 import * as THREE from 'three';
@@ -132,7 +132,7 @@ const handlers = {
   axes: ({ id, length }) => put(id, new THREE.AxesHelper(length)),
   // An axis-aligned box as lines.
   box: ({ id, min, max, color }) => put(id, new THREE.Box3Helper(new THREE.Box3(new THREE.Vector3(...min), new THREE.Vector3(...max)), color)),
-  target: ({ id, target, prior }) => put(id, targetObject(target, prior)),
+  target: ({ id, target }) => put(id, targetObject(target)),
   // Places an object by a row-major 4x4 (THREE's Matrix4.set takes row-major too).
   pose({ id, matrix }) {
     const object = objects.get(id);

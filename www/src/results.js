@@ -52,7 +52,7 @@ function levellingHtml(levelling = []) {
   if (!levelling.length) return '';
   const row = (l) => {
     if (l.note) return `<li>${esc(l.sensor)}: ${esc(l.note)}</li>`;
-    const tilt = degrees(poseDifference(IDENTITY, l.applied).angle);
+    const tilt = degrees(poseDifference(IDENTITY, l.motion).angle);
     const bev = l.bev
       ? `; seen from above, turned ${degrees(l.bev.yaw).toFixed(1)} deg and shifted ${f(l.bev.shift.slice(0, 2), 2)} m`
       : '';
@@ -77,8 +77,8 @@ function comparisonHtml(results, truth, failures) {
 // of the methods compared that failed.
 export function renderResults(container, results, truth, failures = []) {
   const r = results[0];
-  const t = r.target;
-  const fitText = (x) => `edge ${x.edge.toFixed(3)} m, RMS ${(x.rms * 1000).toFixed(1)} mm`;
+  const t = r.reconstruction;
+  const fitText = (x) => `${x.shape === 'sphere' ? 'diameter' : 'edge'} ${x.size.toFixed(3)} m, RMS ${(x.rms * 1000).toFixed(1)} mm`;
   const fit = t.fits.length
     ? `${t.fits.length === 1 ? 'target' : `${t.fits.length} targets`}: ${t.fits.map(fitText).join('; ')}`
     : t.means.length ? 'no target stands out from the ground' : 'no target reconstructed (ICP method)';

@@ -1,9 +1,11 @@
-// A calibration over a pool of workers (issue 8): the calibration worker drives a wasm
-// CalibrationSession and shares two stages with pool workers (shard-worker.js). JRMPC's E-step:
-// it keeps the first slice of the views and each pool worker holds another; every iteration
-// each returns its views' statistics (O(views x K) numbers, transferred, not copied) and the
-// session's M-step takes them in view order. Then the frame pairs' ICP, a reference view's
-// pairs at a time. The result is `calibrate`'s, bit for bit, for any number of workers.
+// A calibration over a pool of workers: the calibration worker drives a wasm
+// CalibrationSession (the library's state machine over methods and their phases) and shares
+// each phase's work with pool workers (shard-worker.js). JRMPC's E-step: it keeps the first
+// slice of the views and each pool worker holds another; every iteration each returns its
+// views' statistics (O(views x K) numbers, transferred, not copied) and the session's M-step
+// takes them in view order. The frame pairs' ICP: a reference view's pairs at a time. Which
+// phase comes next, and the loop over methods when comparing, are the session's. The result is
+// `calibrate`'s, bit for bit, for any number of workers.
 
 // Contiguous slices of views with about equal points: [{first, count}], at most `parts`, none
 // empty. The E-step costs about the same per point, so equal points balance the workers.
@@ -31,7 +33,7 @@ export function splitViews(sizes, parts) {
 }
 
 // A pool worker (shard-worker.js) as promises: init(points, sizes), then eStep(input, first)
-// -> Float64Array; align(plan, target, sources, starts) -> an outcome per source.
+// -> Float64Array; align(icp, target, sources, starts) -> an outcome per source.
 class RemoteWorker {
   #worker;
   #pending = []; // {resolve, reject} of the requests in flight: the worker answers in order
@@ -65,8 +67,8 @@ class RemoteWorker {
     return this.#request({ type: 'eStep', input, first }, []);
   }
 
-  align(plan, target, sources, starts) {
-    return this.#request({ type: 'align', plan, target, sources, starts }, [target.buffer, ...sources.map((s) => s.buffer)]);
+  align(icp, target, sources, starts) {
+    return this.#request({ type: 'align', icp, target, sources, starts }, [target.buffer, ...sources.map((s) => s.buffer)]);
   }
 
   terminate() {
@@ -89,7 +91,6 @@ const yieldToEvents = () => new Promise((resolve) => {
 async function shareEm(wasm, session, remotes, onProgress) {
   const sizes = session.viewSizes();
   const slices = splitViews(Array.from(sizes), remotes.length + 1);
-  if (slices.length === 0) return; // an ICP method: no EM
   const shardOf = ({ first, count }) => [session.shardPoints(first, count), sizes.slice(first, first + count)];
   const local = new wasm.JrmpcShard(...shardOf(slices[0]));
   try {
@@ -110,11 +111,10 @@ async function shareEm(wasm, session, remotes, onProgress) {
 // worker is free, this one included. The session keeps the outcomes in pair order, so who
 // registered what does not change the result.
 async function shareFramePairs(session, remotes, onProgress) {
-  const work = session.frameJobs();
-  if (!work) return; // jrmpc
+  const work = session.framePairs();
   const groups = new Map(); // reference view -> pair indices
-  for (let job = 0; job < work.jobs.length / 2; job++) {
-    const reference = work.jobs[2 * job];
+  for (let job = 0; job < work.pairs.length / 2; job++) {
+    const reference = work.pairs[2 * job];
     if (!groups.has(reference)) groups.set(reference, []);
     groups.get(reference).push(job);
   }
@@ -127,18 +127,18 @@ async function shareFramePairs(session, remotes, onProgress) {
   const next = () => (stopped ? undefined : queue.shift());
   const local = async () => {
     for (let group = next(); group; group = next()) {
-      session.refineFrames(Uint32Array.from(group[1]), heed);
+      session.registerPairs(Uint32Array.from(group[1]), heed);
       await yieldToEvents();
     }
   };
   const remote = async (worker) => {
     for (let group = next(); group; group = next()) {
       const [reference, jobs] = group;
-      const sources = jobs.map((job) => session.viewPoints(work.jobs[2 * job + 1]));
+      const sources = jobs.map((job) => session.viewPoints(work.pairs[2 * job + 1]));
       const starts = new Float64Array(jobs.length * 7);
       jobs.forEach((job, i) => starts.set(work.starts.subarray(7 * job, 7 * job + 7), 7 * i));
-      const outcomes = await worker.align(work.plan, session.viewPoints(reference), sources, starts);
-      jobs.forEach((job, i) => heed(session.recordFrame(job, outcomes[i])));
+      const outcomes = await worker.align(work.icp, session.viewPoints(reference), sources, starts);
+      jobs.forEach((job, i) => heed(session.recordPair(job, outcomes[i])));
     }
   };
   // Two requests in flight per remote: it starts the next group while its last reply waits for
@@ -151,21 +151,35 @@ async function shareFramePairs(session, remotes, onProgress) {
     }));
   const failure = (await Promise.allSettled(loops)).find(({ status }) => status === 'rejected');
   if (failure) throw failure.reason;
-  if (stopped) session.cancel(); // finish() must not register what is left
+  if (stopped) session.cancel(); // no later method starts
 }
 
 // `calibrate(input, onProgress)` with the work shared by `workers` workers (this one included):
-// JRMPC's E-step, then the frame pairs. `wasm` is the initialised module; `spawn()` makes a
-// remote worker (tests pass an in-process one).
+// each method's phases as the session asks for them; with `method: 'all'`, a method whose
+// workers fail is noted as failed and the next one runs. `wasm` is the initialised module;
+// `spawn()` makes a remote worker (tests pass an in-process one).
 export async function calibrateSharded(wasm, input, workers, onProgress, spawn = () => new RemoteWorker()) {
   const session = new wasm.CalibrationSession(input);
   const remotes = [];
+  let cancelled = false;
+  const heed = (progress) => {
+    if (onProgress(progress) === false) cancelled = true;
+    return !cancelled;
+  };
   try {
     for (let i = 1; i < workers; i++) remotes.push(spawn());
-    await shareEm(wasm, session, remotes, onProgress);
-    await shareFramePairs(session, remotes, onProgress);
-    const result = session.finish(onProgress);
-    result.workers = workers;
+    for (let phase = session.phase(); phase !== 'done'; phase = session.phase()) {
+      try {
+        if (phase === 'em') await shareEm(wasm, session, remotes, heed);
+        else await shareFramePairs(session, remotes, heed);
+        session.advance();
+      } catch (error) {
+        if (input.method !== 'all') throw error;
+        session.fail(error.message ?? String(error));
+      }
+    }
+    const result = session.result();
+    for (const r of Array.isArray(result) ? result : [result]) if (!r.error) r.workers = workers;
     return result;
   } finally {
     for (const remote of remotes) remote.terminate();

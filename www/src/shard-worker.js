@@ -1,7 +1,7 @@
 // A pool worker (see shard-pool.js): holds a shard of JRMPC's E-step, some views' points in its
 // own wasm instance, and answers each {type: 'eStep', input, first} with its views'
 // statistics; and registers frame pairs, {type: 'align', ...}, for the calibration worker.
-import init, { JrmpcShard, alignFrames } from '../pkg/gmmcalib.js';
+import init, { JrmpcShard, alignPairs } from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
 
 const ready = init({ module_or_path: wasmUrl });
@@ -19,7 +19,7 @@ self.onmessage = async ({ data }) => {
       const output = shard.eStep(data.input, data.first);
       self.postMessage({ type: 'output', output }, [output.buffer]);
     } else if (data.type === 'align') {
-      const output = alignFrames(data.plan, data.target, data.sources, data.starts);
+      const output = alignPairs(data.icp, data.target, data.sources, data.starts);
       self.postMessage({ type: 'output', output }, output.filter((o) => o instanceof Float64Array).map((o) => o.buffer));
     } else {
       throw new Error(`unknown request type '${data.type}'`);

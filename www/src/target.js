@@ -1,9 +1,9 @@
 // The reconstructed target for its own small view: one sphere per mixture component (radius =
-// sigma, only components holding data) and the prior fitted to each target as a wireframe, all
+// sigma, only components holding data) and the shape fitted to each target as a wireframe, all
 // in the vehicle frame.
 import * as THREE from 'three';
 
-export function targetObject({ means, sigmas, priors, fits }, prior) {
+export function targetObject({ means, sigmas, priors, fits }) {
   const group = new THREE.Group();
   const used = [];
   for (let k = 0; k < sigmas.length; k++) if (priors[k] > 0) used.push(k);
@@ -17,7 +17,7 @@ export function targetObject({ means, sigmas, priors, fits }, prior) {
   group.add(mesh);
   const material = new THREE.LineBasicMaterial({ color: 0xffcc44 });
   for (const fit of fits) {
-    const geometry = prior.kind === 'sphere' ? new THREE.SphereGeometry(fit.edge / 2, 16, 12) : new THREE.BoxGeometry(fit.edge, fit.edge, fit.edge);
+    const geometry = fit.shape === 'sphere' ? new THREE.SphereGeometry(fit.size / 2, 16, 12) : new THREE.BoxGeometry(fit.size, fit.size, fit.size);
     const wire = new THREE.LineSegments(new THREE.EdgesGeometry(geometry), material);
     geometry.dispose();
     wire.position.set(...fit.centre);

@@ -86,8 +86,8 @@ export class Viewer {
   }
 
   // The reconstructed target (target.js builds it in the worker).
-  setTarget(id, target, prior) {
-    this.#post({ type: 'target', id, target, prior });
+  setTarget(id, target) {
+    this.#post({ type: 'target', id, target });
   }
 
   // Places an object by a row-major 4x4 T_vehicle_object.

@@ -5,7 +5,7 @@ import init, * as wasm from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
 import { calibrateSharded } from './shard-pool.js';
 
-const { calibrate, parseCloud, simulateRig } = wasm;
+const { calibrate, methods, parseCloud, parseConfig, simulateRig } = wasm;
 
 const ready = init({ module_or_path: wasmUrl });
 
@@ -17,6 +17,8 @@ function buffersOf(value, found = []) {
 
 const handlers = {
   parse: ({ bytes, name }) => parseCloud(new Uint8Array(bytes), name),
+  config: ({ text, name }) => parseConfig(text, name),
+  methods: () => methods(),
   simulate: ({ options }) => simulateRig(options),
   // `workers` > 1 shares JRMPC's E-step and the frame pairs' ICP with that many workers in
   // all (this one included), where a worker can start workers of its own.
@@ -34,7 +36,9 @@ const handlers = {
       return true;
     };
     if (workers > 1 && typeof Worker === 'function') return calibrateSharded(wasm, input, workers, onProgress);
-    return { ...calibrate(input, onProgress), workers: 1 };
+    const result = calibrate(input, onProgress);
+    for (const r of Array.isArray(result) ? result : [result]) if (!r.error) r.workers = 1;
+    return result;
   },
 };
 

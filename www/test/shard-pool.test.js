@@ -29,21 +29,21 @@ const inProcess = () => {
   return {
     init: async (points, sizes) => { shard = new wasm.JrmpcShard(points, sizes); },
     eStep: async (input, first) => shard.eStep(input, first),
-    align: async (plan, target, sources, starts) => wasm.alignFrames(plan, target, sources, starts),
+    align: async (icp, target, sources, starts) => wasm.alignPairs(icp, target, sources, starts),
     terminate: () => shard?.free(),
   };
 };
 
 test('the driven session gives calibrate\'s result, and bad shard data is an error', async () => {
   await init({ module_or_path: await readFile(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
-  const rig = wasm.syntheticRig({ sensors: 2, frames: 3, pointsPerView: 800, seed: 5 });
-  const input = () => ({ views: rig.views, nominal: rig.nominal, roi: rig.roi, components: 150, iterations: 30 });
+  const rig = wasm.simulateRig({ preset: 'sampled', sensors: 2, frames: 3, pointsPerView: 800, seed: 5 });
+  const input = () => ({ scans: rig.scans, nominal: rig.nominal, roi: rig.roi, components: 150, iterations: 30 });
   const progress = [];
   const direct = wasm.calibrate(input(), () => true);
   const driven = await calibrateSharded(wasm, input(), 1, (p) => progress.push(p));
   assert.deepEqual(driven.sensors, direct.sensors);
   assert.deepEqual(driven.history, direct.history);
-  assert.deepEqual(Array.from(driven.target.means), Array.from(direct.target.means));
+  assert.deepEqual(Array.from(driven.reconstruction.means), Array.from(direct.reconstruction.means));
   assert.equal(progress.filter((p) => p.maxIterations === 30).length, direct.iterations);
   // gmm's frame pairs come after EM's iterations, one progress each, however they are shared.
   const pairs = progress.filter((p) => p.maxIterations !== 30);
@@ -53,7 +53,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
     const result = await calibrateSharded(wasm, input(), workers, (p) => shared.push(p), inProcess);
     assert.deepEqual(result.sensors, direct.sensors);
     assert.deepEqual(result.history, direct.history);
-    assert.deepEqual(Array.from(result.target.means), Array.from(direct.target.means));
+    assert.deepEqual(Array.from(result.reconstruction.means), Array.from(direct.reconstruction.means));
     assert.equal(result.workers, workers);
     assert.equal(shared.filter((p) => p.maxIterations === pairs[0].maxIterations).length, 3);
   }
@@ -64,22 +64,22 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
     ...inProcess(),
     align: async (...args) => {
       if (++alignCalls === 2) throw new Error('a calculation worker failed: boom');
-      return wasm.alignFrames(...args);
+      return wasm.alignPairs(...args);
     },
   });
   const proto = wasm.CalibrationSession.prototype;
-  const original = { free: proto.free, refineFrames: proto.refineFrames, recordFrame: proto.recordFrame, viewPoints: proto.viewPoints };
+  const original = { free: proto.free, registerPairs: proto.registerPairs, recordPair: proto.recordPair, viewPoints: proto.viewPoints };
   const late = [];
   proto.free = function free() { this.freed = true; return original.free.call(this); };
-  for (const name of ['refineFrames', 'recordFrame', 'viewPoints']) {
+  for (const name of ['registerPairs', 'recordPair', 'viewPoints']) {
     proto[name] = function (...args) {
       if (this.freed) late.push(name);
       return original[name].apply(this, args);
     };
   }
   try {
-    const many = wasm.syntheticRig({ sensors: 2, frames: 8, pointsPerView: 400, seed: 2 });
-    const manyInput = { views: many.views, nominal: many.nominal, roi: many.roi, components: 100, iterations: 5 };
+    const many = wasm.simulateRig({ preset: 'sampled', sensors: 2, frames: 8, pointsPerView: 400, seed: 2 });
+    const manyInput = { scans: many.scans, nominal: many.nominal, roi: many.roi, components: 100, iterations: 5 };
     await assert.rejects(calibrateSharded(wasm, manyInput, 2, () => true, failing), /boom/);
     await new Promise((resolve) => setTimeout(resolve, 100));
   } finally {
@@ -91,6 +91,12 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   const icpDriven = await calibrateSharded(wasm, icp(), 2, () => true, inProcess);
   assert.deepEqual(icpDriven.sensors, wasm.calibrate(icp()).sensors);
   assert.equal(icpDriven.workers, 2);
+  // Compare all through the pool: the session runs every method in turn, as `calibrate` does.
+  const all = () => ({ ...input(), method: 'all', iterations: 10 });
+  const compared = await calibrateSharded(wasm, all(), 2, () => true, inProcess);
+  const expected = wasm.calibrate(all());
+  assert.deepEqual(compared.map((r) => r.method), ['gmm', 'jrmpc', 'p2p', 'p2l', 'gicp']);
+  for (const [a, b] of compared.map((r, i) => [r, expected[i]])) assert.deepEqual(a.sensors, b.sensors, a.method);
 
   const session = new wasm.CalibrationSession(input());
   assert.throws(() => session.mStep([new Float64Array(7)]), /not a whole number of views/);
@@ -107,29 +113,36 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
 
   // Frame pairs: a bad plan, cloud, start or outcome is an error, not a crash.
   const pairsOf = new wasm.CalibrationSession(input());
+  assert.equal(pairsOf.phase(), 'em');
+  assert.throws(() => pairsOf.framePairs(), /not registering frame pairs/);
   while (!pairsOf.finished()) pairsOf.mStep([shardOf(pairsOf).eStep(pairsOf.eStepInput(), 0)]);
-  const work = pairsOf.frameJobs();
-  const [reference, view] = work.jobs;
+  pairsOf.advance();
+  assert.equal(pairsOf.phase(), 'framePairs');
+  const work = pairsOf.framePairs();
+  const [reference, view] = work.pairs;
   const target = pairsOf.viewPoints(reference);
   const source = pairsOf.viewPoints(view);
   const start = work.starts.slice(0, 7);
-  const [aligned] = wasm.alignFrames(work.plan, target, [source], start);
+  const [aligned] = wasm.alignPairs(work.icp, target, [source], start);
   assert.ok(aligned instanceof Float64Array && aligned.length === 7);
-  assert.throws(() => wasm.alignFrames({ method: 'nope' }, target, [source], start), /invalid plan/);
-  assert.throws(() => wasm.alignFrames(work.plan, target, [source], start.slice(0, 6)), /6 numbers of starts for 1 sources/);
-  assert.throws(() => wasm.alignFrames(work.plan, target.slice(0, 4), [source], start), /target's 4 numbers/);
-  assert.throws(() => wasm.alignFrames(work.plan, target, [[1, 2, 3]], start), /source 0 is not a Float32Array/);
-  assert.throws(() => wasm.alignFrames(work.plan, target, [source], new Float64Array(7)), /unit quaternion/);
-  const [tooFew] = wasm.alignFrames(work.plan, new Float32Array(3), [source], start);
+  assert.throws(() => wasm.alignPairs({ settings: { metric: 'nope' } }, target, [source], start), /invalid icp/);
+  assert.throws(() => wasm.alignPairs(work.icp, target, [source], start.slice(0, 6)), /6 numbers of starts for 1 sources/);
+  assert.throws(() => wasm.alignPairs(work.icp, target.slice(0, 4), [source], start), /target's 4 numbers/);
+  assert.throws(() => wasm.alignPairs(work.icp, target, [[1, 2, 3]], start), /source 0 is not a Float32Array/);
+  assert.throws(() => wasm.alignPairs(work.icp, target, [source], new Float64Array(7)), /unit quaternion/);
+  const [tooFew] = wasm.alignPairs(work.icp, new Float32Array(3), [source], start);
   assert.match(tooFew, /./, 'a target ICP cannot use is a message for that pair');
   assert.throws(() => pairsOf.viewPoints(99), /no view 99 of 6/);
-  assert.throws(() => pairsOf.recordFrame(99, aligned), /no frame pair 99 of 3/);
-  assert.throws(() => pairsOf.refineFrames(new Uint32Array([7]), () => true), /no frame pair 7 of 3/);
-  assert.throws(() => pairsOf.recordFrame(0, 5), /a pose or a message/);
-  assert.throws(() => pairsOf.recordFrame(0, new Float64Array([0, 0, 0, 2, 0, 0, 0])), /unit quaternion/);
-  assert.equal(pairsOf.recordFrame(0, aligned).iteration, 1);
-  assert.equal(pairsOf.recordFrame(1, 'gicp could not converge').iteration, 2);
-  const finished = pairsOf.finish(() => true);
+  assert.throws(() => pairsOf.recordPair(99, aligned), /no frame pair 99 of 3/);
+  assert.throws(() => pairsOf.registerPairs(new Uint32Array([7]), () => true), /no frame pair 7 of 3/);
+  assert.throws(() => pairsOf.recordPair(0, 5), /a pose or a message/);
+  assert.throws(() => pairsOf.recordPair(0, new Float64Array([0, 0, 0, 2, 0, 0, 0])), /unit quaternion/);
+  assert.equal(pairsOf.recordPair(0, aligned).iteration, 1);
+  assert.equal(pairsOf.recordPair(1, 'gicp could not converge').iteration, 2);
+  assert.throws(() => pairsOf.result(), /has not finished/);
+  pairsOf.advance();
+  assert.equal(pairsOf.phase(), 'done');
+  const finished = pairsOf.result();
   assert.ok(finished.skipped.some((note) => /could not converge/.test(note.reason)), JSON.stringify(finished.skipped));
   pairsOf.free();
 });

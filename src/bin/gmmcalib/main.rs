@@ -84,14 +84,17 @@ mod cli {
         // 2. Scans, and the rig they make with the config.
         let scans = dataset::read_scans(&a.data)?;
         for scan in &scans {
-            if !config.nominal.iter().any(|(n, _)| *n == scan.sensor) {
+            if !config.nominal.iter().any(|n| n.sensor == scan.sensor) {
                 let s = &scan.sensor;
                 return Err(format!("{label}: no transform_{s} for the data folder {s}"));
             }
         }
-        let reference =
-            a.reference.clone().or(config.reference).or_else(|| Some(scans[0].sensor.clone()));
-        let rig = Rig { scans, nominal: config.nominal, roi, reference };
+        let reference = a
+            .reference
+            .clone()
+            .or(config.reference.clone())
+            .or_else(|| Some(scans[0].sensor.clone()));
+        let rig = Rig { scans, nominal: config.nominal_poses(), roi, reference };
 
         // 3. Calibrate by each method on the same scans; when comparing, a method that fails
         // is a finding like any other.

@@ -1,0 +1,70 @@
+// One calibration run from the page: the input from the state, the request to the calibration
+// worker (which shares it over its pool), progress as bar and status, the outcome split into
+// results and failures. Comparing every method is one request (`method: 'all'`): the library
+// runs them in turn and keeps a failed method's error.
+import { describeProgress } from './progress.js';
+import { methodInfo } from './state.js';
+
+const nextTask = () => new Promise((resolve) => setTimeout(resolve));
+
+// The scans are copied (the originals stay loaded, whatever happens to the worker) one per task:
+// copying millions of points at once would block the page for 100 ms and more.
+async function calibrateInput(state) {
+  const s = state.settings;
+  const scans = [];
+  for (const v of [...state.scans]) {
+    scans.push({ sensor: v.sensor, frame: v.frame, points: v.points.slice() });
+    await nextTask();
+  }
+  const input = {
+    scans,
+    nominal: Object.fromEntries(state.rig.sensors.map((n) => [n, state.rig.nominal[n]])),
+    roi: state.rig.roi,
+    reference: state.rig.reference,
+    method: s.method,
+    target: { kind: 'cube', edge: s.edge },
+    components: s.components,
+    iterations: s.iterations,
+    initialSigma: s.initialSigma,
+  };
+  return { input, transfer: scans.map((v) => v.points.buffer) };
+}
+
+// Workers sharing the registration: one per core (the page's own thread mostly waits), at
+// most 4; a single core runs it in the calibration worker alone.
+export function workerCount(setting) {
+  const n = setting === 'auto' ? Math.min(navigator.hardwareConcurrency || 1, 4) : Number(setting);
+  return Number.isInteger(n) && n >= 1 ? n : 1;
+}
+
+// Runs the calibration `state` describes on `client`; `onProgress({fraction, text, progress})`
+// sees every message. Resolves to {results, failures, json}: the reports of the methods that
+// ran, {method, error} of those that failed, and what the JSON export holds (the CLI's --json:
+// one report, or every method's outcome in order when comparing). Throws when every method
+// failed, or when the run was cancelled.
+export async function runCalibration(client, state, onProgress) {
+  const compared = state.settings.method === 'all';
+  const names = compared ? state.methods.map((m) => m.name) : [state.settings.method];
+  const { input, transfer } = await calibrateInput(state);
+  // A stage starts at the method's start or at the previous stage's last message.
+  let stage = { key: null, started: performance.now() };
+  let last = stage.started;
+  const outcome = await client.request('calibrate', { input, workers: workerCount(state.settings.workers) }, {
+    transfer,
+    onProgress: (p) => {
+      const now = performance.now();
+      const key = `${p.method}/${p.stage}`;
+      if (key !== stage.key) stage = { key, started: stage.key ? last : stage.started };
+      last = now;
+      const index = Math.max(0, names.indexOf(p.method));
+      const { fraction, text } = describeProgress(methodInfo(state, p.method), p, (now - stage.started) / 1000);
+      const label = compared ? `${p.method} (${index + 1}/${names.length}): ` : '';
+      onProgress({ fraction: (index + fraction) / names.length, text: label + text, progress: p });
+    },
+  });
+  const outcomes = compared ? outcome : [outcome];
+  const results = outcomes.filter((o) => !o.error);
+  const failures = outcomes.filter((o) => o.error);
+  if (!results.length) throw new Error(failures.map((f) => `${f.method}: ${f.error}`).join('\n'));
+  return { results, failures, json: outcome };
+}

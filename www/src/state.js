@@ -1,0 +1,59 @@
+// The page's state: the scans loaded, the rig, the settings, the last results. One object,
+// changed through these functions, so what invalidates a result is decided in one place.
+import { natural } from './files.js';
+import { matrixFromXyzRpy } from './transforms.js';
+import { DEFAULTS, readHash } from './url.js';
+
+// The ROI a rig starts with when no config gives one (m, vehicle frame).
+const DEFAULT_ROI = { min: [-5, -5, -2], max: [5, 5, 3] };
+
+export function createState() {
+  return {
+    settings: readHash(),
+    scans: [], // {id, path, sensor, frame, points, intensity?, count, dropped, format}
+    bad: [], // {path, error}
+    rig: { sensors: [], nominal: {}, roi: null, reference: '' },
+    truth: null, // sensor -> {xyz, rpy}, for a demo
+    results: null, // reports of the last run, one per method that ran
+    methods: [], // the library's methods: {name, label, jrmpc, pairs}
+    show: 'before',
+    colour: 'sensor',
+    allFrames: false,
+    running: false,
+  };
+}
+
+// Forgets the loaded scans, the rig and the results.
+export function clearState(state) {
+  Object.assign(state, { scans: [], bad: [], truth: null, results: null, rig: { sensors: [], nominal: {}, roi: null, reference: '' } });
+}
+
+// Sensors from the scans (natural order); nominal, ROI, reference and settings taken from
+// `config` (the library's config reader's shape) where it has them, else kept or defaulted.
+export function rebuildRig(state, config = {}) {
+  const rig = state.rig;
+  rig.sensors = [...new Set(state.scans.map((v) => v.sensor))].sort(natural);
+  for (const [name, pose] of Object.entries(config.nominal ?? {})) rig.nominal[name] = { xyz: [...pose.xyz], rpy: [...pose.rpy] };
+  for (const s of rig.sensors) rig.nominal[s] ??= { xyz: [0, 0, 0], rpy: [0, 0, 0] };
+  if (config.roi) rig.roi = { min: [...config.roi.min], max: [...config.roi.max] };
+  rig.roi ??= structuredClone(DEFAULT_ROI);
+  if (config.reference) rig.reference = String(config.reference);
+  if (!rig.sensors.includes(rig.reference)) rig.reference = rig.sensors[0] ?? '';
+  for (const [key, value] of Object.entries(config)) if (key in DEFAULTS && value != null) state.settings[key] = value;
+}
+
+export const sortScans = (state) => state.scans.sort((a, b) => natural(a.sensor, b.sensor) || natural(a.frame, b.frame));
+
+// Nominal T_vehicle_sensor per sensor, as 4x4 row-major matrices.
+export const nominalPoses = (state) =>
+  Object.fromEntries(state.rig.sensors.map((s) => [s, matrixFromXyzRpy(state.rig.nominal[s].xyz, state.rig.nominal[s].rpy)]));
+
+// The poses the view shows: calibrated after a run when asked, else nominal.
+export function shownPoses(state) {
+  const poses = nominalPoses(state);
+  if (state.show === 'after' && state.results) for (const s of state.results[0].sensors) poses[s.name] = s.extrinsic;
+  return poses;
+}
+
+// The library's entry for method `name` ({jrmpc, pairs} say which stages it runs).
+export const methodInfo = (state, name) => state.methods.find((m) => m.name === name) ?? { name, jrmpc: false, pairs: false };
