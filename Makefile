@@ -73,7 +73,7 @@ clean:
 	cargo clean
 	rm -rf www/pkg www/dist www/node_modules
 
-# The paper's experiment on the digital twin (README, "Digital twin and the paper's experiment"):
+# The paper's experiment on the digital twin (docs/accuracy.md, "The paper's experiment"):
 # writes docs/experiment/{table.md,summary.json,*.svg,trials.csv}. FRAMES, TRIALS, SEED override.
 .PHONY: experiment
 experiment:

@@ -1,7 +1,7 @@
 //! Benchmarks (not tests): `cargo run --release --bin bench [-- --quick] [--fast-only]`
 //! (`--quick`: the sample-scale job and small ICP views only; `--fast-only`: JRMPC's fast
 //! E-step alone, one thread, no dense reference, no ICP).
-//! For each JRMPC job the README reports: wall time, Gaussian terms evaluated, dense-equivalent
+//! For each JRMPC job docs/benchmarks.md reports: wall time, Gaussian terms evaluated, dense-equivalent
 //! terms per second and the speed-up over the exact dense E-step, then peak memory; then the
 //! ICP baselines' per-pair times. The wasm twin is `www/bench/bench.mjs`: the same jobs under
 //! Node, through the JS API and through this file built for wasm32 (`bench_jrmpc` below).

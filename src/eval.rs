@@ -237,6 +237,25 @@ pub fn sensor_errors(twin: &Twin, calibration: &Calibration) -> Vec<Option<Senso
         .collect()
 }
 
+/// The precision claimed against the errors: per axis (rotation about the vehicle's x, y, z in
+/// rad; position x, y, z in m) the RMS error and the RMS one-sigma claim, over the errors that
+/// carry a claim; and how many do.
+pub fn precision_rms<'a>(
+    errors: impl IntoIterator<Item = &'a SensorError>,
+) -> (usize, [(f64, f64); 6]) {
+    let claimed: Vec<(&SensorError, Precision)> =
+        errors.into_iter().filter_map(|e| Some((e, e.precision?))).collect();
+    let n = claimed.len().max(1) as f64;
+    let rms = |f: &dyn Fn(&(&SensorError, Precision)) -> f64| {
+        (claimed.iter().map(|c| f(c).powi(2)).sum::<f64>() / n).sqrt()
+    };
+    let axes = std::array::from_fn(|i| match i {
+        0..3 => (rms(&|c| c.0.rotation[i]), rms(&|c| c.1.rotation[i])),
+        _ => (rms(&|c| c.0.position[i - 3]), rms(&|c| c.1.position[i - 3])),
+    });
+    (claimed.len(), axes)
+}
+
 /// Summary statistics of a sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stats {

@@ -10,8 +10,8 @@ use gmmcalib::jrmpc::Control;
 
 /// Full views: every face of the cube in every view, 1 cm range noise, each non-reference
 /// sensor off by up to 3 deg / 10 cm per axis. The ROI holds only the cube, so the mixture
-/// starts at the prior's size. Measured (README): `gmm` 0.04-0.15 deg / 1.5-11 mm, plain
-/// `jrmpc` 0.25-0.53 deg / 9-40 mm; the 0.05 deg / 2 mm floor is not reached (README).
+/// starts at the prior's size. Measured (docs/accuracy.md): `gmm` 0.03-0.13 deg / 1.2-8.1 mm, plain
+/// `jrmpc` 0.25-0.53 deg / 9-40 mm; the 0.05 deg / 2 mm floor is not reached (docs/accuracy.md).
 fn full_views(
     sensors: usize,
     seeds: std::ops::RangeInclusive<u64>,

@@ -27,29 +27,22 @@ fn trial(frames: usize, seed: u64, start: u64, settings: &calib::Settings) -> Ve
     eval::sensor_errors(&twin, &result).into_iter().map(|e| e.expect("a result")).collect()
 }
 
-/// Per axis (rotation about x, y, z; position x, y, z): the RMS error over `errors` against
-/// the RMS of the one-sigma precision claimed, as lines of text and as ratios (error over
-/// claim). Sensors without a claim are left out.
+/// Per axis (rotation about x, y, z; position x, y, z): the RMS error over `errors` over the
+/// RMS of the one-sigma precision claimed, as lines of text and as ratios.
 fn precision_check(errors: &[&SensorError]) -> (Vec<String>, [f64; 6]) {
-    let claimed: Vec<(&SensorError, calib::Precision)> =
-        errors.iter().filter_map(|e| Some((*e, e.precision?))).collect();
-    let n = claimed.len().max(1) as f64;
-    let rms = |f: &dyn Fn(&(&SensorError, calib::Precision)) -> f64| {
-        (claimed.iter().map(|c| f(c).powi(2)).sum::<f64>() / n).sqrt()
-    };
+    let (claimed, axes) = eval::precision_rms(errors.iter().copied());
+    let ratios = axes.map(|(error, claim)| error / claim);
+    let names = [
+        "rotation about x",
+        "rotation about y",
+        "rotation about z",
+        "position x",
+        "position y",
+        "position z",
+    ];
     let mut lines =
-        vec![format!("precision claimed by {} of {} calibrations", claimed.len(), errors.len())];
-    let mut ratios = [0.0; 6];
-    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
-        let (error, claim) = (rms(&|c| c.0.rotation[i]), rms(&|c| c.1.rotation[i]));
-        ratios[i] = error / claim;
-        lines.push(format!("rotation about {axis}: ratio {:.2}", ratios[i]));
-    }
-    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
-        let (error, claim) = (rms(&|c| c.0.position[i]), rms(&|c| c.1.position[i]));
-        ratios[3 + i] = error / claim;
-        lines.push(format!("position {axis}: ratio {:.2}", ratios[3 + i]));
-    }
+        vec![format!("precision claimed by {claimed} of {} calibrations", errors.len())];
+    lines.extend(names.iter().zip(ratios).map(|(n, r)| format!("{n}: ratio {r:.2}")));
     (lines, ratios)
 }
 
@@ -89,7 +82,7 @@ fn plane_adjustment_removes_most_of_the_error() {
 /// The one-sigma precision `gmm` claims is the spread its errors have: the RMS error over
 /// seeds is within a factor of two of the RMS claim on the axes the targets pin down least
 /// (yaw, and the position across them). Measured on these 8 seeds: 0.76 and 0.77 (3 sensors,
-/// 20 seeds x 5: 0.93 and 0.94; README, "How precise").
+/// 20 seeds x 5: 0.93 and 0.94; docs/accuracy.md, "How precise").
 #[test]
 fn the_claimed_precision_is_the_spread_of_the_errors() {
     let errors = paper_trials(8, &calib::Settings::default());

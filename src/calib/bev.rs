@@ -4,7 +4,7 @@
 //! Why: levelling fixes roll, pitch and height; yaw and the in-plane translation are left to
 //! JRMPC, whose basin is a few degrees. A yaw error of 8 deg moves targets 12 m ahead by 1.7 m,
 //! further than the spacing of the paper's cubes (1.5 m): the crop then loses a cube for one
-//! sensor and the registration swaps the others (README, "Beyond the spec"). Seen from above,
+//! sensor and the registration swaps the others (docs/method.md, "Beyond the spec"). Seen from above,
 //! the structure standing on the ground (targets, poles, walls) has a unique best overlay, and
 //! a search over every yaw and shift in the expected error range finds it without a basin.
 //!

@@ -25,6 +25,7 @@ mod level;
 mod notes;
 mod pairs;
 mod planes;
+mod progress;
 mod reconstruction;
 mod result;
 mod rig;
@@ -40,7 +41,8 @@ pub use pairs::{
     FramePair, FramePairs, PairCorrections, PairFailure, PairIcp, PairSettings, align, target,
 };
 pub use planes::{PlaneSettings, Precision};
-pub use result::{Calibration, Levelling, Progress, Reconstruction, SensorResult, Spread, Stage};
+pub use progress::{Progress, Stage};
+pub use result::{Calibration, Levelling, Reconstruction, SensorResult, Spread};
 pub use rig::{Rig, Scan};
 pub use run::{MethodOutcome, Phase, Run};
 pub use settings::{InitialSigma, Method, Settings, Stages};

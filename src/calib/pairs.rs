@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use super::average::average;
 use super::notes::NoteKind;
-use super::result::{Progress, Stage};
+use super::progress::{Progress, Stage};
 use crate::icp::{self, IcpSettings};
 use crate::jrmpc::Control;
 use crate::plane::Plane;

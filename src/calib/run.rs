@@ -9,7 +9,8 @@ use std::borrow::Cow;
 
 use super::finish::finish;
 use super::pairs::FramePairs;
-use super::result::{Calibration, Progress, Stage};
+use super::progress::{Progress, Stage};
+use super::result::Calibration;
 use super::settings::{Method, Settings};
 use super::views::Views;
 use super::{CalibError, Rig};

@@ -29,7 +29,7 @@ const TINY: f64 = 1e-280;
 /// `P` of degree 4, minimax for relative error on `|r| <= 1.01 ln2 / 2` (the margin covers the
 /// range reduction's rounding): 3e-9 before rounding, far below f32's 6e-8, so in f32 it is as
 /// accurate as Cephes' degree-5 `P` (both at most 8e-8, mean error below 2e-9). The step saved
-/// made the sample job 9 % faster in wasm and 3 % natively (README, "Benchmarks").
+/// made the sample job 9 % faster in wasm and 3 % natively (docs/benchmarks.md).
 #[inline(always)]
 pub fn exp_neg_f32(x: f32) -> f32 {
     const MAGIC: f32 = 12_582_912.0; // 1.5 * 2^23

@@ -47,7 +47,7 @@ export function ros2(result, parent) {
 export function targetPly({ means, sigmas, priors }) {
   const used = [];
   for (let k = 0; k < sigmas.length; k++) if (priors[k] > 0) used.push(k);
-  const header = ['ply', 'format ascii 1.0', 'comment gmmcalib reconstructed target (mixture frame, m)',
+  const header = ['ply', 'format ascii 1.0', 'comment gmmcalib reconstructed target (vehicle frame, m)',
     `element vertex ${used.length}`, 'property float x', 'property float y', 'property float z',
     'property float sigma', 'property float prior', 'end_header'];
   const body = used.map((k) => [means[3 * k], means[3 * k + 1], means[3 * k + 2], sigmas[k], priors[k]].map(num).join(' '));

@@ -4,11 +4,9 @@
 //! precision the calibrations claimed against their errors. Trials run on worker threads and
 //! are printed in order: the output does not depend on the thread count.
 
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-use gmmcalib::calib::{self, Method, Settings};
+use gmmcalib::calib::{Method, Settings};
 use gmmcalib::eval::{self, SensorError};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::xyz_rpy;
@@ -16,6 +14,7 @@ use gmmcalib::twin::{Miscalibration, Model, Twin};
 
 use crate::args::StudyArgs;
 use crate::layout::model;
+use crate::parallel::on_threads;
 
 /// One trial: the errors per non-reference sensor, and what the run cost and said.
 struct Trial {
@@ -40,15 +39,20 @@ pub fn run(a: &StudyArgs) -> Result<(), String> {
     let translation = a.max_translation;
     let jobs: Vec<(u64, u64)> =
         (1..=a.seeds).flat_map(|s| (0..a.starts).map(move |k| (s, k))).collect();
-    let trials = on_threads(jobs.len(), a.threads, |j| {
-        let (seed, start) = jobs[j];
-        let draw = Miscalibration {
-            angle: [angle, angle, yaw],
-            translation: [translation; 3],
-            seed: Some(seed * 1000 + start),
-        };
-        trial(&model, a.frames, seed, &draw, &settings, a.notes)
-    })?;
+    let trials = on_threads(
+        jobs.len(),
+        a.threads,
+        || {},
+        |j| {
+            let (seed, start) = jobs[j];
+            let draw = Miscalibration {
+                angle: [angle, angle, yaw],
+                translation: [translation; 3],
+                seed: Some(seed * 1000 + start),
+            };
+            trial(&model, a.frames, seed, &draw, &settings, a.notes)
+        },
+    )?;
     for (&(seed, start), t) in jobs.iter().zip(&trials) {
         for note in &t.notes {
             println!("seed {seed} start {start}: {note}");
@@ -94,7 +98,7 @@ fn trial(
 ) -> Result<Trial, String> {
     let twin = Twin::new(model, frames, seed, draw);
     let clock = Instant::now();
-    let result = calib::calibrate(&twin.rig(), settings, |_| Control::Continue)
+    let result = gmmcalib::calib::calibrate(&twin.rig(), settings, |_| Control::Continue)
         .map_err(|e| format!("seed {seed}: {e}"))?;
     let micros = clock.elapsed().as_micros();
     let errors = eval::sensor_errors(&twin, &result)
@@ -202,19 +206,13 @@ fn summary(values: &[f64]) -> String {
     }
 }
 
-/// Per axis (rotation about x, y, z; position x, y, z): the RMS error over `errors` against
-/// the RMS of the one-sigma precision claimed. Sensors without a claim are left out.
+/// The RMS error over `errors` against the RMS of the one-sigma precision claimed, per axis.
 fn precision_check(errors: &[&SensorError]) -> Vec<String> {
-    let claimed: Vec<(&SensorError, calib::Precision)> =
-        errors.iter().filter_map(|e| Some((*e, e.precision?))).collect();
-    let n = claimed.len().max(1) as f64;
-    let rms = |f: &dyn Fn(&(&SensorError, calib::Precision)) -> f64| {
-        (claimed.iter().map(|c| f(c).powi(2)).sum::<f64>() / n).sqrt()
-    };
+    let (claimed, axes) = eval::precision_rms(errors.iter().copied());
     let mut lines =
-        vec![format!("precision claimed by {} of {} calibrations", claimed.len(), errors.len())];
+        vec![format!("precision claimed by {claimed} of {} calibrations", errors.len())];
     for (i, axis) in ["x", "y", "z"].iter().enumerate() {
-        let (error, claim) = (rms(&|c| c.0.rotation[i]), rms(&|c| c.1.rotation[i]));
+        let (error, claim) = axes[i];
         lines.push(format!(
             "rotation about {axis}: RMS error {:.4} deg, claimed {:.4} deg (ratio {:.2})",
             error.to_degrees(),
@@ -223,7 +221,7 @@ fn precision_check(errors: &[&SensorError]) -> Vec<String> {
         ));
     }
     for (i, axis) in ["x", "y", "z"].iter().enumerate() {
-        let (error, claim) = (rms(&|c| c.0.position[i]), rms(&|c| c.1.position[i]));
+        let (error, claim) = axes[3 + i];
         lines.push(format!(
             "position {axis}: RMS error {:.2} mm, claimed {:.2} mm (ratio {:.2})",
             error * 1e3,
@@ -232,35 +230,4 @@ fn precision_check(errors: &[&SensorError]) -> Vec<String> {
         ));
     }
     lines
-}
-
-/// `f` of `0..count` on up to `threads` threads (default: the cores), in order.
-fn on_threads<T: Send>(
-    count: usize,
-    threads: Option<usize>,
-    f: impl Fn(usize) -> Result<T, String> + Sync,
-) -> Result<Vec<T>, String> {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let threads = threads.unwrap_or(cores).clamp(1, count.max(1));
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<Result<T, String>>>> =
-        Mutex::new((0..count).map(|_| None).collect());
-    std::thread::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    if i >= count {
-                        break;
-                    }
-                    let r = f(i);
-                    if let Ok(mut all) = results.lock() {
-                        all[i] = Some(r);
-                    }
-                }
-            });
-        }
-    });
-    let results = results.into_inner().map_err(|_| "a study thread panicked".to_string())?;
-    results.into_iter().map(|r| r.unwrap_or_else(|| Err("a trial did not run".into()))).collect()
 }

@@ -1,7 +1,7 @@
 //! Joint plane adjustment: the last word on `gmm`'s corrections (issue 6).
 //!
 //! The per-frame GICP matches each point to a neighbourhood of the reference's; on 0.5 m cubes
-//! many neighbourhoods straddle an edge, and those matches bias the yaw (README, "Where the bias
+//! many neighbourhoods straddle an edge, and those matches bias the yaw (docs/method.md, "Where the bias
 //! comes from"). Planar targets have a maximum-likelihood estimator that needs no neighbours:
 //!
 //! 1. every sensor's views go into the vehicle frame with its averaged refined correction;
@@ -100,7 +100,7 @@ pub struct SensorAdjustment {
 /// One-sigma uncertainty of a sensor's calibration as the plane adjustment measures it: the
 /// covariance of its motion at the solution, from the point-to-plane residuals (see
 /// `covariance`). That is the spread the point noise leaves (the twin's errors follow it;
-/// README, "How precise"), not a bound on errors the plane model cannot see (a target that
+/// docs/accuracy.md, "How precise"), not a bound on errors the plane model cannot see (a target that
 /// moved, a wrong nominal beyond reach).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Precision {

@@ -9,8 +9,6 @@ mod tables;
 mod trials;
 
 use std::fs;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use gmmcalib::calib::{self, Method, Settings};
@@ -21,6 +19,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::args::ExperimentArgs;
 use crate::layout::{TwinFiles, model};
+use crate::parallel::on_threads;
 use trials::{FrameScore, MethodRun, RANGE_BIN, Scored, Trial};
 
 pub fn run(a: &ExperimentArgs) -> Result<(), String> {
@@ -75,38 +74,9 @@ fn run_trials(a: &ExperimentArgs, methods: &[Method]) -> Result<Vec<Trial>, Stri
         .progress_chars("=> "),
     );
     bar.set_message("experiment");
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<Result<Trial, String>>>> =
-        Mutex::new((0..a.trials).map(|_| None).collect());
-    std::thread::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|| {
-                loop {
-                    let index = next.fetch_add(1, Ordering::Relaxed);
-                    if index >= a.trials {
-                        break;
-                    }
-                    let trial = run_trial(a, methods, index);
-                    let failed = trial.is_err();
-                    if let Ok(mut r) = results.lock() {
-                        r[index] = Some(trial);
-                    }
-                    bar.inc(1);
-                    if failed {
-                        // Stop handing out trials; the error is reported below.
-                        next.store(a.trials, Ordering::Relaxed);
-                    }
-                }
-            });
-        }
-    });
+    let trials = on_threads(a.trials, Some(threads), || bar.inc(1), |i| run_trial(a, methods, i));
     bar.finish_and_clear();
-    let results = results.into_inner().map_err(|_| "a worker thread panicked".to_string())?;
-    results
-        .into_iter()
-        .enumerate()
-        .map(|(i, r)| r.unwrap_or_else(|| Err(format!("trial {i} did not run"))))
-        .collect()
+    trials
 }
 
 /// One trial: simulate, then every method on the same rig, then score each non-reference sensor.

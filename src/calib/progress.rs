@@ -1,0 +1,35 @@
+//! What the progress callback sees while a calibration runs. A leaf: the stages that report
+//! progress import it, and it imports none of them.
+
+use crate::se3::Pose;
+
+/// Which step a [`Progress`] reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// JRMPC's EM: `iteration` of `max_iterations`, with `mean_sigma` and `max_change`.
+    Jrmpc,
+    /// The frame pairs' ICP (`gmm`'s refinement, the ICP methods): `iteration` pairs done of
+    /// `max_iterations`; `mean_sigma` and `max_change` are 0.
+    FramePairs,
+}
+
+impl Stage {
+    /// `"jrmpc"` or `"framePairs"`, as JS sees it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Stage::Jrmpc => "jrmpc",
+            Stage::FramePairs => "framePairs",
+        }
+    }
+}
+
+/// What the progress callback sees after each EM iteration and each frame pair.
+pub struct Progress<'a> {
+    pub stage: Stage,
+    pub iteration: usize,
+    pub max_iterations: usize,
+    pub mean_sigma: f64,
+    pub max_change: f64,
+    /// Current `C_ref_s` per sensor, in the order of `Calibration::sensors`.
+    pub corrections: &'a [Pose],
+}
