@@ -56,6 +56,7 @@ fn rig_as_read(rig: &Twin) -> Rig {
                 sensor: v.sensor.clone(),
                 frame: v.frame.clone(),
                 points: v.cloud.points.clone(),
+                source: None,
             });
         }
     }
@@ -215,12 +216,16 @@ fn method_all_reports_the_methods_that_ran_when_others_fail() {
         &["--method", "all", "--iterations", "20", "--json", json_path.to_str().unwrap()],
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // gmm ran, but so far beyond its reach that its verdict is failed: with no method that
+    // ran trusted, the exit status says so (2), and the verdict comes first.
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.starts_with("gmm: verdict failed\n"), "{stdout}");
     let json: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
     let results = json.as_array().expect("a JSON array");
     let names: Vec<&str> = results.iter().map(|r| r["method"].as_str().unwrap()).collect();
     assert_eq!(names, ["gmm", "jrmpc", "p2p", "p2l", "gicp"]);
     assert_eq!(results[0]["sensors"].as_array().unwrap().len(), 2, "gmm's result is kept");
+    assert_eq!(results[0]["verdict"]["level"], "failed", "{}", results[0]["verdict"]);
     assert!(results[0].get("error").is_none());
     assert!(stdout.lines().any(|l| l.starts_with("gmm") && l.contains("sensor_2")), "{stdout}");
     // gmm's bird's-eye search cannot reach that far and says so.
@@ -314,7 +319,12 @@ fn flags_override_the_config() {
     let args =
         ["--method", "p2l", "--reference", "sensor_2", "--json", json_path.to_str().unwrap()];
     let out = gmmcalib(&tmp.0, &args);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stderr),
+        String::from_utf8_lossy(&out.stdout)
+    );
     let json: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
     assert_eq!(json["method"], "p2l");
     assert_eq!(json["reference"], "sensor_2");
@@ -326,4 +336,29 @@ fn flags_override_the_config() {
     let reference = &json["sensors"][1];
     assert_eq!(reference["name"], "sensor_2");
     assert!(matrix(&reference["correction"]).rotation.angle() < 1e-12);
+}
+
+/// The verdict comes first, and a failed one is exit status 2: here sensor_2's scans are
+/// sensor_1's (the same sensor picked twice).
+#[test]
+fn a_failed_verdict_is_printed_first_and_exits_2() {
+    let mut rig =
+        generate(&RigSpec { sensors: 2, frames: 3, points_per_view: 1500, ..Default::default() });
+    let firsts: Vec<_> =
+        rig.scans.iter().filter(|s| s.sensor == "sensor_1").map(|s| s.cloud.clone()).collect();
+    for (scan, cloud) in rig.scans.iter_mut().filter(|s| s.sensor == "sensor_2").zip(firsts) {
+        scan.cloud = cloud;
+    }
+    let tmp = TempDir::new("twice");
+    write_rig(&tmp.0, &rig);
+    append(&tmp.0, "initial_sigma: prior\n");
+    let json_path = tmp.0.join("out.json");
+    let out = gmmcalib(&tmp.0, &["--json", json_path.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(2), "{stdout}");
+    assert!(stdout.starts_with("verdict: FAILED\n"), "{stdout}");
+    assert!(stdout.contains("a scan of this sensor is, point for point, a scan of sensor_1"));
+    let json: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
+    assert_eq!(json["verdict"]["level"], "failed");
+    assert_eq!(json["verdict"]["sensors"]["sensor_2"]["reasons"][0]["kind"], "sameScans");
 }

@@ -105,7 +105,12 @@ fn rig_with_error(frames: usize, seed: u64, error: Pose) -> (Rig, Pose) {
     let rig = Rig {
         scans: views
             .into_iter()
-            .map(|v| Scan { sensor: v.sensor, frame: v.frame, points: v.cloud.points })
+            .map(|v| Scan {
+                sensor: v.sensor,
+                frame: v.frame,
+                points: v.cloud.points,
+                source: None,
+            })
             .collect(),
         nominal: vec![
             (preset.sensors[0].name.clone(), preset.sensors[0].mount),

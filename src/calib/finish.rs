@@ -5,11 +5,13 @@ use nalgebra::Vector3;
 
 use super::CalibError;
 use super::average::robust_average;
+use super::evidence::{ReferenceSurface, sensor_evidence};
 use super::notes::{Note, NoteKind};
 use super::pairs::FramePairs;
 use super::planes;
 use super::reconstruction::reconstruct;
 use super::result::{Calibration, SensorResult};
+use super::verdict::{self, Level, SensorInputs, Verdict};
 use super::views::{Views, jrmpc_per_pair};
 use crate::jrmpc::Registration;
 use crate::se3::Pose;
@@ -35,6 +37,7 @@ pub(super) fn finish(
         mut skipped,
         pairs: frame_pairs,
         ground,
+        same_scans,
     } = views;
     let name = |view: usize| (sensors[views[view].sensor].clone(), views[view].frame.clone());
     let mut kept_jrmpc = Vec::new();
@@ -116,6 +119,58 @@ pub(super) fn finish(
         }
         None => (Default::default(), 0, true, false, Vec::new()),
     };
+    // The verdict, from evidence measured on the same views.
+    let mut surfaces: Vec<Option<ReferenceSurface>> = clouds.iter().map(|_| None).collect();
+    for &(reference_view, _) in &frame_pairs[r] {
+        surfaces[reference_view] =
+            Some(ReferenceSurface::new(clouds[reference_view], ground.as_ref()));
+    }
+    let count = |notes: &[Note], sensor: &str, kinds: &dyn Fn(&NoteKind) -> bool| {
+        notes.iter().filter(|n| n.sensor == sensor && kinds(&n.kind)).count()
+    };
+    let mut sensor_verdicts = Vec::with_capacity(results.len());
+    for (s, result) in results.iter().enumerate() {
+        let name = &result.name;
+        let evidence = (s != r).then(|| {
+            let before = levelled[s].inverse();
+            let after = result.correction * before;
+            let pairs = &frame_pairs[s];
+            sensor_evidence(name, pairs, &clouds, &surfaces, &before, &after, ground.as_ref())
+        });
+        let others: Vec<&SensorResult> = results.iter().filter(|o| o.name != *name).collect();
+        let level = levelling.get(s);
+        let mut v = verdict::judge_sensor(
+            SensorInputs {
+                result,
+                evidence,
+                frames: result.spread.frames,
+                left_out: count(&skipped, name, &|k| {
+                    matches!(k, NoteKind::FrameOutlier { .. } | NoteKind::PairFailed { .. })
+                }),
+                rejected: count(&kept_jrmpc, name, &|_| true),
+                empty: count(&skipped, name, &|k| matches!(k, NoteKind::NoValidPoints)),
+                same_scans: same_scans.iter().find(|(a, _)| a == name).map(|(_, b)| b.clone()),
+                warning: level.and_then(|l| l.warning),
+                not_levelled: level.and_then(|l| l.skipped.clone()),
+            },
+            &others,
+        );
+        verdict::judge_frames(&mut v, (result.spread.rpy, result.spread.xyz), result.spread.frames);
+        sensor_verdicts.push(v);
+    }
+    let reasons = verdict::judge_reconstruction(
+        &settings.target,
+        &reconstruction.fits,
+        !reconstruction.means.is_empty(),
+        (iterations > 0).then_some((converged, iterations)),
+    );
+    let level = sensor_verdicts
+        .iter()
+        .map(|v| v.level)
+        .chain(reasons.iter().map(|r| r.level))
+        .max()
+        .unwrap_or(Level::Good);
+    let verdict = Verdict { level, reasons, sensors: sensor_verdicts };
     Ok(Calibration {
         method: stages.method,
         reference: sensors[r].clone(),
@@ -129,5 +184,6 @@ pub(super) fn finish(
         plane_adjustment,
         levelling,
         history,
+        verdict,
     })
 }

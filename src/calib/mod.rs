@@ -20,6 +20,7 @@
 mod average;
 mod bev;
 mod error;
+mod evidence;
 mod finish;
 mod level;
 mod notes;
@@ -31,10 +32,12 @@ mod result;
 mod rig;
 mod run;
 mod settings;
+pub mod verdict;
 mod views;
 
 pub use bev::{BevAlignment, BevSettings};
 pub use error::CalibError;
+pub use evidence::{Agreement, Observability, SensorEvidence};
 pub use level::GroundSettings;
 pub use notes::{BevWarning, LevellingSkipped, Note, NoteKind, SearchRange};
 pub use pairs::{
@@ -46,6 +49,7 @@ pub use result::{Calibration, Levelling, Reconstruction, SensorResult, Spread};
 pub use rig::{Rig, Scan};
 pub use run::{MethodOutcome, Phase, Run};
 pub use settings::{InitialSigma, Method, Settings, Stages};
+pub use verdict::{Axis, Level, Reason, ReasonKind, SensorVerdict, Verdict};
 pub use views::{JrmpcInput, Views};
 
 use std::borrow::Cow;

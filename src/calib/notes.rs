@@ -14,6 +14,9 @@ pub struct Note {
 /// Angles in rad, distances in m.
 #[derive(Clone, Debug, PartialEq)]
 pub enum NoteKind {
+    /// The scan was left out: it has no valid point at all (every point NaN or zero, or an
+    /// empty file).
+    NoValidPoints,
     /// The view was left out: too few points in the ROI.
     TooFewPoints { points: usize, needed: usize },
     /// The view was left out: all its points in the ROI coincide.

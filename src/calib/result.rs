@@ -4,6 +4,7 @@ use super::bev::BevAlignment;
 use super::notes::{BevWarning, LevellingSkipped, Note};
 use super::planes::Precision;
 use super::settings::Method;
+use super::verdict::Verdict;
 use crate::jrmpc;
 use crate::plane::Plane;
 use crate::se3::Pose;
@@ -87,4 +88,6 @@ pub struct Calibration {
     /// Per sensor, the ground found and the levelling applied; empty when levelling is off.
     pub levelling: Vec<Levelling>,
     pub history: Vec<jrmpc::IterationStats>,
+    /// How far to trust the result, and why.
+    pub verdict: Verdict,
 }

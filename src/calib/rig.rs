@@ -12,6 +12,8 @@ pub struct Scan {
     pub sensor: String,
     pub frame: String,
     pub points: Vec<[f32; 3]>,
+    /// Where the scan came from (a file's name, a recording's message), for messages.
+    pub source: Option<String>,
 }
 
 /// Everything about the rig the user supplies.

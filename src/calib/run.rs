@@ -194,7 +194,12 @@ impl<'r> Run<'r> {
 
     /// Every method's outcome, in the run's order (after [`Phase::Done`]; methods never
     /// started, after a cancel, are left out).
-    pub fn into_outcomes(self) -> Vec<MethodOutcome> {
+    pub fn into_outcomes(mut self) -> Vec<MethodOutcome> {
+        if self.outcomes.len() > 1 {
+            let mut ran: Vec<&mut Calibration> =
+                self.outcomes.iter_mut().filter_map(|(_, o)| o.as_mut().ok()).collect();
+            super::verdict::compare_methods(&mut ran);
+        }
         self.outcomes
     }
 

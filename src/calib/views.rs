@@ -44,8 +44,10 @@ pub struct Views {
     pub(super) skipped: Vec<Note>,
     /// Per sensor, its frame pairs: (reference view, sensor view) of the frames both have.
     pub(super) pairs: Vec<Vec<(usize, usize)>>,
-    /// The reference's ground, for the reconstruction's fit.
+    /// The reference's ground, for the reconstruction's fit and the verdict.
     pub(super) ground: Option<Plane>,
+    /// Per sensor, another sensor one of whose scans is one of its own, if any.
+    pub(super) same_scans: Vec<(String, String)>,
 }
 
 /// What JRMPC registers: the views, the target's surface at their centroid, and EM's
@@ -88,14 +90,13 @@ impl Views {
                 return Err(CalibError::NoCommonFrames(name.clone()));
             }
         }
-        // Without levelling, the reference's ground is found for the reconstruction's fit.
+        // Without levelling, the reference's ground is found for the reconstruction's fit and
+        // the verdict's structure.
         let ground = match levelling.get(r) {
             Some(l) => l.ground,
-            None if stages.jrmpc => {
-                sensor_ground(rig, &sensors, &nominals, r, settings).1.map(|(g, _)| g)
-            }
-            None => None,
+            None => sensor_ground(rig, &sensors, &nominals, r, settings).1.map(|(g, _)| g),
         };
+        let same_scans = same_scans(rig);
         Ok(Self {
             settings: settings.clone(),
             stages,
@@ -109,6 +110,7 @@ impl Views {
             skipped,
             pairs,
             ground,
+            same_scans,
         })
     }
 
@@ -222,7 +224,9 @@ fn crop(
         let distinct = cloud.points.iter().any(|p| p != &cloud.points[0]);
         let needed = settings.min_view_points.max(3);
         if cloud.len() < needed || !distinct {
-            let kind = if distinct || cloud.is_empty() {
+            let kind = if scan.points.is_empty() {
+                NoteKind::NoValidPoints
+            } else if distinct || cloud.is_empty() {
                 NoteKind::TooFewPoints { points: cloud.len(), needed }
             } else {
                 NoteKind::PointsCoincide
@@ -314,4 +318,33 @@ fn frame_pairs(views: &[View], sensors: usize, r: usize) -> Vec<Vec<(usize, usiz
         }
     }
     pairs
+}
+
+/// Pairs (sensor, other sensor) where a scan of the first is, point for point, a scan of the
+/// second: the same sensor picked twice. Compared by a hash of the points' bits.
+fn same_scans(rig: &Rig) -> Vec<(String, String)> {
+    use std::collections::HashMap;
+    use std::hash::{DefaultHasher, Hash, Hasher};
+    let mut seen: HashMap<u64, &str> = HashMap::new();
+    let mut found: Vec<(String, String)> = Vec::new();
+    for scan in rig.scans.iter().filter(|s| !s.points.is_empty()) {
+        let mut hasher = DefaultHasher::new();
+        scan.points.iter().flatten().for_each(|c| c.to_bits().hash(&mut hasher));
+        let key = hasher.finish();
+        match seen.get(&key) {
+            Some(&other) if other != scan.sensor => {
+                if !found.iter().any(|(s, _)| *s == scan.sensor) {
+                    found.push((scan.sensor.clone(), other.to_string()));
+                }
+                if !found.iter().any(|(s, _)| s == other) {
+                    found.push((other.to_string(), scan.sensor.clone()));
+                }
+            }
+            Some(_) => {}
+            None => {
+                seen.insert(key, &scan.sensor);
+            }
+        }
+    }
+    found
 }

@@ -2,14 +2,20 @@
 //! `calibrate` returns (docs/api.md). camelCase keys; matrices as 16 numbers, row-major; m and
 //! rad. Notes carry their kind and their sentence.
 
+use std::collections::BTreeMap;
+
 use serde::Serialize;
 
-use crate::calib::{Calibration, Note, SensorResult};
+use crate::calib::{
+    Agreement, Calibration, Note, Observability, Reason, ReasonKind, SensorResult, Verdict,
+};
 use crate::se3::{to_row_major, xyz_rpy};
 
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Report {
+    /// How far to trust the result, and why: read it first.
+    pub verdict: VerdictReport,
     pub method: &'static str,
     pub reference: String,
     pub iterations: usize,
@@ -154,6 +160,7 @@ impl From<&Calibration> for Report {
     fn from(c: &Calibration) -> Self {
         let t = &c.reconstruction;
         Report {
+            verdict: VerdictReport::from(&c.verdict),
             method: c.method.name(),
             reference: c.reference.clone(),
             iterations: c.iterations,
@@ -237,4 +244,184 @@ fn notes(notes: &[Note]) -> Vec<NoteReport> {
             reason: n.kind.to_string(),
         })
         .collect()
+}
+
+/// `good`, `check` or `failed`, with the reasons (heaviest first) and each sensor's own.
+#[derive(Clone, Debug, Serialize)]
+pub struct VerdictReport {
+    pub level: &'static str,
+    /// Calibration-wide reasons.
+    pub reasons: Vec<ReasonReport>,
+    pub sensors: BTreeMap<String, SensorVerdictReport>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SensorVerdictReport {
+    pub level: &'static str,
+    pub reasons: Vec<ReasonReport>,
+    /// The measurements (none for the reference sensor).
+    pub evidence: Option<EvidenceReport>,
+}
+
+/// One reason: its kind, the level it sets, the sentence, and its numbers (rad, m, shares).
+#[derive(Clone, Debug, Serialize)]
+pub struct ReasonReport {
+    pub kind: &'static str,
+    pub level: &'static str,
+    pub text: String,
+    pub values: BTreeMap<&'static str, Value>,
+}
+
+/// A reason's value: a number, a name, or a list of names.
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum Value {
+    Number(f64),
+    Text(String),
+    Names(Vec<&'static str>),
+}
+
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct EvidenceReport {
+    /// Under the nominal, and under the calibration.
+    pub before: AgreementReport,
+    pub after: AgreementReport,
+    /// One-sigma spread per axis, all frames: rotation (rad), translation (m).
+    pub observability: ObservabilityReport,
+    /// The same for one frame, on average.
+    pub frame_observability: ObservabilityReport,
+    /// Residual noise on the agreeing points (m).
+    pub noise: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct AgreementReport {
+    pub points: usize,
+    pub overlapping: usize,
+    pub agreeing: usize,
+    /// Structure (off the ground): compared, overlapping, agreeing.
+    pub structure: [usize; 3],
+    pub radius: f64,
+    pub tolerance: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ObservabilityReport {
+    pub rotation: [f64; 3],
+    pub translation: [f64; 3],
+}
+
+impl From<&Verdict> for VerdictReport {
+    fn from(v: &Verdict) -> Self {
+        VerdictReport {
+            level: v.level.name(),
+            reasons: v.reasons.iter().map(ReasonReport::from).collect(),
+            sensors: v
+                .sensors
+                .iter()
+                .map(|s| {
+                    let report = SensorVerdictReport {
+                        level: s.level.name(),
+                        reasons: s.reasons.iter().map(ReasonReport::from).collect(),
+                        evidence: s.evidence.as_ref().map(|e| EvidenceReport {
+                            before: agreement(&e.before),
+                            after: agreement(&e.after),
+                            observability: observability(&e.observability),
+                            frame_observability: observability(&e.frame_observability),
+                            noise: e.noise,
+                        }),
+                    };
+                    (s.sensor.clone(), report)
+                })
+                .collect(),
+        }
+    }
+}
+
+fn agreement(a: &Agreement) -> AgreementReport {
+    AgreementReport {
+        points: a.points,
+        overlapping: a.overlapping,
+        agreeing: a.agreeing,
+        structure: a.structure,
+        radius: a.radius,
+        tolerance: a.tolerance,
+    }
+}
+
+fn observability(o: &Observability) -> ObservabilityReport {
+    ObservabilityReport { rotation: o.rotation, translation: o.translation }
+}
+
+impl From<&Reason> for ReasonReport {
+    fn from(r: &Reason) -> Self {
+        use Value::{Names, Number, Text};
+        let values: Vec<(&'static str, Value)> = match &r.kind {
+            ReasonKind::NothingOverlaps { overlap, overlapping } => {
+                vec![("overlap", Number(*overlap)), ("overlapping", Number(*overlapping as f64))]
+            }
+            ReasonKind::FewPoints { overlapping } => {
+                vec![("overlapping", Number(*overlapping as f64))]
+            }
+            ReasonKind::Agreement { after, before, tolerance } => vec![
+                ("after", Number(*after)),
+                ("before", Number(*before)),
+                ("tolerance", Number(*tolerance)),
+            ],
+            ReasonKind::Observability { free, weak, spread } => vec![
+                ("free", Names(free.iter().map(|a| a.name()).collect())),
+                ("weak", Names(weak.iter().map(|a| a.name()).collect())),
+                ("spreadRoll", Number(spread.rotation[0])),
+                ("spreadPitch", Number(spread.rotation[1])),
+                ("spreadYaw", Number(spread.rotation[2])),
+                ("spreadX", Number(spread.translation[0])),
+                ("spreadY", Number(spread.translation[1])),
+                ("spreadZ", Number(spread.translation[2])),
+            ],
+            ReasonKind::FramesDisagree { ratio, rotation, translation } => vec![
+                ("ratio", Number(*ratio)),
+                ("rotation", Number(*rotation)),
+                ("translation", Number(*translation)),
+            ],
+            ReasonKind::FramesLeftOut { frames, of } => {
+                vec![("frames", Number(*frames as f64)), ("of", Number(*of as f64))]
+            }
+            ReasonKind::RefinementRejected { frames } => vec![("frames", Number(*frames as f64))],
+            ReasonKind::FarFromNominal { angle, distance } => {
+                vec![("angle", Number(*angle)), ("distance", Number(*distance))]
+            }
+            ReasonKind::SamePlace { other, angle, distance } => vec![
+                ("other", Text(other.clone())),
+                ("angle", Number(*angle)),
+                ("distance", Number(*distance)),
+            ],
+            ReasonKind::SameScans { other } => vec![("other", Text(other.clone()))],
+            ReasonKind::EmptyScans { scans } => vec![("scans", Number(*scans as f64))],
+            ReasonKind::Search(w) => vec![("warning", Text(w.name().into()))],
+            ReasonKind::NotLevelled(_) => vec![],
+            ReasonKind::NotConverged { iterations } => {
+                vec![("iterations", Number(*iterations as f64))]
+            }
+            ReasonKind::TargetFit { target, fit } => vec![
+                ("shape", Text(fit.shape.into())),
+                ("size", Number(fit.size)),
+                ("expected", Number(target.size())),
+                ("rms", Number(fit.rms)),
+                ("fitsBadly", Number(f64::from(u8::from(ReasonKind::fits_badly(target, fit))))),
+            ],
+            ReasonKind::NoTarget => vec![],
+            ReasonKind::Methods { agree, differ } => vec![
+                ("agree", Names(agree.clone())),
+                ("differ", Names(differ.iter().map(|(m, _, _)| *m).collect())),
+            ],
+        };
+        ReasonReport {
+            kind: r.kind.name(),
+            level: r.level.name(),
+            text: r.kind.to_string(),
+            values: values.into_iter().collect(),
+        }
+    }
 }

@@ -7,7 +7,8 @@ mod sentences;
 mod text;
 
 pub use json::{
-    BevReport, FitReport, HistoryReport, LevellingReport, NoteReport, PrecisionReport,
-    ReconstructionReport, Report, SensorReport, SpreadReport,
+    AgreementReport, BevReport, EvidenceReport, FitReport, HistoryReport, LevellingReport,
+    NoteReport, ObservabilityReport, PrecisionReport, ReasonReport, ReconstructionReport, Report,
+    SensorReport, SensorVerdictReport, SpreadReport, Value, VerdictReport,
 };
-pub use text::{comparison, summary};
+pub use text::{comparison, summary, verdict};

@@ -3,7 +3,8 @@
 
 use std::fmt;
 
-use crate::calib::{BevWarning, LevellingSkipped, Method, NoteKind, SearchRange};
+use crate::calib::verdict;
+use crate::calib::{Axis, BevWarning, LevellingSkipped, Method, NoteKind, ReasonKind, SearchRange};
 
 impl Method {
     /// What the method does, in a few words (the page's method picker).
@@ -21,6 +22,9 @@ impl Method {
 impl fmt::Display for NoteKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            NoteKind::NoValidPoints => {
+                f.write_str("no valid point: every point is NaN or zero (or the file is empty)")
+            }
             NoteKind::TooFewPoints { points, needed } => {
                 write!(f, "{points} points in the ROI, need {needed}")
             }
@@ -63,6 +67,7 @@ impl NoteKind {
     /// The kind's name in the JSON (`tooFewPoints`, `planesApplied`, ...).
     pub fn name(&self) -> &'static str {
         match self {
+            NoteKind::NoValidPoints => "noValidPoints",
             NoteKind::TooFewPoints { .. } => "tooFewPoints",
             NoteKind::PointsCoincide => "pointsCoincide",
             NoteKind::FrameOutlier { .. } => "frameOutlier",
@@ -124,6 +129,163 @@ impl BevWarning {
             BevWarning::NothingToOverlay { .. } => "nothingToOverlay",
             BevWarning::LowOverlap { .. } => "lowOverlap",
             BevWarning::AtEdge { .. } => "atEdge",
+        }
+    }
+}
+
+fn deg(rad: f64) -> f64 {
+    rad.to_degrees()
+}
+
+fn axes(list: &[Axis]) -> String {
+    list.iter().map(|a| a.name()).collect::<Vec<_>>().join(", ")
+}
+
+impl fmt::Display for ReasonKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ReasonKind::NothingOverlaps { overlap, overlapping } => write!(
+                f,
+                "after the calibration only {:.0} % of this sensor's points ({overlapping}) lie \
+                 near the reference's surfaces: nothing supports this extrinsic (a nominal far \
+                 off, another scene, or a region of interest the sensors do not share)",
+                100.0 * overlap
+            ),
+            ReasonKind::FewPoints { overlapping } => write!(
+                f,
+                "only {overlapping} of this sensor's points overlap the reference's surfaces: \
+                 too few to judge the result by"
+            ),
+            ReasonKind::Agreement { after, before, tolerance } => write!(
+                f,
+                "{:.0} % of the overlapping structure lands within {:.1} cm of the reference's \
+                 surfaces ({:.0} % before the calibration)",
+                100.0 * after,
+                100.0 * tolerance,
+                100.0 * before
+            ),
+            ReasonKind::Observability { free, weak, spread } => {
+                let sigma = format!(
+                    "one sigma: roll, pitch, yaw {:.3} {:.3} {:.3} deg; x, y, z {:.1} {:.1} {:.1} mm",
+                    deg(spread.rotation[0]),
+                    deg(spread.rotation[1]),
+                    deg(spread.rotation[2]),
+                    1e3 * spread.translation[0],
+                    1e3 * spread.translation[1],
+                    1e3 * spread.translation[2]
+                );
+                if !free.is_empty() {
+                    write!(
+                        f,
+                        "the data leave {} unconstrained: the structure in the region of \
+                         interest cannot fix them (only ground, one wall, a symmetric target)",
+                        axes(free)
+                    )
+                } else if !weak.is_empty() {
+                    write!(f, "the data constrain {} only weakly ({sigma})", axes(weak))
+                } else {
+                    write!(f, "every direction is constrained ({sigma})")
+                }
+            }
+            ReasonKind::FramesDisagree { ratio, rotation, translation } => write!(
+                f,
+                "the frames' corrections spread {:.3} deg / {:.1} mm, {ratio:.1} times what one \
+                 frame's noise allows{}",
+                deg(*rotation),
+                1e3 * translation,
+                if *rotation > verdict::FRAMES_CHECK.0 || *translation > verdict::FRAMES_CHECK.1 {
+                    ": a moving rig or target, a time offset between sensors, or a bad frame"
+                } else {
+                    ""
+                }
+            ),
+            ReasonKind::FramesLeftOut { frames, of } => {
+                write!(f, "{frames} of {of} frames left out (see the notes)")
+            }
+            ReasonKind::RefinementRejected { frames } => write!(
+                f,
+                "{frames} frame(s) kept JRMPC's correction: the refinement went beyond its guard"
+            ),
+            ReasonKind::FarFromNominal { angle, distance } => write!(
+                f,
+                "the result is {:.1} deg / {distance:.2} m from the nominal: the nominal was \
+                 wrong, or the result is",
+                deg(*angle)
+            ),
+            ReasonKind::SamePlace { other, angle, distance } => write!(
+                f,
+                "this sensor sits where {other} sits ({:.1} mm, {:.3} deg apart): the same \
+                 sensor twice, or one sensor's frames taken for several sensors",
+                1e3 * distance,
+                deg(*angle)
+            ),
+            ReasonKind::SameScans { other } => {
+                write!(f, "a scan of this sensor is, point for point, a scan of {other}")
+            }
+            ReasonKind::EmptyScans { scans } => {
+                write!(f, "{scans} scan(s) without a valid point (every point NaN or zero)")
+            }
+            ReasonKind::Search(warning) => write!(f, "{warning}"),
+            ReasonKind::NotLevelled(why) => write!(f, "not levelled: {why}"),
+            ReasonKind::NotConverged { iterations } => {
+                write!(f, "JRMPC stopped at its limit of {iterations} iterations before converging")
+            }
+            ReasonKind::TargetFit { target, fit } => {
+                let size = if fit.shape == "sphere" { "diameter" } else { "edge" };
+                write!(
+                    f,
+                    "a {} of {size} {:.3} m fits a reconstructed target with RMS {:.1} mm ({} \
+                     given: {:.3} m){}",
+                    fit.shape,
+                    fit.size,
+                    1e3 * fit.rms,
+                    target.kind(),
+                    target.size(),
+                    if ReasonKind::fits_badly(target, fit) {
+                        "; it fits badly: another shape, or a blurred reconstruction"
+                    } else {
+                        ""
+                    }
+                )
+            }
+            ReasonKind::NoTarget => f.write_str("no target stands out of the reconstruction"),
+            ReasonKind::Methods { agree, differ } => {
+                let agree = if agree.is_empty() { "none".into() } else { agree.join(", ") };
+                let differ: Vec<String> = differ
+                    .iter()
+                    .map(|(m, a, d)| format!("{m} by {:.2} deg / {:.1} cm", deg(*a), 1e2 * d))
+                    .collect();
+                write!(f, "methods that agree with this one: {agree}")?;
+                if !differ.is_empty() {
+                    write!(f, "; differ: {}", differ.join(", "))?;
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+impl ReasonKind {
+    /// The reason's name in the JSON.
+    pub fn name(&self) -> &'static str {
+        match self {
+            ReasonKind::NothingOverlaps { .. } => "nothingOverlaps",
+            ReasonKind::FewPoints { .. } => "fewPoints",
+            ReasonKind::Agreement { .. } => "agreement",
+            ReasonKind::Observability { .. } => "observability",
+            ReasonKind::FramesDisagree { .. } => "framesDisagree",
+            ReasonKind::FramesLeftOut { .. } => "framesLeftOut",
+            ReasonKind::RefinementRejected { .. } => "refinementRejected",
+            ReasonKind::FarFromNominal { .. } => "farFromNominal",
+            ReasonKind::SamePlace { .. } => "samePlace",
+            ReasonKind::SameScans { .. } => "sameScans",
+            ReasonKind::EmptyScans { .. } => "emptyScans",
+            ReasonKind::Search(_) => "search",
+            ReasonKind::NotLevelled(_) => "notLevelled",
+            ReasonKind::NotConverged { .. } => "notConverged",
+            ReasonKind::TargetFit { .. } => "targetFit",
+            ReasonKind::NoTarget => "noTarget",
+            ReasonKind::Methods { .. } => "methods",
         }
     }
 }

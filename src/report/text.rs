@@ -2,12 +2,32 @@
 
 use std::fmt::Write;
 
-use crate::calib::{Calibration, Note};
+use crate::calib::{Calibration, Level, Note, Reason, Verdict};
 use crate::se3::xyz_rpy;
 
-/// The human summary of one calibration.
+/// The verdict, first: the level, then per sensor its level and the reasons that set it
+/// (`good` reasons only where nothing else is said).
+pub fn verdict(v: &Verdict) -> String {
+    let mut out = format!("verdict: {}\n", v.level.name().to_uppercase());
+    let weighty = |r: &&Reason| r.level > Level::Good;
+    for s in &v.sensors {
+        let _ = writeln!(out, "  {}: {}", s.sensor, s.level.name());
+        let shown: Vec<&Reason> = s.reasons.iter().filter(weighty).collect();
+        let shown = if shown.is_empty() { s.reasons.iter().take(2).collect() } else { shown };
+        for r in shown {
+            let _ = writeln!(out, "    - {}", r.kind);
+        }
+    }
+    for r in &v.reasons {
+        let _ = writeln!(out, "  - {}", r.kind);
+    }
+    out
+}
+
+/// The human summary of one calibration, its verdict first.
 pub fn summary(c: &Calibration) -> String {
-    let mut out = String::new();
+    let mut out = verdict(&c.verdict);
+    out.push('\n');
     let state = if c.converged { "converged" } else { "not converged" };
     let _ = writeln!(
         out,
@@ -56,9 +76,18 @@ pub fn summary(c: &Calibration) -> String {
     out
 }
 
-/// One table comparing several calibrations of the same frames.
+/// One table comparing several calibrations of the same frames, each method's verdict first.
 pub fn comparison(results: &[&Calibration]) -> String {
     let mut out = String::new();
+    for c in results {
+        let _ = writeln!(out, "{}: verdict {}", c.method.name(), c.verdict.level.name());
+        for s in &c.verdict.sensors {
+            for r in s.reasons.iter().filter(|r| r.level > Level::Good) {
+                let _ = writeln!(out, "  {}: {}", s.sensor, r.kind);
+            }
+        }
+    }
+    out.push('\n');
     let _ = writeln!(
         out,
         "{:<6} {:<10} {:>26} {:>26} {:>26} {:>26} {:>6}",

@@ -170,6 +170,7 @@ impl Twin {
                 sensor: s.sensor.clone(),
                 frame: s.frame.clone(),
                 points: s.cloud.points.iter().copied().filter(is_valid_point).collect(),
+                source: None,
             })
             .collect();
         Rig { scans, nominal: self.nominal.clone(), roi: self.roi, reference: None }

@@ -3,7 +3,7 @@
 
 use std::f64::consts::PI;
 
-use rand::SeedableRng;
+use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
 use super::OrganizedScan;
@@ -30,10 +30,16 @@ pub struct Preset {
     pub roi: Aabb,
     /// Index into `scene.boxes` of the validation cube, if any; every other box is a target.
     pub validation_box: Option<usize>,
+    /// When set, the targets move between frames (as GMMCalib's cube is carried around):
+    /// each frame shifts every target by up to this much (m) along x and y and turns it by up
+    /// to 30 deg, drawn from a stream of its own. `None`: a static scene.
+    pub target_motion: Option<f64>,
 }
 
 /// Edge of the calibration and validation cubes (m).
 const CUBE_EDGE: f64 = 0.5;
+/// The stream the targets' motion between frames draws from.
+const MOTION_STREAM: u64 = u64::MAX - 1;
 
 impl Preset {
     /// The paper's simulated rig: two LiDARs front-left and front-right (EDGAR-like, x 2.3 m,
@@ -91,6 +97,7 @@ impl Preset {
             scene,
             roi: Aabb::new([11.0, -2.5, -0.5], [13.5, 2.5, 1.0]),
             validation_box: Some(3),
+            target_motion: None,
         }
     }
 
@@ -110,18 +117,35 @@ impl Preset {
     /// views.
     pub fn simulate(&self, frames: usize, seed: u64) -> Vec<OrganizedScan> {
         let mut rng = Pcg64::seed_from_u64(seed);
+        let mut motion = Pcg64::seed_from_u64(super::derive_seed(seed, MOTION_STREAM));
         let mut views = Vec::with_capacity(frames * self.sensors.len());
         for frame in 1..=frames {
+            let scene = self.scene_of_frame(&mut motion);
             for s in &self.sensors {
                 views.push(OrganizedScan {
                     sensor: s.name.clone(),
                     frame: frame.to_string(),
-                    cloud: s.lidar.scan(&self.scene, &s.mount, &mut rng),
+                    cloud: s.lidar.scan(&scene, &s.mount, &mut rng),
                     width: s.lidar.width(),
                     height: s.lidar.height(),
                 });
             }
         }
         views
+    }
+
+    /// The scene of the next frame: the targets moved when `target_motion` is set.
+    fn scene_of_frame(&self, rng: &mut Pcg64) -> Scene {
+        let Some(reach) = self.target_motion else { return self.scene.clone() };
+        let mut scene = self.scene.clone();
+        for (i, b) in scene.boxes.iter_mut().enumerate() {
+            if Some(i) == self.validation_box {
+                continue;
+            }
+            b.centre.x += rng.random_range(-reach..=reach);
+            b.centre.y += rng.random_range(-reach..=reach);
+            b.yaw += rng.random_range(-0.5..=0.5);
+        }
+        scene
     }
 }

@@ -21,6 +21,8 @@ struct ScanInput {
     frame: String,
     #[serde(with = "serde_wasm_bindgen::preserve")]
     points: Float32Array,
+    /// The file (or message) it came from, for messages.
+    source: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -164,7 +166,12 @@ pub(super) fn rig_and_settings(
                 flat.len()
             ))
         })?;
-        scans.push(Scan { sensor: v.sensor.clone(), frame: v.frame.clone(), points: cloud.points });
+        scans.push(Scan {
+            sensor: v.sensor.clone(),
+            frame: v.frame.clone(),
+            points: cloud.points,
+            source: v.source.clone(),
+        });
     }
     let nominal = input
         .nominal

@@ -53,6 +53,12 @@ test('demo: simulate, calibrate, and land within the bound of the truth', async 
   const result = JSON.parse(await page.getByTestId('result-json').textContent());
   assert.equal(result.method, 'gmm');
   assert.equal(result.reference, 'front_left');
+  // The verdict, good, in view without the user scrolling.
+  const verdict = page.getByTestId('verdict');
+  assert.equal(await verdict.getAttribute('data-level'), 'good');
+  assert.equal(result.verdict.level, 'good');
+  assert.ok(await verdict.evaluate((el) => { const r = el.getBoundingClientRect(); return r.top >= 0 && r.bottom <= innerHeight; }), 'the verdict is inside the viewport');
+  assert.equal(await page.locator('[data-testid=sensor-verdict][data-sensor=front_right]').getAttribute('data-level'), 'good');
   assert.deepEqual(result.sensors.map((s) => s.name), ['front_left', 'front_right']);
   assert.equal(result.sensors[1].extrinsic.length, 16);
   assert.ok(Array.isArray(result.reconstruction.means) && result.history.meanSigma.length === result.iterations);

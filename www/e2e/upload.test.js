@@ -171,3 +171,23 @@ test('recorded scans picked folder by folder pair with the first sensor', async 
     rmSync(dir, { recursive: true, force: true });
   }
 });
+
+test('a known-bad upload, one sensor given twice, shows failed with its reason', async () => {
+  const rig = sampledRig({ sensors: 2, frames: 3, pointsPerView: 1500, seed: 7 });
+  // sensor_2's scans are sensor_1's: the same sensor picked twice.
+  const twice = { ...rig, scans: rig.scans.map((s) => (s.sensor === 'sensor_2' ? { ...s, points: rig.scans.find((t) => t.sensor === 'sensor_1' && t.frame === s.frame).points } : s)) };
+  const { page, problems } = await session.open();
+  await page.getByTestId('file-input').setInputFiles(gmmcalibFolder(twice, 'rig', 'initial_sigma: prior\n'));
+  await waitForStatus(page, /6 scans of 2 sensors loaded/);
+  await page.getByTestId('calibrate').click();
+  await waitForStatus(page, /^Done/, 120_000);
+  const verdict = page.getByTestId('verdict');
+  assert.equal(await verdict.getAttribute('data-level'), 'failed');
+  assert.match(await verdict.textContent(), /Failed: do not use this extrinsic/);
+  assert.match(await verdict.textContent(), /sensor_2: a scan of this sensor is, point for point, a scan of sensor_1/);
+  assert.ok(await verdict.evaluate((el) => { const r = el.getBoundingClientRect(); return r.top >= 0 && r.bottom <= innerHeight; }), 'the verdict is inside the viewport');
+  const result = JSON.parse(await page.getByTestId('result-json').textContent());
+  assert.equal(result.verdict.sensors.sensor_2.level, 'failed');
+  assert.ok(result.verdict.sensors.sensor_2.reasons.some((r) => r.kind === 'sameScans' && r.values.other === 'sensor_1'));
+  assert.deepEqual(problems, []);
+});

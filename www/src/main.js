@@ -194,6 +194,8 @@ async function showResults(results, failures, json) {
   $('show-after').checked = true;
   redraw();
   renderResults($('results'), results, state.truth, failures);
+  // The verdict is the answer: bring it into view.
+  document.querySelector('[data-testid=verdict]')?.scrollIntoView({ block: 'start' });
   await nextTask();
   if (state.results !== results) return;
   drawConvergence($('convergence'), results[0].history);

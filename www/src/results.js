@@ -1,7 +1,8 @@
-// The results panel: per sensor the correction and calibrated extrinsic (4x4, xyz, rpy in deg
+// The results panel: the verdict first (good, check or failed, with its evidence one click
+// away); per sensor its verdict, the correction and calibrated extrinsic (4x4, xyz, rpy in deg
 // and rad, quaternion), the spread over frames, gmm's precision and, for a demo, the error
 // against the truth; the target's plausibility; a convergence plot; with several methods, one
-// comparison table.
+// comparison table with each method's verdict and the methods it agrees with.
 import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from './transforms.js';
 
 const IDENTITY = matrixFromXyzRpy([0, 0, 0], [0, 0, 0]);
@@ -29,7 +30,44 @@ function poseHtml(title, m) {
     <p>quaternion xyzw ${f(quaternionOf(m), 6)}</p></div>`;
 }
 
-function sensorHtml(s, reference, truth) {
+const VERDICT_TITLE = {
+  good: 'Good: the evidence supports this calibration.',
+  check: 'Check: some evidence does not support this calibration; look at the reasons before you use it.',
+  failed: 'Failed: do not use this extrinsic.',
+};
+
+// The reasons worth a line: those that set a level other than good (all of them when none do).
+const weighty = (reasons) => {
+  const heavy = reasons.filter((r) => r.level !== 'good');
+  return heavy.length ? heavy : [];
+};
+
+function reasonsHtml(reasons) {
+  return `<ul>${reasons.map((r) => `<li class="${r.level}">${esc(r.text)}</li>`).join('')}</ul>`;
+}
+
+// The verdict of a calibration, with the evidence folded below it.
+function verdictHtml(r) {
+  const v = r.verdict;
+  const lines = Object.entries(v.sensors).flatMap(([name, s]) => weighty(s.reasons).map((x) => `${name}: ${x.text}`));
+  const evidence = Object.entries(v.sensors)
+    .map(([name, s]) => `<p><b>${esc(name)}</b>: ${s.level}</p>${reasonsHtml(s.reasons)}`)
+    .join('');
+  return `<div class="verdict ${v.level}" data-testid="verdict" data-level="${v.level}">
+    <p><strong>${VERDICT_TITLE[v.level]}</strong></p>
+    ${lines.length ? `<ul>${lines.map((l) => `<li>${esc(l)}</li>`).join('')}</ul>` : ''}
+    <details><summary>Evidence</summary>${evidence}${v.reasons.length ? `<p><b>reconstruction and run</b></p>${reasonsHtml(v.reasons)}` : ''}</details>
+  </div>`;
+}
+
+function sensorVerdictHtml(r, name) {
+  const s = r.verdict.sensors[name];
+  if (!s) return '';
+  const shown = weighty(s.reasons);
+  return `<p class="sensor-verdict ${s.level}" data-testid="sensor-verdict" data-sensor="${esc(name)}" data-level="${s.level}">verdict: ${s.level}${shown.length ? ` — ${shown.map((x) => esc(x.text)).join('; ')}` : ''}</p>`;
+}
+
+function sensorHtml(s, reference, truth, r) {
   const error = errorVsTruth(s, truth);
   const spread = `spread over ${s.spread.frames} frames: xyz ${f(s.spread.xyz.map((v) => v * 1000), 1)} mm, rpy ${f(s.spread.rpy.map(degrees), 3)} deg`;
   // gmm's plane adjustment: the spread its points allow (one sigma), null for other methods.
@@ -38,7 +76,7 @@ function sensorHtml(s, reference, truth) {
     : '';
   const errorText = error ? `<p class="truth" data-sensor="${esc(s.name)}">error vs truth: <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></p>` : '';
   return `<section class="sensor"><h3>${esc(s.name)}${s.name === reference ? ' (reference)' : ''}</h3>
-    ${errorText}${precision}<p>${spread}</p>
+    ${sensorVerdictHtml(r, s.name)}${errorText}${precision}<p>${spread}</p>
     <div class="poses">${poseHtml(`correction C_${esc(reference)}_${esc(s.name)}`, s.correction)}${poseHtml(`extrinsic T_vehicle_${esc(s.name)}`, s.extrinsic)}</div></section>`;
 }
 
@@ -61,15 +99,19 @@ function levellingHtml(levelling = []) {
   return `<p>ground levelling:</p><ul>${levelling.map(row).join('')}</ul>`;
 }
 
+// Which other methods agree with `r` (the library's comparison, a reason of its verdict).
+const agreeing = (r) => r.verdict.reasons.find((x) => x.kind === 'methods')?.values.agree ?? [];
+
 function comparisonHtml(results, truth, failures) {
-  const head = `<tr><th>method</th><th>sensor</th><th>xyz (m)</th><th>rpy (deg)</th><th>spread xyz (mm)</th><th>spread rpy (deg)</th>${truth ? '<th>error vs truth</th>' : ''}</tr>`;
-  const body = results.flatMap((r) => r.sensors.map((s) => {
+  const head = `<tr><th>method</th><th>verdict</th><th>agrees with</th><th>sensor</th><th>xyz (m)</th><th>rpy (deg)</th><th>spread xyz (mm)</th><th>spread rpy (deg)</th>${truth ? '<th>error vs truth</th>' : ''}</tr>`;
+  const body = results.flatMap((r) => r.sensors.map((s, i) => {
     const e = errorVsTruth(s, truth);
-    return `<tr><td>${r.method}</td><td>${esc(s.name)}</td><td>${f(s.xyz, 4)}</td><td>${f(s.rpy.map(degrees), 3)}</td>` +
+    const first = i === 0 ? `<td class="${r.verdict.level}" data-testid="method-verdict" data-method="${r.method}">${r.verdict.level}</td><td>${agreeing(r).join(', ') || 'none'}</td>` : '<td></td><td></td>';
+    return `<tr><td>${r.method}</td>${first}<td>${esc(s.name)}</td><td>${f(s.xyz, 4)}</td><td>${f(s.rpy.map(degrees), 3)}</td>` +
       `<td>${f(s.spread.xyz.map((v) => v * 1000), 1)}</td><td>${f(s.spread.rpy.map(degrees), 3)}</td>` +
       `${e ? `<td>${e.deg.toFixed(3)} deg / ${e.mm.toFixed(1)} mm</td>` : ''}</tr>`;
   }));
-  const failed = failures.map((x) => `<tr class="failed"><td>${esc(x.method)}</td><td colspan="${truth ? 6 : 5}">failed: ${esc(x.error)}</td></tr>`);
+  const failed = failures.map((x) => `<tr class="failed"><td>${esc(x.method)}</td><td colspan="${truth ? 8 : 7}">failed: ${esc(x.error)}</td></tr>`);
   return `<table class="compare">${head}${body.join('')}${failed.join('')}</table>`;
 }
 
@@ -83,10 +125,11 @@ export function renderResults(container, results, truth, failures = []) {
     ? `${t.fits.length === 1 ? 'target' : `${t.fits.length} targets`}: ${t.fits.map(fitText).join('; ')}`
     : t.means.length ? 'no target stands out from the ground' : 'no target reconstructed (ICP method)';
   container.innerHTML = `
+    ${verdictHtml(r)}
     ${results.length + failures.length > 1 ? `<h3>All methods</h3>${comparisonHtml(results, truth, failures)}<h3>Details: ${r.method}</h3>` : ''}
     <p>method ${r.method}, reference ${esc(r.reference)}, ${r.iterations} iterations${r.converged ? ', converged' : ''}${r.cancelled ? ', cancelled' : ''}; ${fit}</p>
     ${(r.levelling ?? []).filter((l) => l.warning).map((l) => `<p class="error" data-testid="warning">${esc(l.sensor)}: ${esc(l.warning)}</p>`).join('')}
-    ${r.sensors.map((s) => sensorHtml(s, r.reference, truth)).join('')}
+    ${r.sensors.map((s) => sensorHtml(s, r.reference, truth, r)).join('')}
     ${levellingHtml(r.levelling)}
     ${notesHtml('views left out', r.skipped)}${notesHtml('refinement rejected, kept the JRMPC correction', r.keptJrmpc)}
     ${notesHtml('joint plane adjustment (every frame)', r.planeAdjustment ?? [])}`;

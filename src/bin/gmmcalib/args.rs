@@ -19,7 +19,10 @@ usage: gmmcalib calibrate --config CONFIG.yaml --data DIR
                           [--bev on|off] [--planes on|off] [--level on|off] [--noise M]
                           [--columns N] [--threads T] [--notes]
 
-  calibrate: DIR holds one folder per sensor (sensor_1, sensor_2, ...), each with frames
+  calibrate: prints the verdict first (good, check or failed, with the reasons); exit status
+  0 when it calibrated, 2 when it calibrated but the verdict is failed (every method's, with
+  --method all): do not use that extrinsic; 1 on an error.
+  DIR holds one folder per sensor (sensor_1, sensor_2, ...), each with frames
   1.pcd, 2.pcd, ... (.pcd, .ply or .bin); frames pair across sensors by file stem. Flags
   override CONFIG.yaml. --threads: threads sharing JRMPC's E-step and the refinement's frame
   pairs (default: the available cores; the result does not depend on it).

@@ -19,7 +19,12 @@ pub fn read_scans(dir: &Path) -> Result<Vec<Scan>, String> {
             let label = file.display().to_string();
             let bytes = fs::read(&file).map_err(|e| format!("{label}: {e}"))?;
             let parsed = parse_cloud(&bytes, &label).map_err(|e| e.to_string())?;
-            views.push(Scan { sensor: sensor.clone(), frame, points: parsed.cloud.points });
+            views.push(Scan {
+                sensor: sensor.clone(),
+                frame,
+                points: parsed.cloud.points,
+                source: Some(label),
+            });
         }
     }
     Ok(views)

@@ -55,6 +55,7 @@ impl TwinFiles {
                 sensor: folder.clone(),
                 frame: s.frame.clone(),
                 points: s.cloud.points.iter().copied().filter(is_valid_point).collect(),
+                source: None,
             }));
         }
         let nominal = self.folders.iter().cloned().zip(self.twin.nominal.iter().map(|(_, p)| *p));

@@ -26,7 +26,7 @@ fn main() {}
 #[cfg(not(target_arch = "wasm32"))]
 fn main() -> std::process::ExitCode {
     match cli::run(std::env::args().skip(1)) {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("gmmcalib: {}", e.replace('\n', " "));
             std::process::ExitCode::FAILURE
@@ -37,8 +37,9 @@ fn main() -> std::process::ExitCode {
 #[cfg(not(target_arch = "wasm32"))]
 mod cli {
     use std::io::{IsTerminal, Write};
+    use std::process::ExitCode;
 
-    use gmmcalib::calib::{self, Method, Progress, Rig, Settings, Stage};
+    use gmmcalib::calib::{self, Level, Method, Progress, Rig, Settings, Stage};
     use gmmcalib::io::config::Config;
     use gmmcalib::jrmpc::Control;
     use gmmcalib::report::{self, Report};
@@ -46,20 +47,37 @@ mod cli {
     use crate::args::{self, CalibrateArgs, Command};
     use crate::dataset;
 
-    pub fn run(argv: impl IntoIterator<Item = String>) -> Result<(), String> {
+    /// The exit status when the calibration ran but its verdict is `failed`: do not use the
+    /// extrinsic (1 is an error: nothing was calibrated).
+    pub const VERDICT_FAILED: u8 = 2;
+
+    pub fn run(argv: impl IntoIterator<Item = String>) -> Result<ExitCode, String> {
+        let done = |r: Result<(), String>| r.map(|()| ExitCode::SUCCESS);
         match args::parse(argv)? {
             Command::Help => {
                 println!("{}", args::USAGE);
-                Ok(())
+                Ok(ExitCode::SUCCESS)
             }
             Command::Calibrate(a) => calibrate(&a),
-            Command::Simulate(a) => crate::simulate::run(&a),
-            Command::Experiment(a) => crate::experiment::run(&a),
-            Command::Study(a) => crate::study::run(&a),
+            Command::Simulate(a) => done(crate::simulate::run(&a)),
+            Command::Experiment(a) => done(crate::experiment::run(&a)),
+            Command::Study(a) => done(crate::study::run(&a)),
         }
     }
 
-    fn calibrate(a: &CalibrateArgs) -> Result<(), String> {
+    /// The exit status for results whose verdicts are `levels`: `VERDICT_FAILED` when every
+    /// one failed.
+    fn status(levels: impl IntoIterator<Item = Level>) -> ExitCode {
+        let mut levels = levels.into_iter().peekable();
+        let any = levels.peek().is_some();
+        if any && levels.all(|l| l == Level::Failed) {
+            ExitCode::from(VERDICT_FAILED)
+        } else {
+            ExitCode::SUCCESS
+        }
+    }
+
+    fn calibrate(a: &CalibrateArgs) -> Result<ExitCode, String> {
         // 1. Config, with the command line taking precedence.
         let label = a.config.display().to_string();
         let text = std::fs::read_to_string(&a.config).map_err(|e| format!("{label}: {e}"))?;
@@ -113,7 +131,8 @@ mod cli {
         if let [(_, outcome)] = outcomes.as_slice() {
             let result = outcome.as_ref().map_err(|e| e.to_string())?;
             print!("{}", report::summary(result));
-            return write_json(a.json.as_deref(), &Report::from(result));
+            write_json(a.json.as_deref(), &Report::from(result))?;
+            return Ok(status([result.verdict.level]));
         }
         let failures: Vec<String> = outcomes
             .iter()
@@ -140,7 +159,8 @@ mod cli {
             })
             .collect::<Result<_, _>>()
             .map_err(|e| format!("JSON: {e}"))?;
-        write_json(a.json.as_deref(), &entries)
+        write_json(a.json.as_deref(), &entries)?;
+        Ok(status(results.iter().map(|c| c.verdict.level)))
     }
 
     /// Writes `value` as pretty JSON to `path`, when given.
