@@ -176,11 +176,12 @@ fn bad_rigs_are_typed_errors() {
     assert_eq!(calibrate(&rig), Some(CalibError::NonFiniteNominal("sensor_2".into())));
 
     let mut rig = rig_of(&truth);
-    rig.roi.max[0] = rig.roi.min[0] - 1.0;
+    let roi = rig.roi.as_mut().expect("the twin has a ROI");
+    roi.max[0] = roi.min[0] - 1.0;
     assert_eq!(calibrate(&rig), Some(CalibError::InvalidRoi));
 
     let mut rig = rig_of(&truth);
-    rig.roi = gmmcalib::Aabb::new([100.0; 3], [101.0; 3]);
+    rig.roi = Some(gmmcalib::Aabb::new([100.0; 3], [101.0; 3]));
     assert_eq!(calibrate(&rig), Some(CalibError::NoPointsInRoi("sensor_1".into())));
 
     let mut rig = rig_of(&truth);

@@ -68,7 +68,7 @@ fn rig_as_read(rig: &Twin) -> Rig {
             (name.clone(), pose_from_xyz_rpy(xyz, rpy))
         })
         .collect();
-    Rig { scans, nominal, roi: rig.roi, reference: None }
+    Rig { scans, nominal, roi: Some(rig.roi), reference: None }
 }
 
 fn gmmcalib(dir: &Path, extra: &[&str]) -> Output {

@@ -116,7 +116,7 @@ fn rig_with_error(frames: usize, seed: u64, error: Pose) -> (Rig, Pose) {
             (preset.sensors[0].name.clone(), preset.sensors[0].mount),
             (preset.sensors[1].name.clone(), nominal),
         ],
-        roi: preset.roi,
+        roi: Some(preset.roi),
         reference: None,
     };
     (rig, nominal)

@@ -133,7 +133,7 @@ fn cases() -> Vec<Case> {
     let rig = Rig {
         nominal: nominal.collect(),
         scans,
-        roi: Aabb::new([8.0, -4.0, -3.0], [13.0, 4.0, 1.0]),
+        roi: Some(Aabb::new([8.0, -4.0, -3.0], [13.0, 4.0, 1.0])),
         reference: None,
     };
     cases.push(Case {

@@ -11,6 +11,8 @@ pub enum CalibError {
     UnknownReference(String),
     NonFiniteNominal(String),
     InvalidRoi,
+    /// No region of interest was given, and the sensors' clouds share none.
+    NoOverlap,
     NonFinitePoint {
         sensor: String,
         frame: String,
@@ -44,6 +46,11 @@ impl fmt::Display for CalibError {
             Self::InvalidRoi => {
                 write!(f, "ROI is empty or not finite (need finite min <= max on every axis)")
             }
+            Self::NoOverlap => write!(
+                f,
+                "no region of interest was given, and the sensors' clouds overlap nowhere \
+                 under their nominals: give a ROI, or nominals that place the sensors"
+            ),
             Self::NonFinitePoint { sensor, frame, index } => {
                 write!(f, "view {sensor}/{frame}: point {index} is not finite")
             }

@@ -31,6 +31,7 @@ pub(super) fn finish(
         reference: r,
         nominals,
         levelling,
+        global,
         levelled,
         pre_aligned,
         views,
@@ -38,6 +39,7 @@ pub(super) fn finish(
         pairs: frame_pairs,
         ground,
         same_scans,
+        roi: _,
     } = views;
     let name = |view: usize| (sensors[views[view].sensor].clone(), views[view].frame.clone());
     let mut kept_jrmpc = Vec::new();
@@ -152,6 +154,7 @@ pub(super) fn finish(
                 same_scans: same_scans.iter().find(|(a, _)| a == name).map(|(_, b)| b.clone()),
                 warning: level.and_then(|l| l.warning),
                 not_levelled: level.and_then(|l| l.skipped.clone()),
+                global: global.get(s).filter(|_| s != r),
             },
             &others,
         );
@@ -183,6 +186,7 @@ pub(super) fn finish(
         kept_jrmpc,
         plane_adjustment,
         levelling,
+        global,
         history,
         verdict,
     })

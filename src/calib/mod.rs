@@ -19,25 +19,30 @@
 
 mod average;
 mod bev;
+pub mod correlate;
 mod error;
 mod evidence;
 mod finish;
+pub mod global;
 mod level;
 mod notes;
 mod pairs;
 mod planes;
 mod progress;
 mod reconstruction;
+pub mod region;
 mod result;
 mod rig;
 mod run;
 mod settings;
+pub mod up;
 pub mod verdict;
 mod views;
 
 pub use bev::{BevAlignment, BevSettings};
 pub use error::CalibError;
 pub use evidence::{Agreement, Observability, SensorEvidence};
+pub use global::{GlobalAlignment, GlobalSettings, GlobalSkip};
 pub use level::GroundSettings;
 pub use notes::{BevWarning, LevellingSkipped, Note, NoteKind, SearchRange};
 pub use pairs::{

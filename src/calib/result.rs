@@ -1,6 +1,7 @@
 //! What a calibration returns: typed values, no prose.
 
 use super::bev::BevAlignment;
+use super::global::GlobalAlignment;
 use super::notes::{BevWarning, LevellingSkipped, Note};
 use super::planes::Precision;
 use super::settings::Method;
@@ -87,6 +88,8 @@ pub struct Calibration {
     pub plane_adjustment: Vec<Note>,
     /// Per sensor, the ground found and the levelling applied; empty when levelling is off.
     pub levelling: Vec<Levelling>,
+    /// Per sensor, the global alignment from the nominal; empty when it is off.
+    pub global: Vec<GlobalAlignment>,
     pub history: Vec<jrmpc::IterationStats>,
     /// How far to trust the result, and why.
     pub verdict: Verdict,

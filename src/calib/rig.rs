@@ -22,8 +22,9 @@ pub struct Rig {
     pub scans: Vec<Scan>,
     /// Nominal `T_vehicle_sensor` per sensor.
     pub nominal: Vec<(String, Pose)>,
-    /// Region of interest in the vehicle frame (m), bounds inclusive.
-    pub roi: Aabb,
+    /// Region of interest in the vehicle frame (m), bounds inclusive; `None`: where the
+    /// sensors' clouds overlap (`region`).
+    pub roi: Option<Aabb>,
     /// The sensor the others are calibrated to; default: the sensor of the first scan.
     pub reference: Option<String>,
 }
@@ -49,7 +50,7 @@ impl Rig {
     /// The sensors in result order and the reference's index among them, after checking the
     /// ROI, the nominals, the points and the reference.
     pub(super) fn checked(&self) -> Result<(Vec<String>, usize), CalibError> {
-        if !self.roi.is_valid() {
+        if self.roi.is_some_and(|roi| !roi.is_valid()) {
             return Err(CalibError::InvalidRoi);
         }
         let sensors = self.sensors();

@@ -6,6 +6,7 @@ use std::str::FromStr;
 
 use super::CalibError;
 use super::bev::BevSettings;
+use super::global::GlobalSettings;
 use super::level::GroundSettings;
 use super::pairs::PairSettings;
 use super::planes::PlaneSettings;
@@ -131,6 +132,10 @@ pub struct Settings {
     /// After levelling, search yaw and in-plane shift from above (docs/method.md, "Beyond the
     /// spec"); `None`: off.
     pub bev: Option<BevSettings>,
+    /// Before everything, align each sensor globally from a far-off nominal (any yaw, steep
+    /// tilts, metres off; docs/method.md, "Global alignment"); `None`: for `gmm` only.
+    pub align_globally: Option<bool>,
+    pub global: GlobalSettings,
 }
 
 impl Default for Settings {
@@ -149,6 +154,8 @@ impl Default for Settings {
             level_ground: None,
             ground: GroundSettings::default(),
             bev: Some(BevSettings::default()),
+            align_globally: None,
+            global: GlobalSettings::default(),
         }
     }
 }
@@ -168,6 +175,9 @@ impl Settings {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Stages {
     pub method: Method,
+    /// Align each sensor globally first (its ground from the data, yaw and shift over the
+    /// whole range).
+    pub global: Option<GlobalSettings>,
     /// Level each sensor's ground onto the reference's, then (when set) search yaw and shift
     /// from above.
     pub level: bool,
@@ -176,6 +186,8 @@ pub struct Stages {
     pub jrmpc: bool,
     /// Register each frame pair by ICP: from JRMPC's corrections (`gmm`) or the nominal.
     pub pairs: Option<PairSettings>,
+    /// The frame pairs' reference points near its ground take the ground's normal (`gmm`).
+    pub ground_normals: bool,
     /// The joint plane adjustment of every sensor over all frames.
     pub planes: Option<PlaneSettings>,
 }
@@ -189,12 +201,22 @@ impl Stages {
             Method::Icp(metric) => Some(PairSettings::from_nominal(metric, &settings.icp)),
             Method::Jrmpc => None,
         };
+        let global = settings.align_globally.unwrap_or(method == Method::Gmm);
         Self {
             method,
+            global: global.then(|| settings.global.clone()),
             level,
             bev: settings.bev.clone().filter(|_| level),
-            jrmpc: matches!(method, Method::Gmm | Method::Jrmpc),
+            // Without a target, JRMPC's mixture on a whole scene is no basin worth its cost for
+            // `gmm` (OpenCalib's road: the scenes then disagree by degrees); the global stage
+            // and the refinement do the work. Plain `jrmpc` still runs it, on the scene.
+            jrmpc: match method {
+                Method::Gmm => settings.target != Target::None,
+                Method::Jrmpc => true,
+                Method::Icp(_) => false,
+            },
             pairs,
+            ground_normals: method == Method::Gmm,
             planes: settings.planes.clone().filter(|_| method == Method::Gmm),
         }
     }

@@ -8,6 +8,7 @@
 //! (docs/accuracy.md, "The verdict").
 
 use super::evidence::{Agreement, Observability, SensorEvidence};
+use super::global::{GlobalAlignment, GlobalSkip};
 use super::notes::{BevWarning, LevellingSkipped};
 use super::result::SensorResult;
 use crate::target::{ShapeFit, Target};
@@ -38,6 +39,13 @@ pub const FRAMES_CHECK: (f64, f64) = (0.15 * std::f64::consts::PI / 180.0, 0.03)
 pub const FRAMES_FAILED: (f64, f64) = (1.0 * std::f64::consts::PI / 180.0, 0.2);
 /// A correction beyond this (rad, m) says the nominal was wrong, or the result is.
 pub const FAR_FROM_NOMINAL: (f64, f64) = (20.0 * std::f64::consts::PI / 180.0, 1.0);
+/// A global alignment whose runner-up scores this close to its best (runner-up over best) is
+/// ambiguous: the scene allows another overlay almost as good (the twin's three cubes in a row:
+/// 0.88 at most).
+pub const AMBIGUOUS: f64 = 0.95;
+/// A global overlay scoring at least this share supports a result far from the nominal
+/// (OpenCalib's side LiDARs: 0.86-0.93).
+pub const SUPPORTED_OVERLAY: f64 = 0.5;
 /// Two sensors closer than this (m) and turned less than this (rad) are one sensor.
 pub const SAME_PLACE: (f64, f64) = (0.01, 0.1 * std::f64::consts::PI / 180.0);
 /// A fitted target whose size is off by more than this share, or whose RMS exceeds this share
@@ -90,8 +98,14 @@ pub enum ReasonKind {
     FramesLeftOut { frames: usize, of: usize },
     /// Frames whose refinement went beyond its guard.
     RefinementRejected { frames: usize },
-    /// The correction moves the sensor this far from its nominal.
-    FarFromNominal { angle: f64, distance: f64 },
+    /// The correction moves the sensor this far from its nominal; `supported` when a clear
+    /// global alignment found the move (a tape-measure nominal, the data placed it).
+    FarFromNominal { angle: f64, distance: f64, supported: bool },
+    /// The global alignment's runner-up overlay scores `ambiguity` of its best: another
+    /// placement, `yaw` (rad) and `shift` (m) away, fits almost as well.
+    Ambiguous { ambiguity: f64, yaw: f64, shift: f64 },
+    /// The global alignment was not applied to this sensor: why.
+    GlobalSkipped(GlobalSkip),
     /// The sensor sits where `other` sits: one sensor twice, or one sensor's frames as sensors.
     SamePlace { other: String, angle: f64, distance: f64 },
     /// A scan of this sensor is a scan of `other`.
@@ -145,6 +159,7 @@ pub(super) struct SensorInputs<'a> {
     pub same_scans: Option<String>,
     pub warning: Option<BevWarning>,
     pub not_levelled: Option<LevellingSkipped>,
+    pub global: Option<&'a GlobalAlignment>,
 }
 
 /// Judges one sensor.
@@ -185,10 +200,26 @@ pub(super) fn judge_sensor(inputs: SensorInputs, others: &[&SensorResult]) -> Se
     if let Some(skipped) = inputs.not_levelled {
         say(Level::Good, ReasonKind::NotLevelled(skipped));
     }
+    let mut supported = false;
+    if let Some(g) = inputs.global {
+        if let Some(why) = g.skipped {
+            say(Level::Good, ReasonKind::GlobalSkipped(why));
+        }
+        if let Some(overlay) = &g.overlay {
+            let ambiguity = overlay.ambiguity();
+            supported = overlay.best.score >= SUPPORTED_OVERLAY && ambiguity <= AMBIGUOUS;
+            if let Some(runner) = overlay.runners_up.first().filter(|_| ambiguity > AMBIGUOUS) {
+                let yaw = crate::se3::wrap_angle(runner.yaw - overlay.best.yaw).abs();
+                let shift = (runner.shift - overlay.best.shift).norm();
+                say(Level::Check, ReasonKind::Ambiguous { ambiguity, yaw, shift });
+            }
+        }
+    }
     let moved = &result.correction;
     let (angle, distance) = (moved.rotation.angle(), moved.translation.vector.norm());
     if angle > FAR_FROM_NOMINAL.0 || distance > FAR_FROM_NOMINAL.1 {
-        say(Level::Check, ReasonKind::FarFromNominal { angle, distance });
+        let level = if supported { Level::Good } else { Level::Check };
+        say(level, ReasonKind::FarFromNominal { angle, distance, supported });
     }
     reasons.sort_by_key(|r| std::cmp::Reverse(r.level));
     SensorVerdict {
@@ -303,7 +334,7 @@ pub(super) fn judge_reconstruction(
 impl ReasonKind {
     /// A fitted target that fits badly: its size off, or its surface blurred.
     pub fn fits_badly(target: &Target, fit: &ShapeFit) -> bool {
-        let size = target.size();
+        let Some(size) = target.size() else { return false };
         (fit.size - size).abs() > TARGET_SIZE_OFF * size || fit.rms > TARGET_RMS * size
     }
 }

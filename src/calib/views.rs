@@ -6,16 +6,19 @@
 use nalgebra::{Point3, Vector3};
 
 use super::bev;
+use super::global::{self, GlobalAlignment};
 use super::level::{self, points_in};
 use super::notes::{LevellingSkipped, Note, NoteKind};
 use super::pairs::{FramePairs, PairCorrections, PairIcp};
+use super::region;
 use super::result::Levelling;
 use super::settings::{InitialSigma, Settings, Stages};
 use super::{CalibError, Rig};
-use crate::cloud::Cloud;
+use crate::cloud::{Aabb, Cloud};
 use crate::jrmpc::{self, Em, Registration};
 use crate::plane::Plane;
 use crate::se3::Pose;
+use crate::target::Target;
 
 /// One cropped, pre-aligned view and whose it is.
 pub(super) struct View {
@@ -34,7 +37,10 @@ pub struct Views {
     /// Nominal `T_vehicle_sensor`, per sensor.
     pub(super) nominals: Vec<Pose>,
     pub(super) levelling: Vec<Levelling>,
-    /// The motion levelling applied on top of each sensor's nominal (identity without).
+    /// Per sensor, the global alignment (empty when off); its motion is part of `levelled`.
+    pub(super) global: Vec<GlobalAlignment>,
+    /// The motion the global alignment and the levelling applied on top of each sensor's
+    /// nominal (identity without either).
     pub(super) levelled: Vec<Pose>,
     /// Each sensor's levelled nominal, `levelled * nominal`: what its points are pre-aligned by.
     pub(super) pre_aligned: Vec<Pose>,
@@ -48,6 +54,8 @@ pub struct Views {
     pub(super) ground: Option<Plane>,
     /// Per sensor, another sensor one of whose scans is one of its own, if any.
     pub(super) same_scans: Vec<(String, String)>,
+    /// The region of interest the scans were cropped to.
+    pub(super) roi: Aabb,
 }
 
 /// What JRMPC registers: the views, the target's surface at their centroid, and EM's
@@ -66,19 +74,38 @@ impl Views {
         let stages = Stages::of(settings);
         let nominals: Vec<Pose> = sensors.iter().map(|s| rig.nominal_of(s)).collect();
 
+        // Align globally, when the stages say so: from then on each sensor starts from
+        // `global * nominal` as if that were its nominal.
+        let global = match &stages.global {
+            Some(global_settings) => {
+                let scans = sensor_scans(rig, &sensors);
+                global::align(&scans, &nominals, r, global_settings, settings.seed)
+            }
+            None => Vec::new(),
+        };
+        let global_motion: Vec<Pose> = (0..sensors.len())
+            .map(|s| global.get(s).map_or_else(Pose::identity, |g| g.applied))
+            .collect();
+        let starts: Vec<Pose> = global_motion.iter().zip(&nominals).map(|(g, n)| g * n).collect();
+        let roi = match rig.roi {
+            Some(roi) => roi,
+            None => region::overlap_region(&sensor_scans(rig, &sensors), &starts, r)
+                .ok_or(CalibError::NoOverlap)?,
+        };
+
         // Level, then search from above, when the stages say so.
         let levelling = if stages.level {
-            level_grounds(rig, &sensors, &nominals, r, settings, &stages)
+            level_grounds(rig, &roi, &sensors, &starts, r, settings, &stages)
         } else {
             Vec::new()
         };
         let levelled: Vec<Pose> = (0..sensors.len())
-            .map(|s| levelling.get(s).map_or_else(Pose::identity, |l| l.motion))
+            .map(|s| levelling.get(s).map_or_else(Pose::identity, |l| l.motion) * global_motion[s])
             .collect();
 
         // Pre-align and crop.
         let pre_aligned: Vec<Pose> = levelled.iter().zip(&nominals).map(|(l, n)| l * n).collect();
-        let (views, skipped) = crop(rig, &sensors, &pre_aligned, settings);
+        let (views, skipped) = crop(rig, &roi, &sensors, &pre_aligned, settings);
         for (s, name) in sensors.iter().enumerate() {
             if !views.iter().any(|v| v.sensor == s) {
                 return Err(CalibError::NoPointsInRoi(name.clone()));
@@ -94,7 +121,7 @@ impl Views {
         // the verdict's structure.
         let ground = match levelling.get(r) {
             Some(l) => l.ground,
-            None => sensor_ground(rig, &sensors, &nominals, r, settings).1.map(|(g, _)| g),
+            None => sensor_ground(rig, &roi, &sensors, &starts, r, settings).1.map(|(g, _)| g),
         };
         let same_scans = same_scans(rig);
         Ok(Self {
@@ -104,6 +131,7 @@ impl Views {
             reference: r,
             nominals,
             levelling,
+            global,
             levelled,
             pre_aligned,
             views,
@@ -111,7 +139,14 @@ impl Views {
             pairs,
             ground,
             same_scans,
+            roi,
         })
+    }
+
+    /// The region of interest the views were cropped to (the rig's, or where the clouds
+    /// overlap).
+    pub fn roi(&self) -> &Aabb {
+        &self.roi
     }
 
     /// Sensor names, in result order.
@@ -136,10 +171,18 @@ impl Views {
         let clouds = self.clouds();
         let centre =
             crate::cloud::centroid(clouds.iter().flat_map(|c| c.iter())).unwrap_or([0.0; 3]);
-        let means = settings.target.surface(settings.components, centre, settings.seed);
+        let means = match settings.target {
+            // No target: the mixture starts on the scene itself, an even sample of its points.
+            Target::None => {
+                let all: Vec<&[f32; 3]> = clouds.iter().flat_map(|c| c.iter()).collect();
+                let stride = all.len().div_ceil(settings.components.max(1)).max(1);
+                all.iter().step_by(stride).map(|p| p.map(f64::from)).collect()
+            }
+            _ => settings.target.surface(settings.components, centre, settings.seed),
+        };
         let jrmpc_settings = jrmpc::EmSettings {
             initial_sigma: match settings.initial_sigma {
-                InitialSigma::TargetSize => Some(settings.target.size()),
+                InitialSigma::TargetSize => settings.target.size(),
                 InitialSigma::BoundingBox => None,
                 InitialSigma::Fixed(sigma) => Some(sigma),
             },
@@ -179,8 +222,7 @@ impl Views {
     /// corrections (`gmm`), else from the nominal.
     pub fn frame_pairs(&self, registration: Option<&Registration>) -> Option<FramePairs> {
         let settings = self.stages.pairs.clone()?;
-        // Only a refinement of JRMPC's corrections leans on the reference's ground.
-        let ground = self.reference_ground().filter(|_| registration.is_some());
+        let ground = self.reference_ground().filter(|_| self.stages.ground_normals);
         let starts = match registration {
             Some(registration) => jrmpc_per_pair(&self.pairs, registration),
             None => vec![Vec::new(); self.sensors.len()],
@@ -211,6 +253,7 @@ pub(super) fn jrmpc_per_pair(
 /// points are noted instead.
 fn crop(
     rig: &Rig,
+    roi: &Aabb,
     sensors: &[String],
     poses: &[Pose],
     settings: &Settings,
@@ -219,8 +262,7 @@ fn crop(
     let mut skipped = Vec::new();
     for scan in &rig.scans {
         let s = sensors.iter().position(|n| n == &scan.sensor).unwrap_or(0);
-        let cloud =
-            Cloud::from_points(scan.points.clone()).transformed(&poses[s]).cropped(&rig.roi);
+        let cloud = Cloud::from_points(scan.points.clone()).transformed(&poses[s]).cropped(roi);
         let distinct = cloud.points.iter().any(|p| p != &cloud.points[0]);
         let needed = settings.min_view_points.max(3);
         if cloud.len() < needed || !distinct {
@@ -245,6 +287,7 @@ fn crop(
 /// bird's-eye search for each levelled sensor's yaw and in-plane shift.
 fn level_grounds(
     rig: &Rig,
+    roi: &Aabb,
     sensors: &[String],
     nominals: &[Pose],
     r: usize,
@@ -252,8 +295,8 @@ fn level_grounds(
     stages: &Stages,
 ) -> Vec<Levelling> {
     let (near_roi, grounds): (Vec<_>, Vec<_>) =
-        (0..sensors.len()).map(|s| sensor_ground(rig, sensors, nominals, s, settings)).unzip();
-    let pivot = Vector3::from_fn(|i, _| 0.5 * (rig.roi.min[i] + rig.roi.max[i]));
+        (0..sensors.len()).map(|s| sensor_ground(rig, roi, sensors, nominals, s, settings)).unzip();
+    let pivot = Vector3::from_fn(|i, _| 0.5 * (roi.min[i] + roi.max[i]));
     sensors
         .iter()
         .enumerate()
@@ -293,12 +336,13 @@ fn level_grounds(
 /// where the ground is searched, and the ground plane found among them.
 fn sensor_ground(
     rig: &Rig,
+    roi: &Aabb,
     sensors: &[String],
     nominals: &[Pose],
     s: usize,
     settings: &Settings,
 ) -> (Vec<Vector3<f64>>, Option<(Plane, usize)>) {
-    let bounds = level::search_box(&rig.roi, settings.ground.margin);
+    let bounds = level::search_box(roi, settings.ground.margin);
     let points: Vec<_> = rig
         .scans
         .iter()
@@ -307,6 +351,17 @@ fn sensor_ground(
         .collect();
     let ground = level::fit_ground(&points, &settings.ground, settings.seed.wrapping_add(s as u64));
     (points, ground)
+}
+
+/// Each sensor's points over all its scans, in its own frame.
+fn sensor_scans(rig: &Rig, sensors: &[String]) -> Vec<Vec<[f32; 3]>> {
+    sensors
+        .iter()
+        .map(|name| {
+            let own = rig.scans.iter().filter(|v| &v.sensor == name);
+            own.flat_map(|v| v.points.iter().copied()).collect()
+        })
+        .collect()
 }
 
 /// For each sensor, the (reference view, sensor view) index pairs of the frames both have.

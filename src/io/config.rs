@@ -9,7 +9,8 @@
 //!   - [8.5, -3, -1]                        # ROI in the vehicle frame (m)
 //! max_bound: [11, 4, 2]                    # the plain form, without the extra list, works too
 //! # ours, all optional: reference, method (a name or "all"), components, iterations,
-//! # target_edge (cube edge, m), initial_sigma (m, or "prior" / "bbox")
+//! # target (cube:EDGE, box:W,D,H, sphere:DIAMETER or none), target_edge (a cube's edge, m),
+//! # initial_sigma (m, or "prior" / "bbox")
 //! ```
 //!
 //! Rules: `transform_<name>` gives sensor `<name>`'s nominal (the data folder of that name);
@@ -72,9 +73,8 @@ impl Config {
             let Some(sensor) = key.as_str().and_then(|k| k.strip_prefix("transform_")) else {
                 continue;
             };
-            let v = numbers::<6>(value, "[roll, pitch, yaw, x, y, z]")
-                .map_err(|e| fail(format!("transform_{sensor}: {e}")))?;
-            let (xyz, rpy) = ([v[3], v[4], v[5]], [v[0], v[1], v[2]]);
+            let (xyz, rpy) =
+                transform(value).map_err(|e| fail(format!("transform_{sensor}: {e}")))?;
             nominal.push(Nominal { sensor: sensor.to_string(), xyz, rpy });
         }
         let bound = |key: &str| {
@@ -100,8 +100,12 @@ impl Config {
                 )));
             }
         }
-        let target =
-            positive_number(&map, "target_edge").map_err(fail)?.map(|edge| Target::Cube { edge });
+        let edge = positive_number(&map, "target_edge").map_err(fail)?;
+        let target = match (string(&map, "target").map_err(fail)?, edge) {
+            (Some(t), _) => Some(t.parse::<Target>().map_err(|e| fail(format!("target: {e}")))?),
+            (None, Some(edge)) => Some(Target::Cube { edge }),
+            (None, None) => None,
+        };
         Ok(Config {
             nominal,
             roi,
@@ -142,6 +146,52 @@ impl Config {
         }
         if let Some(sigma) = self.initial_sigma {
             settings.initial_sigma = sigma;
+        }
+    }
+}
+
+/// A sensor's nominal in any of the forms users have: GMMCalib's six numbers `[roll, pitch,
+/// yaw, x, y, z]` (rad, m), seven `[x, y, z, qx, qy, qz, qw]`, or sixteen (a 4x4 matrix,
+/// row-major); as translation and roll, pitch, yaw.
+fn transform(value: &Value) -> Result<([f64; 3], [f64; 3]), String> {
+    const FORMS: &str = "[roll, pitch, yaw, x, y, z], [x, y, z, qx, qy, qz, qw] or a 4x4 row-major";
+    let count = value
+        .as_sequence()
+        .map(|s| match s.as_slice() {
+            [Value::Sequence(inner)] => inner.len(),
+            s => s.len(),
+        })
+        .unwrap_or(0);
+    match count {
+        7 => {
+            let v = numbers::<7>(value, "[x, y, z, qx, qy, qz, qw]")?;
+            let q = nalgebra::Quaternion::new(v[6], v[3], v[4], v[5]);
+            if (q.norm() - 1.0).abs() > 1e-3 {
+                return Err(format!("the quaternion's norm is {:.4}, not 1", q.norm()));
+            }
+            let pose = Pose::from_parts(
+                nalgebra::Translation3::new(v[0], v[1], v[2]),
+                nalgebra::UnitQuaternion::from_quaternion(q),
+            );
+            Ok(crate::se3::xyz_rpy(&pose))
+        }
+        16 => {
+            let v = numbers::<16>(value, "(a 4x4 matrix, row-major)")?;
+            let m = nalgebra::Matrix4::from_row_slice(&v);
+            let r = m.fixed_view::<3, 3>(0, 0).into_owned();
+            let orthonormal = (r.transpose() * r - nalgebra::Matrix3::identity()).amax() < 1e-4
+                && (r.determinant() - 1.0).abs() < 1e-4
+                && m.row(3).iter().zip([0.0, 0.0, 0.0, 1.0]).all(|(a, b)| (a - b).abs() < 1e-9);
+            if !orthonormal {
+                return Err("the 4x4 matrix is not a rigid transform".into());
+            }
+            Ok(crate::se3::xyz_rpy(&crate::se3::from_row_major(&v)))
+        }
+        _ => {
+            let v = numbers::<6>(value, "[roll, pitch, yaw, x, y, z]").map_err(|e| {
+                if count == 6 { e } else { format!("expected {FORMS}, got {count} numbers") }
+            })?;
+            Ok(([v[3], v[4], v[5]], [v[0], v[1], v[2]]))
         }
     }
 }
@@ -261,6 +311,27 @@ max_bound:
         let all = parse("method: all\n").unwrap();
         assert_eq!(all.methods("c.yaml").unwrap(), Some(Method::ALL.to_vec()));
         assert_eq!(all.roi, None, "the ROI is optional");
+        let none = parse("target: none\n").unwrap();
+        assert_eq!(none.target, Some(Target::None));
+    }
+
+    #[test]
+    fn reads_quaternion_and_matrix_nominals() {
+        let half = std::f64::consts::FRAC_1_SQRT_2;
+        let text = format!(
+            "transform_q: [1, 2, 3, 0, 0, {half}, {half}]\n\
+             transform_m: [0, -1, 0, 1,  1, 0, 0, 2,  0, 0, 1, 3,  0, 0, 0, 1]\n"
+        );
+        let c = parse(&text).unwrap();
+        for n in &c.nominal {
+            assert_eq!(n.xyz, [1.0, 2.0, 3.0], "{}", n.sensor);
+            assert!((n.rpy[2] - std::f64::consts::FRAC_PI_2).abs() < 1e-12, "{n:?}");
+        }
+        assert!(
+            parse("transform_m: [1, 0, 0, 0, 0, 2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n")
+                .unwrap_err()
+                .contains("not a rigid transform")
+        );
     }
 
     #[test]
@@ -270,7 +341,8 @@ max_bound:
         let short = "number_of_sensors: 2\ntransform_sensor_1: [0, 0, 0, 0, 0, 0]\n\
                      min_bound: [0, 0, 0]\nmax_bound: [1, 1, 1]\n";
         assert!(err(short).contains("number_of_sensors is 2 but 1"));
-        assert!(err("transform_sensor_1: [1, 2]\n").contains("transform_sensor_1: expected 6"));
+        assert!(err("transform_sensor_1: [1, 2]\n").contains("transform_sensor_1: expected [roll"));
+        assert!(err("transform_a: [0, 0, 0, 0, 0, 0, 2]\n").contains("norm is 2.0000"));
         assert!(err("a: [1, 2\n").starts_with("c.yaml: bad YAML"));
         assert!(err("- 1\n").contains("c.yaml: expected a mapping"));
         let bad_sigma = "min_bound: [0,0,0]\nmax_bound: [1,1,1]\ninitial_sigma: wide\n";

@@ -14,6 +14,7 @@ pub mod config;
 mod decode;
 mod kitti;
 pub mod lzf;
+pub mod opencalib;
 mod pcd;
 mod ply;
 mod text;

@@ -8,7 +8,7 @@ use super::{CentredViews, EmSettings, Iteration, IterationStats, JrmpcError, Reg
 use crate::se3::Pose;
 
 /// EM between E-steps: the mixture, the views' transforms and the history, on data centred on
-/// the views' common centroid. Each iteration, the [`Shard`]s holding the views compute their
+/// the views' common centroid. Each iteration, the [`Shard`](super::Shard)s holding the views compute their
 /// statistics against [`Em::mixture`], [`Em::beta`] and [`Em::transforms`], and
 /// [`Em::m_step`] takes them all, in view order: so the result does not depend on how the views
 /// were split, or where the shards ran.

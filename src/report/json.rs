@@ -33,6 +33,8 @@ pub struct Report {
     /// Per sensor, the ground found and the levelling applied before cropping (`gmm`; empty
     /// when levelling is off).
     pub levelling: Vec<LevellingReport>,
+    /// Per sensor, the global alignment from the nominal (`gmm`; empty when off).
+    pub global: Vec<GlobalReport>,
     pub history: HistoryReport,
 }
 
@@ -205,6 +207,24 @@ impl From<&Calibration> for Report {
                     }),
                     warning: l.warning.as_ref().map(ToString::to_string),
                     warning_kind: l.warning.as_ref().map(|w| w.name()),
+                })
+                .collect(),
+            global: c
+                .sensors
+                .iter()
+                .zip(&c.global)
+                .map(|(s, g)| GlobalReport {
+                    sensor: s.name.clone(),
+                    motion: to_row_major(&g.applied),
+                    ground_tilt: g.ground.map(|x| x.tilt),
+                    ground_height: g.ground.map(|x| x.height),
+                    grounds_tried: g.grounds_tried,
+                    overlay: g.overlay.as_ref().map(|o| OverlayReport {
+                        best: candidate(&o.best),
+                        runners_up: o.runners_up.iter().map(candidate).collect(),
+                        ambiguity: o.ambiguity(),
+                    }),
+                    skipped: g.skipped.map(|why| why.to_string()),
                 })
                 .collect(),
             history: HistoryReport {
@@ -389,9 +409,17 @@ impl From<&Reason> for ReasonReport {
                 vec![("frames", Number(*frames as f64)), ("of", Number(*of as f64))]
             }
             ReasonKind::RefinementRejected { frames } => vec![("frames", Number(*frames as f64))],
-            ReasonKind::FarFromNominal { angle, distance } => {
-                vec![("angle", Number(*angle)), ("distance", Number(*distance))]
-            }
+            ReasonKind::FarFromNominal { angle, distance, supported } => vec![
+                ("angle", Number(*angle)),
+                ("distance", Number(*distance)),
+                ("supported", Number(f64::from(u8::from(*supported)))),
+            ],
+            ReasonKind::Ambiguous { ambiguity, yaw, shift } => vec![
+                ("ambiguity", Number(*ambiguity)),
+                ("yaw", Number(*yaw)),
+                ("shift", Number(*shift)),
+            ],
+            ReasonKind::GlobalSkipped(_) => vec![],
             ReasonKind::SamePlace { other, angle, distance } => vec![
                 ("other", Text(other.clone())),
                 ("angle", Number(*angle)),
@@ -407,7 +435,7 @@ impl From<&Reason> for ReasonReport {
             ReasonKind::TargetFit { target, fit } => vec![
                 ("shape", Text(fit.shape.into())),
                 ("size", Number(fit.size)),
-                ("expected", Number(target.size())),
+                ("expected", Number(target.size().unwrap_or(fit.size))),
                 ("rms", Number(fit.rms)),
                 ("fitsBadly", Number(f64::from(u8::from(ReasonKind::fits_badly(target, fit))))),
             ],
@@ -424,4 +452,43 @@ impl From<&Reason> for ReasonReport {
             values: values.into_iter().collect(),
         }
     }
+}
+
+/// One sensor's global alignment.
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct GlobalReport {
+    pub sensor: String,
+    /// The motion applied on top of the nominal, row-major.
+    pub motion: [f64; 16],
+    /// The ground found in the sensor's frame: its angle from the nominal's up (rad) and the
+    /// sensor's height above it (m).
+    pub ground_tilt: Option<f64>,
+    pub ground_height: Option<f64>,
+    pub grounds_tried: usize,
+    /// The overlay from above: the best placement, the distinct runners-up, and the best
+    /// runner-up's score over the best's.
+    pub overlay: Option<OverlayReport>,
+    /// Why it was not applied, if it was not.
+    pub skipped: Option<String>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct OverlayReport {
+    pub best: CandidateReport,
+    pub runners_up: Vec<CandidateReport>,
+    pub ambiguity: f64,
+}
+
+/// A placement from above: yaw (rad) about the ground normal, shift (m), score (0..1).
+#[derive(Clone, Debug, Serialize)]
+pub struct CandidateReport {
+    pub yaw: f64,
+    pub shift: [f64; 3],
+    pub score: f64,
+}
+
+fn candidate(c: &crate::calib::correlate::Candidate) -> CandidateReport {
+    CandidateReport { yaw: c.yaw, shift: c.shift.into(), score: c.score }
 }

@@ -7,8 +7,9 @@ mod sentences;
 mod text;
 
 pub use json::{
-    AgreementReport, BevReport, EvidenceReport, FitReport, HistoryReport, LevellingReport,
-    NoteReport, ObservabilityReport, PrecisionReport, ReasonReport, ReconstructionReport, Report,
-    SensorReport, SensorVerdictReport, SpreadReport, Value, VerdictReport,
+    AgreementReport, BevReport, CandidateReport, EvidenceReport, FitReport, GlobalReport,
+    HistoryReport, LevellingReport, NoteReport, ObservabilityReport, OverlayReport,
+    PrecisionReport, ReasonReport, ReconstructionReport, Report, SensorReport, SensorVerdictReport,
+    SpreadReport, Value, VerdictReport,
 };
 pub use text::{comparison, summary, verdict};

@@ -206,12 +206,27 @@ impl fmt::Display for ReasonKind {
                 f,
                 "{frames} frame(s) kept JRMPC's correction: the refinement went beyond its guard"
             ),
-            ReasonKind::FarFromNominal { angle, distance } => write!(
+            ReasonKind::FarFromNominal { angle, distance, supported: true } => write!(
+                f,
+                "the result is {:.1} deg / {distance:.2} m from the nominal, where the global \
+                 alignment placed the sensor: the nominal was off",
+                deg(*angle)
+            ),
+            ReasonKind::FarFromNominal { angle, distance, supported: false } => write!(
                 f,
                 "the result is {:.1} deg / {distance:.2} m from the nominal: the nominal was \
                  wrong, or the result is",
                 deg(*angle)
             ),
+            ReasonKind::Ambiguous { ambiguity, yaw, shift } => write!(
+                f,
+                "the scene allows another placement almost as good ({:.0} % of the best's \
+                 score, {:.1} deg / {shift:.2} m away): a symmetric scene; check the sensor \
+                 landed where it sits",
+                100.0 * ambiguity,
+                deg(*yaw)
+            ),
+            ReasonKind::GlobalSkipped(why) => write!(f, "not aligned globally: {why}"),
             ReasonKind::SamePlace { other, angle, distance } => write!(
                 f,
                 "this sensor sits where {other} sits ({:.1} mm, {:.3} deg apart): the same \
@@ -240,7 +255,7 @@ impl fmt::Display for ReasonKind {
                     fit.size,
                     1e3 * fit.rms,
                     target.kind(),
-                    target.size(),
+                    target.size().unwrap_or(fit.size),
                     if ReasonKind::fits_badly(target, fit) {
                         "; it fits badly: another shape, or a blurred reconstruction"
                     } else {
@@ -277,6 +292,8 @@ impl ReasonKind {
             ReasonKind::FramesLeftOut { .. } => "framesLeftOut",
             ReasonKind::RefinementRejected { .. } => "refinementRejected",
             ReasonKind::FarFromNominal { .. } => "farFromNominal",
+            ReasonKind::Ambiguous { .. } => "ambiguous",
+            ReasonKind::GlobalSkipped(_) => "globalSkipped",
             ReasonKind::SamePlace { .. } => "samePlace",
             ReasonKind::SameScans { .. } => "sameScans",
             ReasonKind::EmptyScans { .. } => "emptyScans",
@@ -286,6 +303,31 @@ impl ReasonKind {
             ReasonKind::TargetFit { .. } => "targetFit",
             ReasonKind::NoTarget => "noTarget",
             ReasonKind::Methods { .. } => "methods",
+        }
+    }
+}
+
+impl fmt::Display for crate::calib::GlobalSkip {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use crate::calib::GlobalSkip;
+        match self {
+            GlobalSkip::ReferenceGround(why) => write!(f, "the reference shows no ground ({why})"),
+            GlobalSkip::Ground(why) => write!(f, "this sensor shows no ground ({why})"),
+            GlobalSkip::NoStructure => {
+                f.write_str("no structure above the ground in either scan to overlay")
+            }
+        }
+    }
+}
+
+impl fmt::Display for crate::calib::up::NoGround {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use crate::calib::up::NoGround;
+        match self {
+            NoGround::TooFewPoints { points } => write!(f, "only {points} points"),
+            NoGround::NonePlausible { planes } => {
+                write!(f, "none of {planes} planes lies below the sensor at a plausible height")
+            }
         }
     }
 }

@@ -42,7 +42,7 @@ pub fn fit_targets(
     priors: &[f64],
     ground: Option<(Vector3<f64>, f64)>,
 ) -> Vec<ShapeFit> {
-    let size = target.size();
+    let Some(size) = target.size() else { return Vec::new() };
     let kept: Vec<usize> = (0..means.len().min(priors.len()))
         .filter(|&k| priors[k] > 0.0)
         .filter(|&k| ground.is_none_or(|(n, d)| (n.dot(&means[k]) + d).abs() > 0.1 * size))
@@ -109,16 +109,34 @@ pub fn fit_shape(target: &Target, means: &[Vector3<f64>], priors: &[f64]) -> Opt
                 .map(|i| {
                     let yaw = i as f64 * 15f64.to_radians();
                     let start = [0.0, 0.0, yaw, centroid.x, centroid.y, centroid.z, edge / 2.0];
-                    fit(&points, &start, cube_distance)
+                    fit(&points, &start, &cube_distance)
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0))
-                .map(|(_, p)| summary(target, &points, &p, cube_distance, 2.0 * p[6].abs()))
+                .map(|(_, p)| summary(target, &points, &p, &cube_distance, 2.0 * p[6].abs()))
+        }
+        Target::Box { size } => {
+            // Half extents `p[6] * aspect`: the shape is the given box's, its scale is fitted.
+            let largest = size.iter().copied().fold(0.0, f64::max);
+            let aspect = Vector3::from(size.map(|s| s / largest));
+            let distance = move |p: &Params, x: &Vector3<f64>| {
+                let q = local(p, x).abs() - aspect * p[6].abs();
+                q.sup(&Vector3::zeros()).norm() + q.max().min(0.0)
+            };
+            (0..6)
+                .map(|i| {
+                    let yaw = i as f64 * 15f64.to_radians();
+                    let start = [0.0, 0.0, yaw, centroid.x, centroid.y, centroid.z, largest / 2.0];
+                    fit(&points, &start, &distance)
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|(_, p)| summary(target, &points, &p, &distance, 2.0 * p[6].abs()))
         }
         Target::Sphere { diameter } => {
             let start = [0.0, 0.0, 0.0, centroid.x, centroid.y, centroid.z, 0.5 * diameter];
-            let (_, p) = fit(&points, &start, sphere_distance);
-            Some(summary(target, &points, &p, sphere_distance, 2.0 * p[6].abs()))
+            let (_, p) = fit(&points, &start, &sphere_distance);
+            Some(summary(target, &points, &p, &sphere_distance, 2.0 * p[6].abs()))
         }
+        Target::None => None,
     }
 }
 
@@ -145,7 +163,7 @@ fn sphere_distance(p: &Params, x: &Vector3<f64>) -> f64 {
 fn fit(
     points: &[(Vector3<f64>, f64)],
     start: &Params,
-    dist: fn(&Params, &Vector3<f64>) -> f64,
+    dist: &dyn Fn(&Params, &Vector3<f64>) -> f64,
 ) -> (f64, Params) {
     let mut p = *start;
     let scale = 0.1 * start[6].abs().max(1e-3);
@@ -185,7 +203,7 @@ fn summary(
     target: &Target,
     points: &[(Vector3<f64>, f64)],
     p: &Params,
-    dist: fn(&Params, &Vector3<f64>) -> f64,
+    dist: &dyn Fn(&Params, &Vector3<f64>) -> f64,
     size: f64,
 ) -> ShapeFit {
     let total: f64 = points.iter().map(|(_, w)| w).sum();

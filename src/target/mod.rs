@@ -6,15 +6,19 @@ mod fit;
 mod sample;
 
 pub use fit::{ShapeFit, fit_shape, fit_targets};
-pub use sample::{cube_surface, sphere_surface};
+pub use sample::{box_surface, cube_surface, sphere_surface};
 
 /// The shape of the calibration target (m).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Target {
     /// A cube of this edge: GMMCalib's target.
     Cube { edge: f64 },
+    /// A box of these edges: width (x), depth (y), height (z) as it stands.
+    Box { size: [f64; 3] },
     /// A sphere of this diameter.
     Sphere { diameter: f64 },
+    /// No target: the scene is the target (its ground, walls, poles, cars).
+    None,
 }
 
 impl Default for Target {
@@ -24,41 +28,92 @@ impl Default for Target {
     }
 }
 
+impl std::str::FromStr for Target {
+    type Err = String;
+
+    /// `cube:EDGE`, `box:W,D,H`, `sphere:DIAMETER` (m) or `none`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let s = s.trim();
+        let expected = || {
+            format!("unknown target '{s}' (expected cube:EDGE, box:W,D,H, sphere:DIAMETER or none)")
+        };
+        let (kind, sizes) = s.split_once(':').unwrap_or((s, ""));
+        let numbers: Result<Vec<f64>, _> =
+            sizes.split(',').filter(|x| !x.trim().is_empty()).map(|x| x.trim().parse()).collect();
+        let numbers = numbers.map_err(|_| expected())?;
+        let target = match (kind.to_ascii_lowercase().as_str(), numbers.as_slice()) {
+            ("cube", &[edge]) => Target::Cube { edge },
+            ("box", &[w, d, h]) => Target::Box { size: [w, d, h] },
+            ("sphere", &[diameter]) => Target::Sphere { diameter },
+            ("none", &[]) => Target::None,
+            _ => return Err(expected()),
+        };
+        target.checked()
+    }
+}
+
 impl Target {
-    /// The target, if its size is a positive finite number.
+    /// The target, if every size it has is a positive finite number.
     pub fn checked(self) -> Result<Target, String> {
-        let size = self.size();
-        if size.is_finite() && size > 0.0 {
-            Ok(self)
-        } else {
-            Err(format!("target size must be a positive number (m), got {size}"))
+        let sizes: Vec<f64> = match &self {
+            Target::Cube { edge } => vec![*edge],
+            Target::Box { size } => size.to_vec(),
+            Target::Sphere { diameter } => vec![*diameter],
+            Target::None => vec![],
+        };
+        match sizes.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            Some(bad) => Err(format!("target size must be a positive number (m), got {bad}")),
+            None => Ok(self),
         }
     }
 
-    /// `"cube"` or `"sphere"`.
+    /// `"cube"`, `"box"`, `"sphere"` or `"none"`.
     pub fn kind(&self) -> &'static str {
         match self {
             Target::Cube { .. } => "cube",
+            Target::Box { .. } => "box",
             Target::Sphere { .. } => "sphere",
+            Target::None => "none",
         }
     }
 
-    /// The target's overall size (m): cube edge or sphere diameter.
-    pub fn size(&self) -> f64 {
+    /// The target's overall size (m): cube edge, a box's largest edge, sphere diameter; `None`
+    /// without a target.
+    pub fn size(&self) -> Option<f64> {
         match self {
-            Target::Cube { edge } => *edge,
-            Target::Sphere { diameter } => *diameter,
+            Target::Cube { edge } => Some(*edge),
+            Target::Box { size } => Some(size.iter().copied().fold(0.0, f64::max)),
+            Target::Sphere { diameter } => Some(*diameter),
+            Target::None => None,
         }
     }
 
-    /// `k` points on the surface centred on `centre`; `seed` drives the cube's sampler.
+    /// `k` points on the surface centred on `centre`; `seed` drives the samplers. Empty
+    /// without a target.
     pub fn surface(&self, k: usize, centre: [f64; 3], seed: u64) -> Vec<[f64; 3]> {
         let offset = |p: [f64; 3]| [p[0] + centre[0], p[1] + centre[1], p[2] + centre[2]];
-        match self {
-            Target::Cube { edge } => cube_surface(*edge, k, seed).into_iter().map(offset).collect(),
-            Target::Sphere { diameter } => {
-                sphere_surface(0.5 * diameter, k).into_iter().map(offset).collect()
-            }
-        }
+        let points = match self {
+            Target::Cube { edge } => cube_surface(*edge, k, seed),
+            Target::Box { size } => box_surface(*size, k, seed),
+            Target::Sphere { diameter } => sphere_surface(0.5 * diameter, k),
+            Target::None => Vec::new(),
+        };
+        points.into_iter().map(offset).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn targets_parse_from_their_short_form() {
+        assert_eq!("cube:0.5".parse(), Ok(Target::Cube { edge: 0.5 }));
+        assert_eq!("box:1, 0.5,2".parse(), Ok(Target::Box { size: [1.0, 0.5, 2.0] }));
+        assert_eq!("sphere:0.3".parse(), Ok(Target::Sphere { diameter: 0.3 }));
+        assert_eq!("none".parse(), Ok(Target::None));
+        assert!("cube:-1".parse::<Target>().unwrap_err().contains("positive"));
+        assert!("chair".parse::<Target>().unwrap_err().contains("unknown target 'chair'"));
+        assert!("box:1,2".parse::<Target>().is_err());
     }
 }

@@ -25,6 +25,31 @@ pub fn cube_surface(edge: f64, k: usize, seed: u64) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// `k` points uniformly distributed over the surface of a box of edges `size` (x, y, z)
+/// centred on the origin: each point picks a face by its area.
+pub fn box_surface(size: [f64; 3], k: usize, seed: u64) -> Vec<[f64; 3]> {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let h = size.map(|s| s / 2.0);
+    // Face pairs normal to x, y, z, weighted by their area.
+    let areas = [size[1] * size[2], size[0] * size[2], size[0] * size[1]];
+    let total: f64 = areas.iter().sum();
+    (0..k)
+        .map(|_| {
+            let pick = rng.random_range(0.0..total);
+            let axis = if pick < areas[0] {
+                0
+            } else if pick < areas[0] + areas[1] {
+                1
+            } else {
+                2
+            };
+            let mut p = [0, 1, 2].map(|i| rng.random_range(-h[i]..=h[i]));
+            p[axis] = if rng.random_range(0..2u8) == 0 { h[axis] } else { -h[axis] };
+            p
+        })
+        .collect()
+}
+
 /// `k` points on a sphere of radius `radius` centred on the origin, evenly spread by the
 /// Fibonacci lattice (deterministic, no clustering at the poles).
 pub fn sphere_surface(radius: f64, k: usize) -> Vec<[f64; 3]> {

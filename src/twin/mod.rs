@@ -173,7 +173,7 @@ impl Twin {
                 source: None,
             })
             .collect();
-        Rig { scans, nominal: self.nominal.clone(), roi: self.roi, reference: None }
+        Rig { scans, nominal: self.nominal.clone(), roi: Some(self.roi), reference: None }
     }
 
     /// The correction a calibration should find for sensor `i`: `truth * nominal^-1`.

@@ -29,7 +29,9 @@ struct ScanInput {
 #[serde(tag = "kind", rename_all = "lowercase")]
 enum TargetInput {
     Cube { edge: f64 },
+    Box { size: [f64; 3] },
     Sphere { diameter: f64 },
+    None,
 }
 
 #[derive(Deserialize)]
@@ -37,7 +39,8 @@ enum TargetInput {
 pub(super) struct CalibrateInput {
     scans: Vec<ScanInput>,
     nominal: BTreeMap<String, XyzRpy>,
-    roi: Roi,
+    /// Absent: where the sensors' clouds overlap.
+    roi: Option<Roi>,
     reference: Option<String>,
     /// A method's name, or `all`.
     method: Option<String>,
@@ -181,7 +184,7 @@ pub(super) fn rig_and_settings(
     let rig = Rig {
         scans,
         nominal,
-        roi: Aabb::new(input.roi.min, input.roi.max),
+        roi: input.roi.map(|roi| Aabb::new(roi.min, roi.max)),
         reference: input.reference,
     };
     let error = |e: String| JsError::new(&e);
@@ -194,7 +197,9 @@ pub(super) fn rig_and_settings(
     if let Some(target) = input.target {
         settings.target = match target {
             TargetInput::Cube { edge } => Target::Cube { edge },
+            TargetInput::Box { size } => Target::Box { size },
             TargetInput::Sphere { diameter } => Target::Sphere { diameter },
+            TargetInput::None => Target::None,
         }
         .checked()
         .map_err(error)?;

@@ -20,8 +20,10 @@ struct ConfigOutput {
     method: Option<String>,
     components: Option<usize>,
     iterations: Option<usize>,
-    /// The cube's edge (m), from `target_edge`.
+    /// The cube's edge (m), from `target_edge` or a cube `target`.
     edge: Option<f64>,
+    /// The target in its short form (`cube:0.5`, `box:W,D,H`, `sphere:D`, `none`).
+    target: Option<String>,
     initial_sigma: Option<SigmaOutput>,
 }
 
@@ -53,7 +55,21 @@ pub fn parse_config(text: &str, file_name: &str) -> Result<JsValue, JsError> {
         method: c.method,
         components: c.components,
         iterations: c.iterations,
-        edge: c.target.as_ref().map(Target::size),
+        edge: c.target.as_ref().and_then(|t| match t {
+            Target::Cube { edge } => Some(*edge),
+            _ => None,
+        }),
+        target: c.target.as_ref().map(short_form),
         initial_sigma,
     })
+}
+
+/// The short form `Target` parses from.
+fn short_form(t: &Target) -> String {
+    match t {
+        Target::Cube { edge } => format!("cube:{edge}"),
+        Target::Box { size: [w, d, h] } => format!("box:{w},{d},{h}"),
+        Target::Sphere { diameter } => format!("sphere:{diameter}"),
+        Target::None => "none".into(),
+    }
 }

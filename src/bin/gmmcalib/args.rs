@@ -4,8 +4,10 @@
 use std::path::PathBuf;
 
 pub const USAGE: &str = "\
-usage: gmmcalib calibrate --config CONFIG.yaml --data DIR
+usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
                           [--method gmm|jrmpc|p2p|p2l|gicp|all] [--reference NAME]
+                          [--target cube:EDGE|box:W,D,H|sphere:DIAMETER|none]
+                          [--roi XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX] [--global on|off]
                           [--iterations N] [--components K] [--threads T]
                           [--json OUT.json]
        gmmcalib simulate --out DIR [--preset paper|paper-roof|os1-128|sampled] [--frames F]
@@ -23,9 +25,14 @@ usage: gmmcalib calibrate --config CONFIG.yaml --data DIR
   0 when it calibrated, 2 when it calibrated but the verdict is failed (every method's, with
   --method all): do not use that extrinsic; 1 on an error.
   DIR holds one folder per sensor (sensor_1, sensor_2, ...), each with frames
-  1.pcd, 2.pcd, ... (.pcd, .ply or .bin); frames pair across sensors by file stem. Flags
-  override CONFIG.yaml. --threads: threads sharing JRMPC's E-step and the refinement's frame
-  pairs (default: the available cores; the result does not depend on it).
+  1.pcd, 2.pcd, ... (.pcd, .ply or .bin); frames pair across sensors by file stem. Or
+  OpenCalib's layout: lidar_cloud_path.txt naming each device's file, and its guess
+  initial_extrinsic.txt. Nominals come from CONFIG.yaml (6 numbers [roll, pitch, yaw, x, y,
+  z], 7 [x, y, z, qx, qy, qz, qw] or 16, a 4x4 row-major), else from OpenCalib's guess, else
+  identity for every sensor: the global alignment (on for gmm) finds the rest. Without a ROI
+  the region where the clouds overlap is used. Flags override CONFIG.yaml. --threads: threads
+  sharing JRMPC's E-step and the frame pairs (default: the available cores; the result does
+  not depend on it).
   simulate: writes the digital twin in that layout (DIR/config.yaml with miscalibrated nominal
   extrinsics, DIR/data/sensor_N/F.pcd) plus DIR/truth.json; the first sensor is the reference
   and keeps its true mount.
@@ -47,8 +54,11 @@ pub enum Command {
 
 #[derive(Debug, Default)]
 pub struct CalibrateArgs {
-    pub config: PathBuf,
+    pub config: Option<PathBuf>,
     pub data: PathBuf,
+    pub target: Option<String>,
+    pub roi: Option<[f64; 6]>,
+    pub global: Option<bool>,
     /// A method name or `all`.
     pub method: Option<String>,
     pub reference: Option<String>,
@@ -212,6 +222,9 @@ fn calibrate(flags: Vec<(String, String)>) -> Result<Command, String> {
             "--data" => data = Some(PathBuf::from(value)),
             "--method" => out.method = Some(value),
             "--reference" => out.reference = Some(value),
+            "--target" => out.target = Some(value),
+            "--roi" => out.roi = Some(six(&flag, &value)?),
+            "--global" => out.global = Some(on_off(&flag, &value)?),
             "--iterations" => out.iterations = Some(positive(&flag, &value)?),
             "--components" => out.components = Some(positive(&flag, &value)?),
             "--threads" => out.threads = Some(positive(&flag, &value)?),
@@ -219,7 +232,7 @@ fn calibrate(flags: Vec<(String, String)>) -> Result<Command, String> {
             _ => return Err(unknown(&flag)),
         }
     }
-    out.config = config.ok_or("calibrate needs --config CONFIG.yaml")?;
+    out.config = config;
     out.data = data.ok_or("calibrate needs --data DIR")?;
     Ok(Command::Calibrate(out))
 }
@@ -303,6 +316,18 @@ fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
     Ok(Command::Study(out))
 }
 
+/// Six comma-separated finite numbers.
+fn six(flag: &str, value: &str) -> Result<[f64; 6], String> {
+    let numbers: Vec<f64> = value
+        .split(',')
+        .filter_map(|x| x.trim().parse().ok())
+        .filter(|x: &f64| x.is_finite())
+        .collect();
+    numbers.try_into().map_err(|_| {
+        format!("{flag} expects six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX, got '{value}'")
+    })
+}
+
 fn on_off(flag: &str, value: &str) -> Result<bool, String> {
     match value {
         "on" => Ok(true),
@@ -344,7 +369,7 @@ mod tests {
         else {
             panic!("expected calibrate");
         };
-        assert_eq!(a.config, PathBuf::from("c.yaml"));
+        assert_eq!(a.config, Some(PathBuf::from("c.yaml")));
         assert_eq!(a.data, PathBuf::from("d"));
         assert_eq!(a.method.as_deref(), Some("all"));
         assert_eq!(a.iterations, Some(7));
@@ -375,7 +400,8 @@ mod tests {
 
     #[test]
     fn rejects_bad_input() {
-        assert!(parse(args("calibrate --data d")).unwrap_err().contains("--config"));
+        assert!(parse(args("calibrate --config c")).unwrap_err().contains("--data"));
+        assert!(parse(args("calibrate --data d --roi 1,2,3")).unwrap_err().contains("six numbers"));
         assert!(parse(args("calibrate --config c --data d --iterations 0")).is_err());
         assert!(
             parse(args("calibrate --config c --data d --bogus x")).unwrap_err().contains("bogus")

@@ -1,18 +1,63 @@
-//! GMMCalib's data layout: `DIR/sensor_N/<frame>.{pcd,ply,bin}`, read into calibration scans.
-//! Sensors and frames are ordered naturally (`sensor_2` before `sensor_10`); a view's sensor is
-//! its folder name and its frame the file stem, so frames pair across sensors by stem.
+//! The data layouts `calibrate` reads: GMMCalib's, `DIR/sensor_N/<frame>.{pcd,ply,bin}`
+//! (sensors and frames ordered naturally, `sensor_2` before `sensor_10`; a scan's sensor is its
+//! folder name and its frame the file stem, so frames pair across sensors by stem); and
+//! OpenCalib's, `lidar_cloud_path.txt` naming each device's file (one frame per device) beside
+//! its guess, `initial_extrinsic.txt`.
 
 use std::cmp::Ordering;
 use std::fs;
 use std::path::{Path, PathBuf};
 
 use gmmcalib::calib::Scan;
-use gmmcalib::io::parse_cloud;
+use gmmcalib::io::{opencalib, parse_cloud};
+use gmmcalib::se3::Pose;
 
 const EXTENSIONS: [&str; 3] = ["pcd", "ply", "bin"];
 
+/// What a data folder holds: its scans, and the nominals its layout gives (OpenCalib's guess).
+pub struct Dataset {
+    pub scans: Vec<Scan>,
+    pub guess: Option<Vec<(String, Pose)>>,
+}
+
+/// Every scan under `dir` and the nominals the layout gives, if any.
+pub fn read_dir(dir: &Path) -> Result<Dataset, String> {
+    let paths = dir.join("lidar_cloud_path.txt");
+    if !paths.is_file() {
+        return Ok(Dataset { scans: read_scans(dir)?, guess: None });
+    }
+    let text =
+        |path: &Path| fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()));
+    let label = paths.display().to_string();
+    let devices = opencalib::read_paths(&text(&paths)?, &label).map_err(|e| e.to_string())?;
+    let mut scans = Vec::new();
+    for device in &devices {
+        // The paths are relative to OpenCalib's tree; the files sit beside the list.
+        let name = device.path.rsplit('/').next().unwrap_or(&device.path);
+        let file = dir.join(name);
+        let label = file.display().to_string();
+        let bytes = fs::read(&file).map_err(|e| format!("{label}: {e}"))?;
+        let parsed = parse_cloud(&bytes, &label).map_err(|e| e.to_string())?;
+        scans.push(Scan {
+            sensor: device.name.clone(),
+            frame: "1".into(),
+            points: parsed.cloud.points,
+            source: Some(label),
+        });
+    }
+    let guess = dir.join("initial_extrinsic.txt");
+    let guess = if guess.is_file() {
+        let file = guess.display().to_string();
+        let poses = opencalib::read_guess(&text(&guess)?, &file).map_err(|e| e.to_string())?;
+        Some(opencalib::nominals(&poses, &devices, &file).map_err(|e| e.to_string())?)
+    } else {
+        None
+    };
+    Ok(Dataset { scans, guess })
+}
+
 /// Every scan under `dir`, sensor by sensor, frames in natural order.
-pub fn read_scans(dir: &Path) -> Result<Vec<Scan>, String> {
+fn read_scans(dir: &Path) -> Result<Vec<Scan>, String> {
     let mut views = Vec::new();
     for (sensor, folder) in sensor_folders(dir)? {
         for (frame, file) in frame_files(&folder)? {

@@ -59,6 +59,6 @@ impl TwinFiles {
             }));
         }
         let nominal = self.folders.iter().cloned().zip(self.twin.nominal.iter().map(|(_, p)| *p));
-        Rig { scans, nominal: nominal.collect(), roi: self.twin.roi, reference: None }
+        Rig { scans, nominal: nominal.collect(), roi: Some(self.twin.roi), reference: None }
     }
 }

@@ -78,43 +78,70 @@ mod cli {
     }
 
     fn calibrate(a: &CalibrateArgs) -> Result<ExitCode, String> {
-        // 1. Config, with the command line taking precedence.
-        let label = a.config.display().to_string();
-        let text = std::fs::read_to_string(&a.config).map_err(|e| format!("{label}: {e}"))?;
-        let config = Config::from_yaml(&text, &label).map_err(|e| e.to_string())?;
-        let mut settings = Settings::default();
-        config.apply(&mut settings);
-        let methods = match &a.method {
-            Some(m) => Method::parse_list(m).map_err(|e| e.to_string())?,
-            None => {
-                config.methods(&label).map_err(|e| e.to_string())?.unwrap_or(vec![settings.method])
+        // 1. The config, if any, with the command line taking precedence.
+        let (config, label) = match &a.config {
+            Some(path) => {
+                let label = path.display().to_string();
+                let text = std::fs::read_to_string(path).map_err(|e| format!("{label}: {e}"))?;
+                (Some(Config::from_yaml(&text, &label).map_err(|e| e.to_string())?), label)
             }
+            None => (None, String::new()),
         };
+        let mut settings = Settings::default();
+        if let Some(config) = &config {
+            config.apply(&mut settings);
+        }
+        let methods = match (&a.method, &config) {
+            (Some(m), _) => Method::parse_list(m).map_err(|e| e.to_string())?,
+            (None, Some(c)) => {
+                c.methods(&label).map_err(|e| e.to_string())?.unwrap_or(vec![settings.method])
+            }
+            (None, None) => vec![settings.method],
+        };
+        if let Some(target) = &a.target {
+            settings.target = target.parse().map_err(|e| format!("--target: {e}"))?;
+        }
         if let Some(k) = a.components {
             settings.components = k;
         }
         if let Some(n) = a.iterations {
             settings.jrmpc.max_iterations = n;
         }
+        settings.align_globally = a.global.or(settings.align_globally);
         settings.jrmpc.threads = a.threads.unwrap_or_else(|| {
             std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
         });
-        let roi = config.roi.ok_or_else(|| format!("{label}: no ROI (min_bound, max_bound)"))?;
 
-        // 2. Scans, and the rig they make with the config.
-        let scans = dataset::read_scans(&a.data)?;
-        for scan in &scans {
-            if !config.nominal.iter().any(|n| n.sensor == scan.sensor) {
-                let s = &scan.sensor;
-                return Err(format!("{label}: no transform_{s} for the data folder {s}"));
+        // 2. Scans, and the rig they make with the config: nominals from the config, else the
+        // layout's guess, else identity for every sensor.
+        let dataset::Dataset { scans, guess } = dataset::read_dir(&a.data)?;
+        let nominal = match (&config, guess) {
+            (Some(c), _) if !c.nominal.is_empty() => {
+                for scan in &scans {
+                    if !c.nominal.iter().any(|n| n.sensor == scan.sensor) {
+                        let s = &scan.sensor;
+                        return Err(format!("{label}: no transform_{s} for the data folder {s}"));
+                    }
+                }
+                c.nominal_poses()
             }
-        }
+            (_, Some(guess)) => guess,
+            _ => {
+                let mut names: Vec<String> = scans.iter().map(|s| s.sensor.clone()).collect();
+                names.dedup();
+                names.into_iter().map(|n| (n, gmmcalib::Pose::identity())).collect()
+            }
+        };
         let reference = a
             .reference
             .clone()
-            .or(config.reference.clone())
-            .or_else(|| Some(scans[0].sensor.clone()));
-        let rig = Rig { scans, nominal: config.nominal_poses(), roi, reference };
+            .or(config.as_ref().and_then(|c| c.reference.clone()))
+            .or_else(|| scans.first().map(|s| s.sensor.clone()));
+        let roi = a
+            .roi
+            .map(|r| gmmcalib::Aabb::new([r[0], r[1], r[2]], [r[3], r[4], r[5]]))
+            .or(config.as_ref().and_then(|c| c.roi));
+        let rig = Rig { scans, nominal, roi, reference };
 
         // 3. Calibrate by each method on the same scans; when comparing, a method that fails
         // is a finding like any other.

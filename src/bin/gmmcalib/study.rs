@@ -115,6 +115,9 @@ fn trial(
                 let share = b.score / b.points as f64;
                 said.push(format!("{}: bird's-eye overlap {share:.3}", l.sensor));
             }
+            if let Some(w) = &l.warning {
+                said.push(format!("{}: warning: {w}", l.sensor));
+            }
         }
     }
     Ok(Trial {

@@ -1,0 +1,257 @@
+//! Global initial alignment (issue 19): from a tape-measure nominal (any yaw, tilts of tens of
+//! degrees, metres off) to a start the local pipeline's basin holds.
+//!
+//! Per non-reference sensor, on its whole scan (all frames):
+//! 1. its ground in its own frame ([`up::find_up`]), the nominal only a hint; the reference's
+//!    likewise, with its nominal trusted (it defines the vehicle frame);
+//! 2. level it: the shortest rotation putting its ground's normal on the reference's, about the
+//!    sensor's nominal position, then the height its ground says;
+//! 3. the yaw about the ground normal through the sensor and the shift along the ground, over
+//!    the full turn and the shift range ([`correlate::search`]);
+//! 4. when the ground is in doubt (several plausible planes), steps 2-3 for each, keeping the
+//!    one whose overlay on the reference scores best.
+//!
+//! The result is a motion on top of each nominal; the local levelling, the bird's-eye search and
+//! the registration start from it.
+
+use nalgebra::{Point3, UnitQuaternion, Vector3};
+
+use super::correlate::{self, CorrelateSettings, YawShift};
+use super::up::{self, GroundCandidate, NoGround, UpHint, UpSettings};
+use crate::cloud::is_valid_point;
+use crate::plane::Plane;
+use crate::se3::{Pose, rotation_about};
+
+/// The global stage's settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GlobalSettings {
+    pub up: UpSettings,
+    pub correlate: CorrelateSettings,
+    /// Standard deviation of a nominal's tilt error (rad): roll and pitch may be off by tens of
+    /// degrees.
+    pub tilt_sigma: f64,
+    /// The same for the reference, whose nominal defines the vehicle frame (rad).
+    pub reference_tilt_sigma: f64,
+    /// Standard deviation of a nominal's height error (m).
+    pub height_sigma: f64,
+    /// Most ground candidates tried by their overlay when the ground is in doubt.
+    pub grounds_tried: usize,
+    /// A candidate is in doubt when its log-evidence is within this of the best's.
+    pub ground_doubt: f64,
+    /// Voxel edge (m) the scans are thinned to for the overlay.
+    pub voxel: f64,
+}
+
+impl Default for GlobalSettings {
+    fn default() -> Self {
+        Self {
+            up: UpSettings::default(),
+            correlate: CorrelateSettings::default(),
+            tilt_sigma: 45f64.to_radians(),
+            reference_tilt_sigma: 10f64.to_radians(),
+            height_sigma: 1.0,
+            grounds_tried: 3,
+            ground_doubt: 3.0,
+            voxel: 0.1,
+        }
+    }
+}
+
+/// Why a sensor's global alignment was not applied.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GlobalSkip {
+    /// The reference sensor shows no ground.
+    ReferenceGround(NoGround),
+    /// This sensor shows no ground.
+    Ground(NoGround),
+    /// Levelled, but no structure above the ground in either scan to overlay.
+    NoStructure,
+}
+
+/// One sensor's global alignment.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GlobalAlignment {
+    /// On top of the nominal: `applied * T_vehicle_sensor_nominal` is the new start. Identity
+    /// for the reference and for a skipped sensor.
+    pub applied: Pose,
+    /// The ground chosen, in the sensor's frame (for the reference too).
+    pub ground: Option<GroundCandidate>,
+    /// Ground candidates tried by their overlay (1 when the ground was not in doubt).
+    pub grounds_tried: usize,
+    /// The overlay found after levelling: the best and the runners-up.
+    pub overlay: Option<YawShift>,
+    pub skipped: Option<GlobalSkip>,
+}
+
+impl GlobalAlignment {
+    fn skipped(ground: Option<GroundCandidate>, why: Option<GlobalSkip>) -> Self {
+        Self { applied: Pose::identity(), ground, grounds_tried: 0, overlay: None, skipped: why }
+    }
+}
+
+/// The global alignment of every sensor onto `r`: `scans[s]` is sensor s's points in its own
+/// frame (all frames), `nominals[s]` its nominal `T_vehicle_sensor`. Seeded.
+pub fn align(
+    scans: &[Vec<[f32; 3]>],
+    nominals: &[Pose],
+    r: usize,
+    settings: &GlobalSettings,
+    seed: u64,
+) -> Vec<GlobalAlignment> {
+    let reference_hint = UpHint {
+        up: nominals[r].rotation.inverse() * Vector3::z(),
+        tilt_sigma: settings.reference_tilt_sigma,
+        height: None,
+    };
+    let reference_up = up::find_up(&scans[r], &reference_hint, &settings.up, seed);
+    let reference_up = match reference_up {
+        Ok(found) => found.candidates[0],
+        Err(why) => {
+            let skip = GlobalAlignment::skipped(None, Some(GlobalSkip::ReferenceGround(why)));
+            return vec![skip; scans.len()];
+        }
+    };
+    let ground = in_vehicle(&reference_up.plane, &nominals[r]);
+    let reference = thinned(&scans[r], &nominals[r], settings.voxel);
+    (0..scans.len())
+        .map(|s| match s == r {
+            true => GlobalAlignment::skipped(Some(reference_up), None),
+            false => {
+                let seed = seed.wrapping_add(s as u64);
+                align_sensor(&scans[s], &nominals[s], &reference, &ground, settings, seed)
+            }
+        })
+        .collect()
+}
+
+/// Steps 1-4 for one sensor against the reference's thinned points and ground (vehicle frame).
+fn align_sensor(
+    scan: &[[f32; 3]],
+    nominal: &Pose,
+    reference: &[Vector3<f64>],
+    ground: &Plane,
+    settings: &GlobalSettings,
+    seed: u64,
+) -> GlobalAlignment {
+    let position = nominal.translation.vector;
+    let hint = UpHint {
+        up: nominal.rotation.inverse() * Vector3::z(),
+        tilt_sigma: settings.tilt_sigma,
+        height: Some((ground.distance(&position), settings.height_sigma)),
+    };
+    let found = match up::find_up(scan, &hint, &settings.up, seed) {
+        Ok(found) => found,
+        Err(why) => return GlobalAlignment::skipped(None, Some(GlobalSkip::Ground(why))),
+    };
+    let best_evidence = found.candidates[0].score;
+    let in_doubt: Vec<&GroundCandidate> = found
+        .candidates
+        .iter()
+        .filter(|c| c.score >= best_evidence - settings.ground_doubt)
+        .take(settings.grounds_tried.max(1))
+        .collect();
+    let points = thinned(scan, &Pose::identity(), settings.voxel);
+    let mut best: Option<(GroundCandidate, Pose, YawShift)> = None;
+    for candidate in &in_doubt {
+        let level = levelling(&candidate.plane, nominal, ground);
+        let start = level * nominal;
+        let moved: Vec<Vector3<f64>> =
+            points.iter().map(|p| (start * Point3::from(*p)).coords).collect();
+        let pivot = start.translation.vector;
+        let Some(overlay) =
+            correlate::search(&moved, reference, ground, &pivot, &settings.correlate)
+        else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|(_, _, b)| overlay.best.score > b.best.score) {
+            best = Some((**candidate, level, overlay));
+        }
+    }
+    match best {
+        Some((chosen, level, overlay)) => GlobalAlignment {
+            applied: overlay.best.applied * level,
+            ground: Some(chosen),
+            grounds_tried: in_doubt.len(),
+            overlay: Some(overlay),
+            skipped: None,
+        },
+        None => GlobalAlignment::skipped(Some(found.candidates[0]), Some(GlobalSkip::NoStructure)),
+    }
+}
+
+/// Step 2: the motion, on top of `nominal`, that puts the sensor's ground `own` (sensor frame)
+/// on `ground` (vehicle frame): the shortest rotation between the normals about the sensor's
+/// nominal position, then a shift along the normal to the height `own` says.
+pub fn levelling(own: &Plane, nominal: &Pose, ground: &Plane) -> Pose {
+    let normal = nominal.rotation * own.normal;
+    let rotation = UnitQuaternion::rotation_between(&normal, &ground.normal).unwrap_or_else(|| {
+        // Opposite normals: half a turn about any axis in the plane.
+        let axis = normal.cross(&Vector3::x()).try_normalize(1e-9).unwrap_or(Vector3::y());
+        UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_unchecked(axis), std::f64::consts::PI)
+    });
+    let position = nominal.translation.vector;
+    let lift = ground.normal * (own.offset - ground.distance(&position));
+    rotation_about(rotation, &position, &lift)
+}
+
+/// A plane in frame b mapped into frame a by `t_a_b`.
+pub fn in_vehicle(plane: &Plane, t_a_b: &Pose) -> Plane {
+    let normal = t_a_b.rotation * plane.normal;
+    Plane { normal, offset: plane.offset - normal.dot(&t_a_b.translation.vector) }
+}
+
+/// The valid points of `scan` mapped by `pose`, one per voxel of edge `voxel` (first seen).
+fn thinned(scan: &[[f32; 3]], pose: &Pose, voxel: f64) -> Vec<Vector3<f64>> {
+    let mut seen = std::collections::HashSet::new();
+    scan.iter()
+        .filter(|p| is_valid_point(p))
+        .filter(|p| seen.insert(p.map(|c| (c as f64 / voxel).floor() as i64)))
+        .map(|p| (pose * Point3::new(p[0] as f64, p[1] as f64, p[2] as f64)).coords)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::se3::pose_from_xyz_rpy;
+
+    #[test]
+    fn levelling_puts_the_ground_under_the_sensor_at_its_height() {
+        let d = std::f64::consts::PI / 180.0;
+        let truth = pose_from_xyz_rpy([1.0, 0.5, 1.7], [170.0 * d, 40.0 * d, 60.0 * d]);
+        let own = in_vehicle(&Plane { normal: Vector3::z(), offset: 0.0 }, &truth.inverse());
+        assert!((own.offset - 1.7).abs() < 1e-12);
+        let ground = Plane { normal: Vector3::z(), offset: 0.2 };
+        for error in [[30.0, -40.0, 170.0], [0.0, 0.0, 0.0], [-45.0, 45.0, -90.0]] {
+            let delta = pose_from_xyz_rpy([0.0; 3], error.map(|a| a * d));
+            let nominal = pose_from_xyz_rpy([0.4, -0.7, 0.3], [0.0; 3]) * truth * delta;
+            let start = levelling(&own, &nominal, &ground) * nominal;
+            // The sensor's ground now lies on the reference's; only a yaw and shift remain.
+            let mapped = in_vehicle(&own, &start);
+            assert!((mapped.normal - ground.normal).norm() < 1e-9, "{mapped:?}");
+            assert!((mapped.offset - ground.offset).abs() < 1e-9, "{mapped:?}");
+            let moved = start.translation.vector - nominal.translation.vector;
+            assert!(moved.xy().norm() < 1e-9, "{moved:?}");
+        }
+    }
+
+    #[test]
+    fn no_ground_anywhere_skips_and_says_why() {
+        // A vertical wall in front of each sensor, nothing else.
+        let wall: Vec<[f32; 3]> = (0..4000)
+            .map(|i| [5.0, -10.0 + 0.1 * (i % 200) as f32, -1.0 + 0.1 * (i / 200) as f32])
+            .collect();
+        let nominals = [Pose::identity(), pose_from_xyz_rpy([0.0, 1.0, 0.0], [0.0; 3])];
+        let found = align(&[wall.clone(), wall], &nominals, 0, &GlobalSettings::default(), 1);
+        for g in &found {
+            assert_eq!(g.applied, Pose::identity());
+            assert!(
+                matches!(
+                    g.skipped,
+                    Some(GlobalSkip::ReferenceGround(NoGround::NonePlausible { .. }))
+                ),
+                "{g:?}"
+            );
+        }
+    }
+}
