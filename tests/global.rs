@@ -1,17 +1,22 @@
 //! The global initial alignment (issue 19) end to end: twin rigs with a sensor pitched 45 deg
 //! and one upside down, from tape-measure nominals (any yaw, +-45 deg of roll and pitch, metres
-//! off); and the real OpenCalib road rig (read from `../shared/data/opencalib`, skipped with a
-//! notice when absent), from its own guess and from random wrong starts.
+//! off); and the real OpenCalib road rig (`tests/fixtures/opencalib`), from its own guess and
+//! from random wrong starts.
 
 use std::f64::consts::PI;
 
-use gmmcalib::calib::{self, Rig, Scan};
+use gmmcalib::calib::{self, Rig, Scan, verdict::Level};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::{Pose, pose_from_xyz_rpy};
+use gmmcalib::target::Target;
 use gmmcalib::twin::{Lidar, Preset, SensorSpec, expected_correction};
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
+
+mod common;
+
+use common::opencalib_scene;
 
 const D: f64 = PI / 180.0;
 
@@ -100,4 +105,72 @@ fn twin_rig_with_steep_and_upside_down_sensors_calibrates_from_tape_measure_nomi
         });
         assert!(lost, "start {start}");
     }
+}
+
+fn targetless() -> calib::Settings {
+    calib::Settings { target: Target::None, ..Default::default() }
+}
+
+/// Rotation (deg) and translation (mm) between two extrinsics.
+fn apart(a: &Pose, b: &Pose) -> (f64, f64) {
+    let d = a.inverse() * b;
+    (d.rotation.angle() / D, d.translation.vector.norm() * 1e3)
+}
+
+#[test]
+fn opencalib_scenes_calibrate_from_their_own_guess_and_agree() {
+    let calibrate = |scene| {
+        let result =
+            calib::calibrate(&opencalib_scene(scene), &targetless(), |_| Control::Continue)
+                .expect("calibration");
+        assert_eq!(result.verdict.level, Level::Good, "{scene}: {:?}", result.verdict);
+        result
+    };
+    let (first, second) = (calibrate("0001"), calibrate("0002"));
+    for (a, b) in first.sensors.iter().zip(&second.sensors).skip(1) {
+        let (deg, mm) = apart(&a.extrinsic, &b.extrinsic);
+        println!("OpenCalib {}: scenes 0001 and 0002 differ by {deg:.3} deg / {mm:.1} mm", a.name);
+        // The rig did not change in the minutes between the scenes. Measured 0.20 deg / 17 mm
+        // (left), 0.21 deg / 13 mm (right): short of the 0.1 deg / 1 cm aimed at. One frame of
+        // 9k side points, 45 deg from level, on a road; the same scene calibrated with other
+        // seeds scatters by 0.1-0.25 deg (docs/accuracy.md, "OpenCalib's road rig").
+        assert!(deg < 0.3 && mm < 30.0, "{}: {deg} deg {mm} mm", a.name);
+    }
+}
+
+#[test]
+fn opencalib_from_random_wrong_starts_ends_at_the_same_extrinsic() {
+    let rig = opencalib_scene("0001");
+    let settings = targetless();
+    let own = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("own guess");
+    let mut rng = Pcg64::seed_from_u64(19);
+    let mut worst = (0.0f64, 0.0f64);
+    for start in 0..6 {
+        // A wrong start about the calibrated extrinsic, in the ranges of the issue.
+        let nominal: Vec<(String, Pose)> = own
+            .sensors
+            .iter()
+            .map(|s| {
+                let wrong = if s.name == own.reference {
+                    s.extrinsic
+                } else {
+                    far_start(&s.extrinsic, &mut rng)
+                };
+                (s.name.clone(), wrong)
+            })
+            .collect();
+        let wrong = Rig { nominal, ..rig.clone() };
+        let result = calib::calibrate(&wrong, &settings, |_| Control::Continue).expect("start");
+        for (a, b) in own.sensors.iter().zip(&result.sensors).skip(1) {
+            let (deg, mm) = apart(&a.extrinsic, &b.extrinsic);
+            worst = (worst.0.max(deg), worst.1.max(mm));
+            // As far apart as the same start with other seeds (0.1-0.25 deg, 2 cm): the road
+            // scene holds these directions loosely, whatever the start.
+            assert!(deg < 0.3 && mm < 30.0, "start {start} {}: {deg:.3} deg {mm:.1} mm", a.name);
+        }
+    }
+    println!(
+        "OpenCalib 0001 from 6 random wrong starts: worst {:.3} deg / {:.1} mm",
+        worst.0, worst.1
+    );
 }

@@ -39,7 +39,7 @@ pub(super) fn finish(
         pairs: frame_pairs,
         ground,
         same_scans,
-        roi: _,
+        roi,
     } = views;
     let name = |view: usize| (sensors[views[view].sensor].clone(), views[view].frame.clone());
     let mut kept_jrmpc = Vec::new();
@@ -187,6 +187,7 @@ pub(super) fn finish(
         plane_adjustment,
         levelling,
         global,
+        roi,
         history,
         verdict,
     })

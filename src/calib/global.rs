@@ -90,20 +90,21 @@ impl GlobalAlignment {
 }
 
 /// The global alignment of every sensor onto `r`: `scans[s]` is sensor s's points in its own
-/// frame (all frames), `nominals[s]` its nominal `T_vehicle_sensor`. Seeded.
+/// frame (all frames), `nominals[s]` its nominal `T_vehicle_sensor`, `seeds[s]` the seed of its
+/// searches.
 pub fn align(
     scans: &[Vec<[f32; 3]>],
     nominals: &[Pose],
     r: usize,
     settings: &GlobalSettings,
-    seed: u64,
+    seeds: &[u64],
 ) -> Vec<GlobalAlignment> {
     let reference_hint = UpHint {
         up: nominals[r].rotation.inverse() * Vector3::z(),
         tilt_sigma: settings.reference_tilt_sigma,
         height: None,
     };
-    let reference_up = up::find_up(&scans[r], &reference_hint, &settings.up, seed);
+    let reference_up = up::find_up(&scans[r], &reference_hint, &settings.up, seeds[r]);
     let reference_up = match reference_up {
         Ok(found) => found.candidates[0],
         Err(why) => {
@@ -116,10 +117,7 @@ pub fn align(
     (0..scans.len())
         .map(|s| match s == r {
             true => GlobalAlignment::skipped(Some(reference_up), None),
-            false => {
-                let seed = seed.wrapping_add(s as u64);
-                align_sensor(&scans[s], &nominals[s], &reference, &ground, settings, seed)
-            }
+            false => align_sensor(&scans[s], &nominals[s], &reference, &ground, settings, seeds[s]),
         })
         .collect()
 }
@@ -242,7 +240,7 @@ mod tests {
             .map(|i| [5.0, -10.0 + 0.1 * (i % 200) as f32, -1.0 + 0.1 * (i / 200) as f32])
             .collect();
         let nominals = [Pose::identity(), pose_from_xyz_rpy([0.0, 1.0, 0.0], [0.0; 3])];
-        let found = align(&[wall.clone(), wall], &nominals, 0, &GlobalSettings::default(), 1);
+        let found = align(&[wall.clone(), wall], &nominals, 0, &GlobalSettings::default(), &[1, 2]);
         for g in &found {
             assert_eq!(g.applied, Pose::identity());
             assert!(

@@ -90,6 +90,9 @@ pub struct Calibration {
     pub levelling: Vec<Levelling>,
     /// Per sensor, the global alignment from the nominal; empty when it is off.
     pub global: Vec<GlobalAlignment>,
+    /// The region cropped to (m, vehicle frame): the rig's, or where the sensors' clouds
+    /// overlap.
+    pub roi: crate::cloud::Aabb,
     pub history: Vec<jrmpc::IterationStats>,
     /// How far to trust the result, and why.
     pub verdict: Verdict,

@@ -79,7 +79,12 @@ impl Views {
         let global = match &stages.global {
             Some(global_settings) => {
                 let scans = sensor_scans(rig, &sensors);
-                global::align(&scans, &nominals, r, global_settings, settings.seed)
+                let seeds: Vec<u64> = (0..sensors.len())
+                    .map(|s| {
+                        if s == r { settings.seed } else { sensor_seed(settings.seed, &sensors, s) }
+                    })
+                    .collect();
+                global::align(&scans, &nominals, r, global_settings, &seeds)
             }
             None => Vec::new(),
         };
@@ -349,8 +354,15 @@ fn sensor_ground(
         .filter(|v| v.sensor == sensors[s])
         .flat_map(|v| points_in(&v.points, &nominals[s], &bounds))
         .collect();
-    let ground = level::fit_ground(&points, &settings.ground, settings.seed.wrapping_add(s as u64));
+    let ground =
+        level::fit_ground(&points, &settings.ground, sensor_seed(settings.seed, sensors, s));
     (points, ground)
+}
+
+/// Sensor `s`'s seed: `seed` plus the rank of its name among the sensors', so that the same
+/// scans give the same result whatever order the files came in.
+fn sensor_seed(seed: u64, sensors: &[String], s: usize) -> u64 {
+    seed.wrapping_add(sensors.iter().filter(|n| **n < sensors[s]).count() as u64)
 }
 
 /// Each sensor's points over all its scans, in its own frame.

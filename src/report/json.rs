@@ -35,7 +35,15 @@ pub struct Report {
     pub levelling: Vec<LevellingReport>,
     /// Per sensor, the global alignment from the nominal (`gmm`; empty when off).
     pub global: Vec<GlobalReport>,
+    /// The region cropped to (m, vehicle frame): the given one, or where the clouds overlap.
+    pub roi: RoiReport,
     pub history: HistoryReport,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct RoiReport {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -123,12 +131,14 @@ pub struct ReconstructionReport {
 
 #[derive(Clone, Debug, Serialize)]
 pub struct FitReport {
-    /// `cube` or `sphere`: the shape fitted.
+    /// `cube`, `box` or `sphere`: the shape fitted.
     pub shape: &'static str,
     /// RMS distance (m) of the target's means from the fitted shape.
     pub rms: f64,
-    /// Fitted size (m): the cube's edge or the sphere's diameter.
+    /// Fitted size (m): the cube's edge, the box's largest edge or the sphere's diameter.
     pub size: f64,
+    /// Fitted extents (m) along the shape's axes: the box's edges, else the size thrice.
+    pub extents: [f64; 3],
     /// Centre (m), vehicle frame.
     pub centre: [f64; 3],
     /// Orientation as a rotation vector (rad), vehicle frame.
@@ -180,6 +190,7 @@ impl From<&Calibration> for Report {
                         shape: f.shape,
                         rms: f.rms,
                         size: f.size,
+                        extents: f.extents,
                         centre: f.centre,
                         rotation: f.rotation,
                         weight: f.weight,
@@ -227,6 +238,7 @@ impl From<&Calibration> for Report {
                     skipped: g.skipped.map(|why| why.to_string()),
                 })
                 .collect(),
+            roi: RoiReport { min: c.roi.min, max: c.roi.max },
             history: HistoryReport {
                 mean_sigma: c.history.iter().map(|h| h.mean_sigma).collect(),
                 max_change: c.history.iter().map(|h| h.max_change).collect(),

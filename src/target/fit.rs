@@ -17,8 +17,10 @@ pub struct ShapeFit {
     pub shape: &'static str,
     /// RMS distance (m) of the means from the fitted surface, weighted by the mixture's priors.
     pub rms: f64,
-    /// Fitted size (m): cube edge or sphere diameter.
+    /// Fitted size (m): cube edge, a box's largest edge or sphere diameter.
     pub size: f64,
+    /// Fitted extents (m) along the shape's own axes: a box's three edges, else `size` thrice.
+    pub extents: [f64; 3],
     /// Fitted centre (m).
     pub centre: [f64; 3],
     /// Fitted orientation: rotation vector (rad) from the shape's axes to the means' frame.
@@ -207,6 +209,13 @@ fn summary(
     size: f64,
 ) -> ShapeFit {
     let total: f64 = points.iter().map(|(_, w)| w).sum();
+    let extents = match target {
+        Target::Box { size: edges } => {
+            let largest = edges.iter().copied().fold(0.0, f64::max);
+            edges.map(|e| e / largest * size)
+        }
+        _ => [size; 3],
+    };
     let (mut sq, mut inliers) = (0.0, 0.0);
     for (x, w) in points {
         let d = dist(p, x);
@@ -219,6 +228,7 @@ fn summary(
         shape: target.kind(),
         rms: (sq / total).sqrt(),
         size,
+        extents,
         centre: [p[3], p[4], p[5]],
         rotation: [p[0], p[1], p[2]],
         inlier_share: inliers / total,

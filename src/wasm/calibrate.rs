@@ -51,6 +51,8 @@ pub(super) struct CalibrateInput {
     /// Initial component width (m), or "prior" / "bbox".
     initial_sigma: Option<InitialSigmaInput>,
     seed: Option<u64>,
+    /// Global alignment before the local pipeline: absent, only for `gmm`.
+    align_globally: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -208,6 +210,7 @@ pub(super) fn rig_and_settings(
     settings.jrmpc.max_iterations = input.iterations.unwrap_or(settings.jrmpc.max_iterations);
     settings.jrmpc.tolerance = input.tolerance.unwrap_or(settings.jrmpc.tolerance);
     settings.seed = input.seed.unwrap_or(settings.seed);
+    settings.align_globally = input.align_globally;
     if let Some(sigma) = input.initial_sigma {
         settings.initial_sigma = match sigma {
             InitialSigmaInput::Fixed(s) => InitialSigma::fixed(s),

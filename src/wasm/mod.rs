@@ -19,7 +19,7 @@ use wasm_bindgen::prelude::*;
 use crate::se3::{Pose, xyz_rpy};
 
 pub use calibrate::{calibrate, methods};
-pub use config::parse_config;
+pub use config::{parse_config, parse_open_calib};
 pub use files::parse_cloud;
 pub use session::{CalibrationSession, JrmpcShard, align_pairs};
 pub use simulate::simulate_rig;

@@ -3,7 +3,8 @@
 
 #![allow(dead_code)]
 
-use gmmcalib::calib::{self, Calibration, Rig};
+use gmmcalib::calib::{self, Calibration, Rig, Scan};
+use gmmcalib::io::{opencalib, parse_cloud};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::Pose;
 use gmmcalib::twin::{Miscalibration, Model, Sampling, Twin};
@@ -126,4 +127,28 @@ impl Drop for TempDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
     }
+}
+
+/// One OpenCalib scene as the CLI reads it: the scans named by `lidar_cloud_path.txt`, nominals
+/// from `initial_extrinsic.txt`, no ROI (the overlap region).
+pub fn opencalib_scene(scene: &str) -> Rig {
+    let dir = format!("{}/tests/fixtures/opencalib/{scene}", env!("CARGO_MANIFEST_DIR"));
+    let text = |name: &str| std::fs::read_to_string(format!("{dir}/{name}")).unwrap();
+    let devices = opencalib::read_paths(&text("lidar_cloud_path.txt"), "paths").unwrap();
+    let guess = opencalib::read_guess(&text("initial_extrinsic.txt"), "guess").unwrap();
+    let scans = devices
+        .iter()
+        .map(|d| {
+            let file = format!("{dir}/{}", d.path.rsplit('/').next().unwrap());
+            let parsed = parse_cloud(&std::fs::read(&file).unwrap(), &file).unwrap();
+            Scan {
+                sensor: d.name.clone(),
+                frame: "1".into(),
+                points: parsed.cloud.points,
+                source: None,
+            }
+        })
+        .collect();
+    let nominal = opencalib::nominals(&guess, &devices, "guess").unwrap();
+    Rig { scans, nominal, roi: None, reference: Some(devices[0].name.clone()) }
 }

@@ -53,7 +53,8 @@ export class Display {
 
   // `poses`: sensor -> row-major T_vehicle_sensor to draw with. `preview`: draw a sample of the
   // points only (the viewer's budget), for redraws on every iteration of a run.
-  update({ scans, rig, colour, allFrames }, poses, { preview = false } = {}) {
+  // The ROI drawn is the rig's, or with 'auto' the one the last result cropped to.
+  update({ scans, rig, colour, allFrames, results }, poses, { preview = false } = {}) {
     const firstFrame = new Map();
     for (const v of scans) if (!firstFrame.has(v.sensor)) firstFrame.set(v.sensor, v.frame);
     const live = new Set(scans.map((v) => v.id));
@@ -82,8 +83,12 @@ export class Display {
       this.#axes.add(id);
       this.#viewer.setPose(id, poses[name]);
     }
-    const roiKey = JSON.stringify(rig.roi);
-    if (rig.roi && roiKey !== this.#roiKey) this.#viewer.setBox('roi', rig.roi);
+    const roi = rig.roi ?? results?.[0]?.roi ?? null;
+    const roiKey = JSON.stringify(roi);
+    if (roiKey !== this.#roiKey) {
+      if (roi) this.#viewer.setBox('roi', roi);
+      else this.#viewer.remove('roi');
+    }
     this.#roiKey = roiKey;
   }
 }

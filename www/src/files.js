@@ -1,9 +1,13 @@
 // Which files were given and what they are: paths from a drop (folders walked), the picker or
 // a folder picker; point-cloud files assigned to (sensor, frame) and parsed by `parse` (the
-// worker), the GMMCalib config read; every bad file kept with its error.
+// worker), the GMMCalib config and OpenCalib's rig files read; every bad file kept with its
+// error.
 
 const CLOUD = /\.(pcd|ply|bin)$/i;
 const CONFIG = /(^|\/)[^/]*\.ya?ml$/i;
+// OpenCalib's lidar2lidar layout: which file is which device, and its guess per device.
+const OPENCALIB_PATHS = /(^|\/)lidar_cloud_path\.txt$/i;
+const OPENCALIB_GUESS = /(^|\/)initial_extrinsic\.txt$/i;
 
 // [{path, file}] from a file input: webkitRelativePath for folder picks, else the name.
 export function fromInput(fileList) {
@@ -37,6 +41,8 @@ export async function fromDrop(dataTransfer) {
 
 export const isCloud = (path) => CLOUD.test(path);
 export const isConfig = (path) => CONFIG.test(path);
+const isRigFile = (path) => isConfig(path) || OPENCALIB_PATHS.test(path) || OPENCALIB_GUESS.test(path);
+const folderOf = (path) => path.split('/').slice(0, -1).join('/');
 
 // A file's name without its folders and extension.
 const stemOf = (path) => path.split('/').at(-1).replace(/\.[^.]*$/, '');
@@ -67,6 +73,7 @@ export function pair(scans, fresh = scans) {
   const byFolder = groupBy(fresh, (s) => s.path.split('/').slice(0, -1).join('/'));
   let moved = false;
   for (const [folder, list] of byFolder) {
+    if (list.some((s) => s.named)) continue; // a rig file named them
     const nameless = new Set(list.map((s) => s.sensor)).size === list.length && (list.length > 1 || (byFolder.size > 1 && list[0].frame === '1'));
     if (!folder || /(^|\/)sensor_\d+$/i.test(folder) || !nameless) continue;
     for (const s of list) [s.sensor, s.frame] = [folder.split('/').at(-1), stemOf(s.path)];
@@ -126,27 +133,60 @@ function groupBy(items, key) {
 // Natural order: sensor_2 before sensor_10.
 export const natural = (a, b) => a.localeCompare(b, undefined, { numeric: true });
 
+// `into` with the values `from` sets (a key a file leaves unset is null or an empty map).
+const merge = (into, from) => ({
+  ...into,
+  ...Object.fromEntries(Object.entries(from).filter(([, v]) => v != null && !(typeof v === 'object' && !Object.keys(v).length))),
+});
+
+// OpenCalib's folders among `entries`: each `lidar_cloud_path.txt` read with the
+// `initial_extrinsic.txt` beside it (`read.opencalib`, the library's reader). Returns {config,
+// names: Map(path -> {sensor, frame})}: a device's file is its sensor's scan, of a frame named
+// by the folder (two scenes of one rig dropped together are two frames).
+async function openCalibFolders(entries, read, bad) {
+  const names = new Map();
+  let config = {};
+  const guesses = new Map(entries.filter((e) => OPENCALIB_GUESS.test(e.path)).map((e) => [folderOf(e.path), e]));
+  for (const e of entries.filter((e) => OPENCALIB_PATHS.test(e.path))) {
+    const folder = folderOf(e.path);
+    const guess = guesses.get(folder);
+    guesses.delete(folder);
+    try {
+      const found = await read.opencalib(await e.file.text(), e.path, guess && (await guess.file.text()), guess?.path);
+      const frame = folder.split('/').at(-1) || '1';
+      for (const d of found.devices) names.set(folder ? `${folder}/${d.file}` : d.file, { sensor: d.name, frame, named: true });
+      config = merge(config, { reference: found.reference, nominal: found.nominal });
+    } catch (error) {
+      bad.push({ path: e.path, error: error.message });
+    }
+  }
+  for (const [, e] of guesses) bad.push({ path: e.path, error: 'ignored: OpenCalib\'s guess needs its lidar_cloud_path.txt beside it (which file is which device)' });
+  return { config, names };
+}
+
 // Reads `entries` ([{path, file}]): {scans: [{path, sensor, frame, ...parsed}], bad: [{path,
-// error}], config}. `read.cloud(bytes, path)` parses one cloud and `read.config(text, path)` one
-// GMMCalib config (both the library's readers, in the worker); `onFile(path, i, n)` reports
-// progress.
+// error}], config}. `read.cloud(bytes, path)` parses one cloud, `read.config(text, path)` one
+// GMMCalib config and `read.opencalib(paths, pathsName, guess, guessName)` OpenCalib's rig
+// files (the library's readers, in the worker); `onFile(path, i, n)` reports progress.
 export async function readEntries(entries, read, onFile) {
   const bad = [];
   let config = {};
   for (const e of entries.filter((e) => isConfig(e.path))) {
     try {
-      config = { ...config, ...(await read.config(await e.file.text(), e.path)) };
+      config = merge(config, await read.config(await e.file.text(), e.path));
     } catch (error) {
       bad.push({ path: e.path, error: error.message });
     }
   }
-  for (const e of entries) if (!isCloud(e.path) && !isConfig(e.path)) bad.push({ path: e.path, error: 'ignored: not a .pcd, .ply, .bin or .yaml file' });
+  const openCalib = await openCalibFolders(entries, read, bad);
+  config = merge(openCalib.config, config);
+  for (const e of entries) if (!isCloud(e.path) && !isRigFile(e.path)) bad.push({ path: e.path, error: 'ignored: not a .pcd, .ply, .bin, .yaml or OpenCalib .txt file' });
   const clouds = entries.filter((e) => isCloud(e.path)).sort((a, b) => natural(a.path, b.path));
   const scans = [];
   for (const [i, { path, file }] of clouds.entries()) {
     onFile(path, i + 1, clouds.length);
     try {
-      scans.push({ path, ...assign(path), ...(await read.cloud(await file.arrayBuffer(), path)) });
+      scans.push({ path, ...(openCalib.names.get(path) ?? assign(path)), ...(await read.cloud(await file.arrayBuffer(), path)) });
     } catch (error) {
       bad.push({ path, error: error.message });
     }

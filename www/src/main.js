@@ -13,7 +13,7 @@ import { exportsOf, renderExports, resultJson } from './exports.js';
 import { targetBounds } from './target.js';
 import { writeHash } from './url.js';
 import { describeDone } from './progress.js';
-import { clearState, createState, nominalPoses, rebuildRig, shownPoses, sortScans } from './state.js';
+import { clearState, createState, nominalPoses, pointBounds, rebuildRig, shownPoses, sortScans } from './state.js';
 import { runCalibration } from './run.js';
 
 const $ = (id) => document.getElementById(id);
@@ -91,6 +91,7 @@ async function loadFiles(entries) {
   const read = {
     cloud: (bytes, name) => client.request('parse', { bytes, name }, { transfer: [bytes] }),
     config: (text, name) => client.request('config', { text, name }),
+    opencalib: (paths, pathsName, guess, guessName) => client.request('opencalib', { paths, pathsName, guess, guessName }),
   };
   const { scans, bad, config } = await readEntries(entries, read, (path, i, n) => setStatus(`Reading ${path} (${i}/${n})…`));
   const paths = new Set(scans.map((s) => s.path));
@@ -199,7 +200,7 @@ async function showResults(results, failures, json) {
   await nextTask();
   if (state.results !== results) return;
   drawConvergence($('convergence'), results[0].history);
-  renderExports($('exports'), exportsOf(results[0], { roi: state.rig.roi }));
+  renderExports($('exports'), exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi }));
   await nextTask();
   if (state.results !== results) return;
   $('result-json').textContent = resultJson(json);
@@ -214,10 +215,14 @@ async function showResults(results, failures, json) {
 
 // --- controls ---------------------------------------------------------------------------------
 
-const SETTING_INPUTS = ['method', 'edge', 'components', 'iterations', 'initialSigma', 'workers'];
+const SETTING_INPUTS = ['method', 'components', 'iterations', 'initialSigma', 'workers', 'global'];
 
 function syncSettingsInputs() {
   for (const key of SETTING_INPUTS) $(key).value = state.settings[key];
+  const [kind, size = ''] = state.settings.target.split(':');
+  $('target-kind').value = kind;
+  $('target-size').value = size;
+  $('target-size').disabled = kind === 'none';
   if (state.settings.demo) $('demo-preset').value = state.settings.demo; // else the last one picked
   $('demo-seed').value = state.settings.seed;
   $('demo-frames').value = state.settings.frames;
@@ -236,8 +241,27 @@ for (const key of SETTING_INPUTS) {
   });
 }
 
+// The target from its two inputs. A cube's or sphere's size becomes a box's three edges and
+// back; a size that is not positive numbers is put back (to the default when the kind changed).
+function targetChanged() {
+  const kind = $('target-kind').value;
+  const [previousKind] = state.settings.target.split(':');
+  let size = $('target-size').value.split(',').filter((v) => v.trim()).map(Number);
+  if (kind === 'box' && size.length === 1) size = [size[0], size[0], size[0]];
+  if (kind !== 'box' && size.length === 3) size = [Math.max(...size)];
+  const valid = size.length === (kind === 'box' ? 3 : 1) && size.every((v) => Number.isFinite(v) && v > 0);
+  if (kind === 'none') state.settings.target = 'none';
+  else if (valid) state.settings.target = `${kind}:${size.join(',')}`;
+  else if (kind !== previousKind) state.settings.target = kind === 'box' ? 'box:0.5,0.5,0.5' : `${kind}:0.5`;
+  syncSettingsInputs();
+  writeHash(state.settings);
+}
+$('target-kind').addEventListener('change', targetChanged);
+$('target-size').addEventListener('change', targetChanged);
+
 function viewerLookAt() {
-  if (state.rig.roi) mainViewer.lookAt(state.rig.roi);
+  const bounds = state.rig.roi ?? pointBounds(state);
+  if (bounds) mainViewer.lookAt(bounds);
 }
 
 $('file-input').addEventListener('change', async (e) => {

@@ -1,7 +1,9 @@
 // The rig panel: per sensor the nominal extrinsic (x, y, z in m; roll, pitch, yaw in deg) and
-// the reference choice; the ROI bounds. Edits go straight into `rig` ({sensors, nominal, roi,
-// reference}); `onChange(what)` tells the page to update the view.
+// the reference choice; the ROI, 'auto' (null: where the clouds overlap) or bounds. Edits go
+// straight into `rig` ({sensors, nominal, roi, reference}); `onChange(what)` tells the page to
+// update the view.
 import { degrees, radians } from './transforms.js';
+import { DEFAULT_ROI } from './state.js';
 
 function numberInput(value, step, onInput, label) {
   const input = Object.assign(document.createElement('input'), { type: 'number', step, value: +value.toFixed(6) });
@@ -40,14 +42,27 @@ export function renderRig(container, rig, onChange) {
     }
     table.append(tr);
   }
-  const roi = document.createElement('table');
-  roi.className = 'rig';
-  roi.innerHTML = '<tr><th>ROI (m)</th><th>x</th><th>y</th><th>z</th></tr>';
-  for (const bound of ['min', 'max']) {
-    const tr = document.createElement('tr');
-    tr.append(cell(bound));
-    for (let k = 0; k < 3; k++) tr.append(cell(numberInput(rig.roi[bound][k], 0.1, (v) => { rig.roi[bound][k] = v; onChange('roi'); }, `ROI ${bound} ${'xyz'[k]}`)));
-    roi.append(tr);
+  const auto = Object.assign(document.createElement('input'), { type: 'checkbox', checked: !rig.roi });
+  auto.setAttribute('data-testid', 'roi-auto');
+  auto.addEventListener('change', () => {
+    rig.roi = auto.checked ? null : structuredClone(DEFAULT_ROI);
+    renderRig(container, rig, onChange);
+    onChange('roi');
+  });
+  const label = document.createElement('label');
+  label.append(auto, ' ROI auto: where the sensors\' clouds overlap');
+  const parts = [table, label];
+  if (rig.roi) {
+    const roi = document.createElement('table');
+    roi.className = 'rig';
+    roi.innerHTML = '<tr><th>ROI (m)</th><th>x</th><th>y</th><th>z</th></tr>';
+    for (const bound of ['min', 'max']) {
+      const tr = document.createElement('tr');
+      tr.append(cell(bound));
+      for (let k = 0; k < 3; k++) tr.append(cell(numberInput(rig.roi[bound][k], 0.1, (v) => { rig.roi[bound][k] = v; onChange('roi'); }, `ROI ${bound} ${'xyz'[k]}`)));
+      roi.append(tr);
+    }
+    parts.push(roi);
   }
-  container.replaceChildren(table, roi);
+  container.replaceChildren(...parts);
 }

@@ -22,12 +22,23 @@ async function calibrateInput(state) {
     roi: state.rig.roi,
     reference: state.rig.reference,
     method: s.method,
-    target: { kind: 'cube', edge: s.edge },
+    target: targetInput(s.target),
+    alignGlobally: { on: true, off: false }[s.global],
     components: s.components,
     iterations: s.iterations,
     initialSigma: s.initialSigma,
   };
   return { input, transfer: scans.map((v) => v.points.buffer) };
+}
+
+// The target's short form (`cube:0.5`, `box:W,D,H`, `sphere:D`, `none`) as `calibrate` takes it.
+export function targetInput(short) {
+  const [kind, size = ''] = String(short).split(':');
+  const numbers = size.split(',').map(Number);
+  if (kind === 'box') return { kind, size: numbers };
+  if (kind === 'sphere') return { kind, diameter: numbers[0] };
+  if (kind === 'none') return { kind };
+  return { kind: 'cube', edge: numbers[0] };
 }
 
 // Workers sharing the registration: one per core (the page's own thread mostly waits), at

@@ -4,8 +4,8 @@ import { natural } from './files.js';
 import { matrixFromXyzRpy } from './transforms.js';
 import { DEFAULTS, readHash } from './url.js';
 
-// The ROI a rig starts with when no config gives one (m, vehicle frame).
-const DEFAULT_ROI = { min: [-5, -5, -2], max: [5, 5, 3] };
+// The ROI a user starts editing from when they turn 'auto' off (m, vehicle frame).
+export const DEFAULT_ROI = Object.freeze({ min: Object.freeze([-5, -5, -2]), max: Object.freeze([5, 5, 3]) });
 
 export function createState() {
   return {
@@ -29,14 +29,14 @@ export function clearState(state) {
 }
 
 // Sensors from the scans (natural order); nominal, ROI, reference and settings taken from
-// `config` (the library's config reader's shape) where it has them, else kept or defaulted.
+// `config` (the library's config reader's shape) where it has them, else kept or defaulted. No
+// ROI (null) is 'auto': the library crops to where the sensors' clouds overlap.
 export function rebuildRig(state, config = {}) {
   const rig = state.rig;
   rig.sensors = [...new Set(state.scans.map((v) => v.sensor))].sort(natural);
   for (const [name, pose] of Object.entries(config.nominal ?? {})) rig.nominal[name] = { xyz: [...pose.xyz], rpy: [...pose.rpy] };
   for (const s of rig.sensors) rig.nominal[s] ??= { xyz: [0, 0, 0], rpy: [0, 0, 0] };
   if (config.roi) rig.roi = { min: [...config.roi.min], max: [...config.roi.max] };
-  rig.roi ??= structuredClone(DEFAULT_ROI);
   if (config.reference) rig.reference = String(config.reference);
   if (!rig.sensors.includes(rig.reference)) rig.reference = rig.sensors[0] ?? '';
   for (const [key, value] of Object.entries(config)) if (key in DEFAULTS && value != null) state.settings[key] = value;
@@ -57,3 +57,20 @@ export function shownPoses(state) {
 
 // The library's entry for method `name` ({jrmpc, pairs} say which stages it runs).
 export const methodInfo = (state, name) => state.methods.find((m) => m.name === name) ?? { name, jrmpc: false, pairs: false };
+
+// The box around the points of `state`'s scans (sensor frames, near enough to frame the view
+// before a calibration), or null.
+export function pointBounds(state) {
+  const min = [Infinity, Infinity, Infinity], max = [-Infinity, -Infinity, -Infinity];
+  for (const scan of state.scans) {
+    const p = scan.points;
+    // Every 16th point is plenty to frame a view.
+    for (let i = 0; i + 2 < p.length; i += 48) {
+      for (let a = 0; a < 3; a++) {
+        min[a] = Math.min(min[a], p[i + a]);
+        max[a] = Math.max(max[a], p[i + a]);
+      }
+    }
+  }
+  return Number.isFinite(min[0]) ? { min, max } : null;
+}

@@ -17,7 +17,7 @@ export function targetObject({ means, sigmas, priors, fits }) {
   group.add(mesh);
   const material = new THREE.LineBasicMaterial({ color: 0xffcc44 });
   for (const fit of fits) {
-    const geometry = fit.shape === 'sphere' ? new THREE.SphereGeometry(fit.size / 2, 16, 12) : new THREE.BoxGeometry(fit.size, fit.size, fit.size);
+    const geometry = fit.shape === 'sphere' ? new THREE.SphereGeometry(fit.size / 2, 16, 12) : new THREE.BoxGeometry(...fit.extents);
     const wire = new THREE.LineSegments(new THREE.EdgesGeometry(geometry), material);
     geometry.dispose();
     wire.position.set(...fit.centre);

@@ -5,7 +5,8 @@ export const DEFAULTS = Object.freeze({
   method: 'gmm', // gmm | jrmpc | p2p | p2l | gicp | all
   components: 400,
   iterations: 100,
-  edge: 0.5, // cube edge of the target prior (m)
+  target: 'cube:0.5', // the target: cube:EDGE | box:W,D,H | sphere:DIAMETER | none (m)
+  global: 'auto', // global alignment first: auto (gmm only) | on | off
   initialSigma: 'bbox', // bbox | prior
   workers: 'auto', // auto | 1 | 2 | 4 | 8: workers sharing JRMPC's E-step
   demo: '', // preset of a demo to load on open: '' | paper | os1-128
@@ -15,7 +16,7 @@ export const DEFAULTS = Object.freeze({
   maxTranslation: 0.1,
 });
 
-const NUMBERS = new Set(['components', 'iterations', 'edge', 'frames', 'seed', 'maxAngleDeg', 'maxTranslation']);
+const NUMBERS = new Set(['components', 'iterations', 'frames', 'seed', 'maxAngleDeg', 'maxTranslation']);
 
 export function readHash(hash = location.hash) {
   const settings = { ...DEFAULTS };

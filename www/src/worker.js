@@ -5,7 +5,7 @@ import init, * as wasm from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
 import { calibrateSharded } from './shard-pool.js';
 
-const { calibrate, methods, parseCloud, parseConfig, simulateRig } = wasm;
+const { calibrate, methods, parseCloud, parseConfig, parseOpenCalib, simulateRig } = wasm;
 
 const ready = init({ module_or_path: wasmUrl });
 
@@ -18,6 +18,7 @@ function buffersOf(value, found = []) {
 const handlers = {
   parse: ({ bytes, name }) => parseCloud(new Uint8Array(bytes), name),
   config: ({ text, name }) => parseConfig(text, name),
+  opencalib: ({ paths, pathsName, guess, guessName }) => parseOpenCalib(paths, pathsName, guess ?? null, guessName ?? null),
   methods: () => methods(),
   simulate: ({ options }) => simulateRig(options),
   // `workers` > 1 shares JRMPC's E-step and the frame pairs' ICP with that many workers in

@@ -18,7 +18,7 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
        gmmcalib study [--preset paper|paper-roof|...] [--seeds 20] [--starts 5] [--frames 5]
                           [--max-angle-deg 3] [--max-yaw-deg DEG] [--max-translation 0.1]
                           [--method gmm] [--components K] [--iterations N] [--tolerance T]
-                          [--bev on|off] [--planes on|off] [--level on|off] [--noise M]
+                          [--bev on|off] [--planes on|off] [--level on|off] [--global on|off] [--noise M]
                           [--columns N] [--threads T] [--notes]
 
   calibrate: prints the verdict first (good, check or failed, with the reasons); exit status
@@ -130,6 +130,8 @@ pub struct StudyArgs {
     pub planes: bool,
     /// Ground levelling on or off; default: the method's.
     pub level: Option<bool>,
+    /// Global alignment first: `None`, the method's default.
+    pub global: Option<bool>,
     /// The LiDARs' range noise (m).
     pub noise: Option<f64>,
     /// The LiDARs' columns over 360 deg.
@@ -156,6 +158,7 @@ impl Default for StudyArgs {
             bev: true,
             planes: true,
             level: None,
+            global: None,
             noise: None,
             columns: None,
             threads: None,
@@ -306,6 +309,7 @@ fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
             "--bev" => out.bev = on_off(&flag, &value)?,
             "--planes" => out.planes = on_off(&flag, &value)?,
             "--level" => out.level = Some(on_off(&flag, &value)?),
+            "--global" => out.global = Some(on_off(&flag, &value)?),
             "--noise" => out.noise = Some(number(&value)?),
             "--columns" => out.columns = Some(positive(&flag, &value)?),
             "--threads" => out.threads = Some(positive(&flag, &value)?),

@@ -84,6 +84,7 @@ fn settings(a: &StudyArgs) -> Result<Settings, String> {
         settings.planes = None;
     }
     settings.level_ground = a.level;
+    settings.align_globally = a.global;
     Ok(settings)
 }
 
