@@ -6,6 +6,7 @@
 //! ICP baselines' per-pair times. The wasm twin is `www/bench/bench.mjs`: the same jobs under
 //! Node, through the JS API and through this file built for wasm32 (`bench_jrmpc` below).
 
+mod global;
 #[cfg(not(target_arch = "wasm32"))]
 #[path = "icp.rs"]
 mod icp;
@@ -19,6 +20,14 @@ mod jrmpc;
 pub extern "C" fn bench_jrmpc(job: u32, dense: u32, iterations: u32) -> f64 {
     let job = &jrmpc::JOBS[job as usize];
     jrmpc::run(job, &jrmpc::rig(job), dense != 0, iterations as usize, 1).terms as f64
+}
+
+/// Runs the global stage on OpenCalib's scene 0001; returns the sensors it aligned. JS times
+/// the call (the first call also parses the scans; JS times a second one).
+#[cfg(target_arch = "wasm32")]
+#[unsafe(no_mangle)]
+pub extern "C" fn bench_global() -> u32 {
+    global::run(&global::scene()) as u32
 }
 
 #[cfg(target_arch = "wasm32")]
@@ -60,6 +69,19 @@ mod native {
         if !quick {
             super::icp::run();
         }
+        global_stage();
+    }
+
+    /// The global stage on OpenCalib's road scene, per aligned sensor.
+    fn global_stage() {
+        let scene = super::global::scene();
+        let (aligned, wall, cpu) = timed(|| super::global::run(&scene));
+        println!(
+            "global stage, OpenCalib 0001 ({} sensors aligned onto top): {:.2} s [{cpu:.2} s CPU], {:.2} s per sensor",
+            aligned,
+            wall,
+            wall / aligned.max(1) as f64
+        );
     }
 
     /// Wall and CPU seconds of `f`.

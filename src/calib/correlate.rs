@@ -33,7 +33,8 @@ pub struct CorrelateSettings {
     pub heights: [f64; 2],
     /// Sensor structure within this distance of the sensor, along the ground, is used (m).
     pub radius: f64,
-    /// Largest in-plane shift of the sensor searched (m), per axis, either side.
+    /// Largest in-plane shift of the sensor searched (m), per axis, either side. A yaw error
+    /// about the vehicle's origin moves a sensor mounted metres from it by twice as much.
     pub max_shift: f64,
     /// Coarse stage: cell edge (m; also the blur's standard deviation) and yaw step (rad) over
     /// the full turn.
@@ -62,7 +63,7 @@ impl Default for CorrelateSettings {
         Self {
             heights: [0.2, 3.0],
             radius: 30.0,
-            max_shift: 4.0,
+            max_shift: 6.0,
             coarse_cell: 0.5,
             coarse_yaw_step: 2f64.to_radians(),
             fine_cell: 0.1,

@@ -8,7 +8,7 @@
 import { execFileSync } from 'node:child_process';
 import { readFile } from 'node:fs/promises';
 import { performance } from 'node:perf_hooks';
-import init, { calibrate, parseCloud, simulateRig } from '../pkg/gmmcalib.js';
+import init, { calibrate, parseCloud, parseOpenCalib, simulateRig } from '../pkg/gmmcalib.js';
 
 const sampledRig = (options) => simulateRig({ preset: 'sampled', ...options });
 
@@ -24,6 +24,7 @@ const { instance } = await WebAssembly.instantiate(
   await readFile(new URL('target/wasm32-unknown-unknown/release/bench.wasm', root)),
   new Proxy({}, { get: () => stub }));
 const benchJrmpc = instance.exports.bench_jrmpc;
+const benchGlobal = instance.exports.bench_global;
 
 const rigInput = (rig, extra) => ({ scans: rig.scans, nominal: rig.nominal, roi: rig.roi, ...extra });
 const pad = (s, n) => String(s).padStart(n);
@@ -82,6 +83,27 @@ for (const pointsPerView of quick ? [2000] : [2000, 65000]) {
     calibrate(rigInput(rig, { method }));
     const ms = (performance.now() - started) / frames;
     console.log(`${method.padEnd(5)} per pair, ${pad(pointsPerView, 5)}-point views ${pad(ms.toFixed(1), 9)} ms`);
+  }
+}
+
+// The global stage on OpenCalib's road scene (issue 19: at most 1 s per sensor): in the bench
+// module (a second call: the first also parses), then `gmm` end to end with and without it
+// through the JS API, as the page runs a dropped OpenCalib folder.
+{
+  benchGlobal();
+  let started = performance.now();
+  const aligned = benchGlobal();
+  const seconds = (performance.now() - started) / 1000;
+  console.log(`global stage, OpenCalib 0001 (${aligned} sensors aligned onto top): ${seconds.toFixed(2)} s, ${(seconds / aligned).toFixed(2)} s per sensor (bench module)`);
+  const dir = new URL('../../tests/fixtures/opencalib/0001/', import.meta.url);
+  const text = async (name) => (await readFile(new URL(name, dir))).toString();
+  const rig = parseOpenCalib(await text('lidar_cloud_path.txt'), 'lidar_cloud_path.txt', await text('initial_extrinsic.txt'), 'initial_extrinsic.txt');
+  const scans = [];
+  for (const d of rig.devices) scans.push({ sensor: d.name, frame: '1', points: parseCloud(await readFile(new URL(d.file, dir)), d.file).points });
+  for (const alignGlobally of [true, false]) {
+    started = performance.now();
+    const result = calibrate({ scans, nominal: rig.nominal, reference: rig.reference, target: { kind: 'none' }, alignGlobally });
+    console.log(`gmm OpenCalib 0001, target none, global ${alignGlobally ? 'on ' : 'off'}: ${((performance.now() - started) / 1000).toFixed(2)} s, verdict ${result.verdict.level}`);
   }
 }
 

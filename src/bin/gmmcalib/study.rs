@@ -6,7 +6,7 @@
 
 use std::time::Instant;
 
-use gmmcalib::calib::{Method, Settings};
+use gmmcalib::calib::{Level, Method, Settings};
 use gmmcalib::eval::{self, SensorError};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::xyz_rpy;
@@ -19,6 +19,8 @@ use crate::parallel::on_threads;
 /// One trial: the errors per non-reference sensor, and what the run cost and said.
 struct Trial {
     errors: Vec<SensorError>,
+    /// The result's overall verdict.
+    verdict: Level,
     micros: u128,
     iterations: usize,
     warnings: usize,
@@ -50,15 +52,31 @@ pub fn run(a: &StudyArgs) -> Result<(), String> {
                 translation: [translation; 3],
                 seed: Some(seed * 1000 + start),
             };
-            trial(&model, a.frames, seed, &draw, &settings, a.notes)
+            // A calibration that fails is a finding of the study, not the end of it.
+            Ok(trial(&model, a.frames, seed, &draw, &settings, a.notes))
         },
     )?;
-    for (&(seed, start), t) in jobs.iter().zip(&trials) {
-        for note in &t.notes {
-            println!("seed {seed} start {start}: {note}");
+    let mut done = Vec::new();
+    let mut failed = 0;
+    for (&(seed, start), t) in jobs.iter().zip(trials) {
+        match t {
+            Ok(t) => {
+                for note in &t.notes {
+                    println!("seed {seed} start {start}: {note}");
+                }
+                done.push(((seed, start), t));
+            }
+            Err(e) => {
+                println!("seed {seed} start {start}: error: {e}");
+                failed += 1;
+            }
         }
     }
-    report(&jobs, &trials);
+    let (jobs, trials): (Vec<_>, Vec<_>) = done.into_iter().unzip();
+    if !trials.is_empty() {
+        report(&jobs, &trials);
+    }
+    println!("calibrations that ended in an error: {failed} of {}", jobs.len() + failed);
     Ok(())
 }
 
@@ -123,6 +141,7 @@ fn trial(
     }
     Ok(Trial {
         errors,
+        verdict: result.verdict.level,
         micros,
         iterations: result.iterations,
         warnings: result.levelling.iter().filter(|l| l.warning.is_some()).count(),
@@ -176,7 +195,7 @@ fn report(jobs: &[(u64, u64)], trials: &[Trial]) {
             .map(SensorError::deg_m)
             .map(|(a, m)| format!("{a:.4} deg {:.2} mm", m * 1e3))
             .collect();
-        println!("seed {seed} start {start}: {}", cells.join(" | "));
+        println!("seed {seed} start {start}: {} | verdict {}", cells.join(" | "), t.verdict.name());
     }
     let all: Vec<(f64, f64)> = errors.iter().map(|e| e.deg_m()).collect();
     let columns = |errors: &[(f64, f64)]| -> (Vec<f64>, Vec<f64>) {
@@ -187,6 +206,20 @@ fn report(jobs: &[(u64, u64)], trials: &[Trial]) {
     println!("rotation (deg): {}", summary(&angles));
     println!("translation (mm): {}", summary(&shifts));
     println!("within 0.1 deg & 1 cm: {good} of {}", all.len());
+    // Did the verdict flag the trials outside? A trial is outside when any sensor is.
+    let outside = |t: &Trial| t.errors.iter().any(|e| e.deg_m().0 > 0.1 || e.deg_m().1 > 0.01);
+    let count = |level: Level, out: bool| {
+        trials.iter().filter(|t| t.verdict == level && outside(t) == out).count()
+    };
+    println!(
+        "verdict of the trials within: {} good, {} check, {} failed; outside: {} good, {} check, {} failed",
+        count(Level::Good, false),
+        count(Level::Check, false),
+        count(Level::Failed, false),
+        count(Level::Good, true),
+        count(Level::Check, true),
+        count(Level::Failed, true)
+    );
     // With several non-reference sensors, each one's own distribution.
     let sensors = trials.first().map_or(0, |t| t.errors.len());
     for s in (0..sensors).filter(|_| sensors > 1) {
