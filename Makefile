@@ -78,5 +78,5 @@ clean:
 .PHONY: experiment
 experiment:
 	cargo run --release --bin gmmcalib -- experiment --preset paper \
-		--trials $(or $(TRIALS),100) --frames $(or $(FRAMES),20) --seed $(or $(SEED),2024) \
+		--trials $(or $(TRIALS),100) --frames $(or $(FRAMES),10) --seed $(or $(SEED),2024) \
 		--methods gmm,jrmpc,p2p,p2l,gicp --out docs/experiment

@@ -17,7 +17,8 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
                           [--max-angle-deg 3] [--max-translation 0.1]
        gmmcalib study [--preset paper|paper-roof|...] [--seeds 20] [--starts 5] [--frames 5]
                           [--max-angle-deg 3] [--max-yaw-deg DEG] [--max-translation 0.1]
-                          [--method gmm] [--components K] [--iterations N] [--tolerance T]
+                          [--method gmm] [--target cube:0.5|...|none] [--components K]
+                          [--iterations N] [--tolerance T]
                           [--bev on|off] [--planes on|off] [--level on|off] [--global on|off] [--noise M]
                           [--columns N] [--threads T] [--notes]
 
@@ -132,6 +133,8 @@ pub struct StudyArgs {
     pub level: Option<bool>,
     /// Global alignment first: `None`, the method's default.
     pub global: Option<bool>,
+    /// The target (`Target`'s short form): `None`, the preset's cube.
+    pub target: Option<String>,
     /// The LiDARs' range noise (m).
     pub noise: Option<f64>,
     /// The LiDARs' columns over 360 deg.
@@ -159,6 +162,7 @@ impl Default for StudyArgs {
             planes: true,
             level: None,
             global: None,
+            target: None,
             noise: None,
             columns: None,
             threads: None,
@@ -228,6 +232,7 @@ fn calibrate(flags: Vec<(String, String)>) -> Result<Command, String> {
             "--target" => out.target = Some(value),
             "--roi" => out.roi = Some(six(&flag, &value)?),
             "--global" => out.global = Some(on_off(&flag, &value)?),
+            "--target" => out.target = Some(value),
             "--iterations" => out.iterations = Some(positive(&flag, &value)?),
             "--components" => out.components = Some(positive(&flag, &value)?),
             "--threads" => out.threads = Some(positive(&flag, &value)?),

@@ -103,6 +103,9 @@ fn settings(a: &StudyArgs) -> Result<Settings, String> {
     }
     settings.level_ground = a.level;
     settings.align_globally = a.global;
+    if let Some(target) = &a.target {
+        settings.target = target.parse().map_err(|e| format!("--target: {e}"))?;
+    }
     Ok(settings)
 }
 
