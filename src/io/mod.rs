@@ -15,6 +15,7 @@ mod decode;
 mod kitti;
 pub mod lzf;
 pub mod opencalib;
+pub mod recording;
 mod pcd;
 mod ply;
 mod text;
