@@ -202,9 +202,9 @@ fn chunk_index(body: &[u8], at: u64) -> Result<(ChunkRef, u64), Bad> {
     let compression = c.string("compression")?;
     let data_len = c.u64("compressed size")?;
     let uncompressed_len = c.u64("uncompressed size")?;
-    // The records sit at the end of the chunk record; `data` is relative to `start` here and
-    // made absolute below.
-    let data = length.checked_sub(data_len).map(|d| d + 9).ok_or_else(|| {
+    // The records sit at the end of the chunk record, whose length counts opcode and length
+    // field; `data` is relative to `start`.
+    let data = length.checked_sub(data_len).ok_or_else(|| {
         Bad::at(at, format!("chunk length {length} shorter than its data {data_len}"))
     })?;
     let chunk = ChunkRef {

@@ -10,6 +10,7 @@
 
 mod bag;
 mod bytes;
+mod choose;
 mod compression;
 mod db3;
 mod error;
@@ -22,6 +23,7 @@ mod tf;
 pub mod urdf;
 mod wire;
 
+pub use choose::{ChosenScan, Chosen, nominals};
 pub use compression::Compression;
 pub use error::RecordingError;
 pub use index::{Container, Encoding, Kind, Topic};
