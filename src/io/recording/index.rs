@@ -76,8 +76,8 @@ pub enum Loc {
     Chunk { chunk: usize, offset: u64 },
     /// Offset of the record in the file (MCAP messages outside chunks).
     File(u64),
-    /// A row of rosbag2's `messages` table.
-    Row(i64),
+    /// A cell of rosbag2's `messages` table: its leaf page and the cell's byte in it.
+    Cell { page: u64, cell: usize },
 }
 
 /// One message: its topic (index into the topics), recording time and place.

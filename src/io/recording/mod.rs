@@ -152,7 +152,7 @@ impl Recording {
     fn read_entry(&mut self, entry: &Entry) -> Result<Vec<u8>, Bad> {
         match entry.loc {
             Loc::File(at) => mcap::loose_message(self.source.as_mut(), at),
-            Loc::Row(row) => db3::message(self.source.as_mut(), &self.chunks, row),
+            Loc::Cell { page, cell } => db3::message(self.source.as_mut(), &self.chunks, page, cell),
             Loc::Chunk { chunk, offset } => {
                 if self.cache.as_ref().is_none_or(|(n, _)| *n != chunk) {
                     let c = self.chunks.get(chunk).ok_or_else(|| Bad::new("no such chunk"))?;
