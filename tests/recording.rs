@@ -162,3 +162,118 @@ fn recording_calibrates_as_pcd_folders() {
         }
     }
 }
+
+// --- damaged recordings: each a named error, the rest usable where the format allows ------
+
+fn find(hay: &[u8], needle: &[u8]) -> Vec<usize> {
+    hay.windows(needle.len()).enumerate().filter(|(_, w)| *w == needle).map(|(i, _)| i).collect()
+}
+
+#[test]
+fn truncated_recordings_keep_what_precedes_the_cut() {
+    for file in ["calib_zstd.mcap", "calib_bz2.bag"] {
+        let mut data = bytes(file);
+        data.truncate(data.len() * 6 / 10);
+        let mut rec = open_bytes(data, file).unwrap_or_else(|e| panic!("{e}"));
+        let problem = rec.problems().first().unwrap_or_else(|| panic!("{file}: no problem reported"));
+        assert!(problem.problem.contains("truncated") && problem.file == file, "{problem}");
+        let t = rec.topic("/front_left/points").unwrap();
+        assert!(rec.topics()[t].count >= 1, "{file}");
+        rec.point_cloud(t, 0).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(rec.transforms(false).0.len(), 5, "{file}");
+    }
+}
+
+#[test]
+fn corrupt_chunk_is_named_and_other_chunks_read() {
+    let mut data = bytes("calib_zstd.mcap");
+    let mut clean = open("calib_zstd.mcap");
+    let t = clean.topic("/front_right/points").unwrap();
+    let good = clean.point_cloud(t, 2).unwrap();
+    // Flip a byte in the middle of the file: inside one chunk's compressed data.
+    let mid = data.len() / 2;
+    data[mid] ^= 0x5A;
+    let mut rec = open_bytes(data, "bad.mcap").unwrap();
+    let mut errors = Vec::new();
+    let mut ok = 0;
+    for topic in ["/front_left/points", "/front_right/points"] {
+        let t = rec.topic(topic).unwrap();
+        for m in 0..3 {
+            match rec.point_cloud(t, m) {
+                Ok(_) => ok += 1,
+                Err(e) => errors.push(e),
+            }
+        }
+    }
+    assert!(!errors.is_empty() && ok > 0, "{errors:?}");
+    let e = &errors[0];
+    assert!(e.file == "bad.mcap" && e.topic.is_some() && e.message.is_some() && e.offset.is_some(), "{e}");
+    assert!(rec.point_cloud(t, 2).is_err() || rec.point_cloud(t, 2).unwrap() == good);
+}
+
+#[test]
+fn unknown_compression_is_named() {
+    let mut data = bytes("layouts_zstd.mcap");
+    for at in find(&data, b"zstd") {
+        data[at..at + 4].copy_from_slice(b"zstx");
+    }
+    let mut rec = open_bytes(data, "x.mcap").unwrap();
+    let t = rec.topic("/layout/f64").unwrap();
+    let e = rec.point_cloud(t, 1).unwrap_err();
+    assert!(e.problem.contains("unknown chunk compression 'zstx'"), "{e}");
+    assert_eq!((e.topic.as_deref(), e.message), (Some("/layout/f64"), Some(1)));
+
+    let mut data = bytes("layouts_lz4.bag");
+    for at in find(&data, b"compression=lz4") {
+        data[at + 12..at + 15].copy_from_slice(b"lz5");
+    }
+    let mut rec = open_bytes(data, "x.bag").unwrap();
+    let t = rec.topic("/layout/f64").unwrap();
+    let e = rec.point_cloud(t, 0).unwrap_err();
+    assert!(e.problem.contains("unknown chunk compression 'lz5'"), "{e}");
+}
+
+#[test]
+fn sizes_beyond_the_file_are_named() {
+    // A record length beyond the end, in an unindexed MCAP: the scan keeps what precedes it.
+    let mut data = bytes("layouts_unindexed.mcap");
+    let rec = open_bytes(data.clone(), "u.mcap").unwrap();
+    let before = rec.topics().iter().map(|t| t.count).sum::<usize>();
+    let last = find(&data, &[0x05]).into_iter().rev().find(|&i| {
+        let len = u64::from_le_bytes(data[i + 1..i + 9].try_into().unwrap());
+        i + 9 + len as usize <= data.len() && len > 30 && len < 2000
+    });
+    let at = last.unwrap();
+    data[at + 1..at + 9].copy_from_slice(&(1u64 << 40).to_le_bytes());
+    let rec = open_bytes(data, "u.mcap").unwrap();
+    let p = &rec.problems()[0];
+    assert!(p.problem.contains("bytes declared, file ends at") && p.offset == Some(at as u64), "{p}");
+    let after = rec.topics().iter().map(|t| t.count).sum::<usize>();
+    assert!(after > 0 && after < before);
+
+    // A PointCloud2 whose data length exceeds the message.
+    let mut data = bytes("layouts_none.bag");
+    let step = [22u32.to_le_bytes(), 132u32.to_le_bytes(), 132u32.to_le_bytes()].concat();
+    let at = find(&data, &step)[0] + 8;
+    data[at..at + 4].copy_from_slice(&1_000_000u32.to_le_bytes());
+    let mut rec = open_bytes(data, "n.bag").unwrap();
+    let t = rec.topic("/layout/padded22").unwrap();
+    let e = rec.point_cloud(t, 0).unwrap_err();
+    assert!(e.problem.contains("data: 1000000 bytes declared"), "{e}");
+    assert!(rec.point_cloud(t, 1).is_ok() || rec.point_cloud(t, 1).is_err());
+    assert!(rec.point_cloud(rec.topic("/layout/f64").unwrap(), 0).is_ok());
+}
+
+#[test]
+fn fields_overrunning_point_step_are_named() {
+    let mut data = bytes("layouts_none.bag");
+    let step = [22u32.to_le_bytes(), 132u32.to_le_bytes()].concat();
+    let hits = find(&data, &step);
+    assert_eq!(hits.len(), 2);
+    data[hits[0]..hits[0] + 4].copy_from_slice(&12u32.to_le_bytes());
+    let mut rec = open_bytes(data, "p.bag").unwrap();
+    let t = rec.topic("/layout/padded22").unwrap();
+    let e = rec.point_cloud(t, 0).unwrap_err();
+    assert_eq!(e.to_string(), "p.bag, topic /layout/padded22, message 0: field z ends at byte 14, beyond point_step 12");
+    assert!(rec.point_cloud(t, 1).is_ok());
+}
