@@ -89,7 +89,9 @@ fn containers_are_told_apart_and_indexes_read() {
 /// The tf tree of depth 3 resolves each sensor's frame to the twin's nominal.
 #[test]
 fn tf_static_resolves_to_the_nominals() {
-    let config = Config::from_yaml(&String::from_utf8(bytes("config.yaml")).unwrap(), "config.yaml").unwrap();
+    let config =
+        Config::from_yaml(&String::from_utf8(bytes("config.yaml")).unwrap(), "config.yaml")
+            .unwrap();
     let nominal = config.nominal_poses();
     for file in ["calib_zstd.mcap", "calib_bz2.bag"] {
         let mut rec = open(file);
@@ -98,26 +100,40 @@ fn tf_static_resolves_to_the_nominals() {
         let tree = Tree::new(transforms);
         assert_eq!(tree.base("base_link").unwrap(), "base_link");
         assert_eq!(tree.depth("front_left"), 3);
-        let frames = [("sensor_1", "front_left"), ("sensor_2", "front_right")].map(|(s, f)| (s.to_string(), f.to_string()));
+        let frames = [("sensor_1", "front_left"), ("sensor_2", "front_right")]
+            .map(|(s, f)| (s.to_string(), f.to_string()));
         let resolved = nominals(&tree, "base_link", &frames).unwrap();
         for ((name, pose), (_, want)) in resolved.iter().zip(&nominal) {
             let d = pose.inverse() * want;
-            assert!(d.translation.vector.norm() < 1e-12 && d.rotation.angle() < 1e-12, "{file} {name}");
+            assert!(
+                d.translation.vector.norm() < 1e-12 && d.rotation.angle() < 1e-12,
+                "{file} {name}"
+            );
         }
     }
     // The edges as make.py wrote them.
     let expected = expected();
     let tree = Tree::new(open("layouts_lz4.bag").transforms(false).0);
     for edge in expected["tf_static"].as_array().unwrap() {
-        let m: Vec<f64> = edge["matrix"].as_array().unwrap().iter().flat_map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap())).collect();
+        let m: Vec<f64> = edge["matrix"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()))
+            .collect();
         let want = from_row_major(&m.try_into().unwrap());
-        let got = tree.resolve(edge["parent"].as_str().unwrap(), edge["child"].as_str().unwrap()).unwrap();
+        let got = tree
+            .resolve(edge["parent"].as_str().unwrap(), edge["child"].as_str().unwrap())
+            .unwrap();
         assert!((got.inverse() * want).translation.vector.norm() < 1e-12);
     }
 }
 
 fn settings() -> Settings {
-    let mut s = Settings { method: Method::Icp(gmmcalib::icp::Metric::PointToPoint), ..Settings::default() };
+    let mut s = Settings {
+        method: Method::Icp(gmmcalib::icp::Metric::PointToPoint),
+        ..Settings::default()
+    };
     s.align_globally = Some(false);
     s.jrmpc.threads = 1;
     s
@@ -127,13 +143,20 @@ fn settings() -> Settings {
 /// from PCD files (nominals from config.yaml).
 #[test]
 fn recording_calibrates_as_pcd_folders() {
-    let config = Config::from_yaml(&String::from_utf8(bytes("config.yaml")).unwrap(), "config.yaml").unwrap();
+    let config =
+        Config::from_yaml(&String::from_utf8(bytes("config.yaml")).unwrap(), "config.yaml")
+            .unwrap();
     let mut scans = Vec::new();
     for sensor in ["sensor_1", "sensor_2"] {
         for frame in 1..=3 {
             let name = format!("pcd/{sensor}/{frame}.pcd");
             let cloud = parse_cloud(&bytes(&name), &name).unwrap().cloud;
-            scans.push(Scan { sensor: sensor.into(), frame: frame.to_string(), points: cloud.points, source: None });
+            scans.push(Scan {
+                sensor: sensor.into(),
+                frame: frame.to_string(),
+                points: cloud.points,
+                source: None,
+            });
         }
     }
     let folder = Rig { scans, nominal: config.nominal_poses(), roi: config.roi, reference: None };
@@ -146,11 +169,17 @@ fn recording_calibrates_as_pcd_folders() {
         assert!(chosen.picks.iter().all(|p| p.others == vec![(p.reference, 5_000_000)]));
         assert!(!chosen.motion.moving, "{:?}", chosen.motion);
         let tree = Tree::new(rec.transforms(false).0);
-        let frames: Vec<(String, String)> = chosen.scans.iter().map(|s| (s.topic.clone(), s.cloud.frame_id.clone())).collect();
+        let frames: Vec<(String, String)> =
+            chosen.scans.iter().map(|s| (s.topic.clone(), s.cloud.frame_id.clone())).collect();
         let scans: Vec<Scan> = chosen
             .scans
             .into_iter()
-            .map(|s| Scan { sensor: s.topic, frame: s.frame, points: s.cloud.cloud.points, source: None })
+            .map(|s| Scan {
+                sensor: s.topic,
+                frame: s.frame,
+                points: s.cloud.cloud.points,
+                source: None,
+            })
             .collect();
         let mut nominal = nominals(&tree, "base_link", &frames).unwrap();
         nominal.dedup_by(|a, b| a.0 == b.0);
@@ -158,7 +187,12 @@ fn recording_calibrates_as_pcd_folders() {
         let from_bag = calib::calibrate(&rig, &settings(), |_| Control::Continue).unwrap();
         for (a, b) in from_pcd.sensors.iter().zip(&from_bag.sensors) {
             let d = a.extrinsic.inverse() * b.extrinsic;
-            assert!(d.translation.vector.norm() < 1e-9 && d.rotation.angle() < 1e-9, "{file}: {} vs {}", a.name, b.name);
+            assert!(
+                d.translation.vector.norm() < 1e-9 && d.rotation.angle() < 1e-9,
+                "{file}: {} vs {}",
+                a.name,
+                b.name
+            );
         }
     }
 }
@@ -175,7 +209,8 @@ fn truncated_recordings_keep_what_precedes_the_cut() {
         let mut data = bytes(file);
         data.truncate(data.len() * 6 / 10);
         let mut rec = open_bytes(data, file).unwrap_or_else(|e| panic!("{e}"));
-        let problem = rec.problems().first().unwrap_or_else(|| panic!("{file}: no problem reported"));
+        let problem =
+            rec.problems().first().unwrap_or_else(|| panic!("{file}: no problem reported"));
         assert!(problem.problem.contains("truncated") && problem.file == file, "{problem}");
         let t = rec.topic("/front_left/points").unwrap();
         assert!(rec.topics()[t].count >= 1, "{file}");
@@ -207,7 +242,10 @@ fn corrupt_chunk_is_named_and_other_chunks_read() {
     }
     assert!(!errors.is_empty() && ok > 0, "{errors:?}");
     let e = &errors[0];
-    assert!(e.file == "bad.mcap" && e.topic.is_some() && e.message.is_some() && e.offset.is_some(), "{e}");
+    assert!(
+        e.file == "bad.mcap" && e.topic.is_some() && e.message.is_some() && e.offset.is_some(),
+        "{e}"
+    );
     assert!(rec.point_cloud(t, 2).is_err() || rec.point_cloud(t, 2).unwrap() == good);
 }
 
@@ -247,7 +285,10 @@ fn sizes_beyond_the_file_are_named() {
     data[at + 1..at + 9].copy_from_slice(&(1u64 << 40).to_le_bytes());
     let rec = open_bytes(data, "u.mcap").unwrap();
     let p = &rec.problems()[0];
-    assert!(p.problem.contains("bytes declared, file ends at") && p.offset == Some(at as u64), "{p}");
+    assert!(
+        p.problem.contains("bytes declared, file ends at") && p.offset == Some(at as u64),
+        "{p}"
+    );
     let after = rec.topics().iter().map(|t| t.count).sum::<usize>();
     assert!(after > 0 && after < before);
 
@@ -274,6 +315,9 @@ fn fields_overrunning_point_step_are_named() {
     let mut rec = open_bytes(data, "p.bag").unwrap();
     let t = rec.topic("/layout/padded22").unwrap();
     let e = rec.point_cloud(t, 0).unwrap_err();
-    assert_eq!(e.to_string(), "p.bag, topic /layout/padded22, message 0: field z ends at byte 14, beyond point_step 12");
+    assert_eq!(
+        e.to_string(),
+        "p.bag, topic /layout/padded22, message 0: field z ends at byte 14, beyond point_step 12"
+    );
     assert!(rec.point_cloud(t, 1).is_ok());
 }

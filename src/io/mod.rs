@@ -15,9 +15,9 @@ mod decode;
 mod kitti;
 pub mod lzf;
 pub mod opencalib;
-pub mod recording;
 mod pcd;
 mod ply;
+pub mod recording;
 mod text;
 mod write;
 

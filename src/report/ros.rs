@@ -21,7 +21,9 @@ fn quaternion(pose: &Pose) -> [f64; 4] {
 /// ROS 1 `tf2_ros static_transform_publisher x y z yaw pitch roll parent child`: note the
 /// order, yaw before pitch before roll.
 pub fn ros1_static_transform_publisher(extrinsics: &[Extrinsic]) -> String {
-    let mut out = String::from("# ROS 1: T_parent_child (maps child points into parent); x y z yaw pitch roll parent child\n");
+    let mut out = String::from(
+        "# ROS 1: T_parent_child (maps child points into parent); x y z yaw pitch roll parent child\n",
+    );
     for e in extrinsics {
         let ([x, y, z], [roll, pitch, yaw]) = xyz_rpy(&e.pose);
         out += &format!(
@@ -50,7 +52,9 @@ pub fn ros2_static_transform_publisher(extrinsics: &[Extrinsic]) -> String {
 /// A `tf2_msgs/TFMessage` in YAML, ready for
 /// `ros2 topic pub --qos-durability transient_local /tf_static tf2_msgs/msg/TFMessage "$(cat FILE)"`.
 pub fn tf_static_yaml(extrinsics: &[Extrinsic]) -> String {
-    let mut out = String::from("# /tf_static: each transform maps child_frame_id points into header.frame_id\ntransforms:\n");
+    let mut out = String::from(
+        "# /tf_static: each transform maps child_frame_id points into header.frame_id\ntransforms:\n",
+    );
     for e in extrinsics {
         let t = e.pose.translation.vector;
         let [qx, qy, qz, qw] = quaternion(&e.pose);
@@ -82,7 +86,8 @@ pub fn urdf_joints(extrinsics: &[Extrinsic]) -> String {
 
 /// Autoware's `sensor_kit_calibration.yaml`: per parent, per child `x y z roll pitch yaw`.
 pub fn autoware_calibration(extrinsics: &[Extrinsic]) -> String {
-    let mut out = String::from("# Autoware: T_parent_child (maps child points into parent), m and rad\n");
+    let mut out =
+        String::from("# Autoware: T_parent_child (maps child points into parent), m and rad\n");
     let mut parents: Vec<&str> = Vec::new();
     for e in extrinsics {
         if !parents.contains(&e.parent.as_str()) {
@@ -109,7 +114,15 @@ pub fn kitti_tr(extrinsics: &[Extrinsic]) -> String {
     for e in extrinsics {
         let m = to_row_major(&e.pose);
         let numbers: Vec<String> = m[..12].iter().map(|x| x.to_string()).collect();
-        out += &format!("# T_{}_{}: maps {} points into {}\nTr_{}: {}\n", e.parent, e.child, e.child, e.parent, e.child, numbers.join(" "));
+        out += &format!(
+            "# T_{}_{}: maps {} points into {}\nTr_{}: {}\n",
+            e.parent,
+            e.child,
+            e.child,
+            e.parent,
+            e.child,
+            numbers.join(" ")
+        );
     }
     out
 }
@@ -121,14 +134,24 @@ mod tests {
     use nalgebra::{Quaternion, Translation3, UnitQuaternion};
 
     fn sample() -> Vec<Extrinsic> {
-        [("base_link", "lidar_left", [1.2, 0.4, 1.9], [0.02, -0.15, 0.8]), ("base_link", "lidar_right", [-0.3, -0.7, 2.1], [3.0, 0.4, -2.5])]
-            .map(|(p, c, xyz, rpy)| Extrinsic { parent: p.into(), child: c.into(), pose: pose_from_xyz_rpy(xyz, rpy) })
-            .to_vec()
+        [
+            ("base_link", "lidar_left", [1.2, 0.4, 1.9], [0.02, -0.15, 0.8]),
+            ("base_link", "lidar_right", [-0.3, -0.7, 2.1], [3.0, 0.4, -2.5]),
+        ]
+        .map(|(p, c, xyz, rpy)| Extrinsic {
+            parent: p.into(),
+            child: c.into(),
+            pose: pose_from_xyz_rpy(xyz, rpy),
+        })
+        .to_vec()
     }
 
     fn same(a: &Pose, b: &Pose) {
         let d = a.inverse() * b;
-        assert!(d.translation.vector.norm() < 1e-12 && d.rotation.angle() < 1e-12, "{a:?} vs {b:?}");
+        assert!(
+            d.translation.vector.norm() < 1e-12 && d.rotation.angle() < 1e-12,
+            "{a:?} vs {b:?}"
+        );
     }
 
     /// The numbers of each non-comment line, and its words.
@@ -136,7 +159,11 @@ mod tests {
         text.lines()
             .filter(|l| !l.starts_with('#'))
             .map(|l| {
-                let words: Vec<String> = l.split([' ', ',', '{', '}', ':', '"']).filter(|w| !w.is_empty()).map(String::from).collect();
+                let words: Vec<String> = l
+                    .split([' ', ',', '{', '}', ':', '"'])
+                    .filter(|w| !w.is_empty())
+                    .map(String::from)
+                    .collect();
                 (words.iter().filter_map(|w| w.parse().ok()).collect(), words)
             })
             .collect()
@@ -154,10 +181,18 @@ mod tests {
     #[test]
     fn ros2_and_tf_yaml_quaternions() {
         let e = sample();
-        let pose = |n: &[f64]| Pose::from_parts(Translation3::new(n[0], n[1], n[2]), UnitQuaternion::from_quaternion(Quaternion::new(n[6], n[3], n[4], n[5])));
+        let pose = |n: &[f64]| {
+            Pose::from_parts(
+                Translation3::new(n[0], n[1], n[2]),
+                UnitQuaternion::from_quaternion(Quaternion::new(n[6], n[3], n[4], n[5])),
+            )
+        };
         for ((n, words), e) in lines(&ros2_static_transform_publisher(&e)).iter().zip(&e) {
             let at = |f: &str| words.iter().position(|w| w == f).map(|i| words[i + 1].clone());
-            assert_eq!((at("--frame-id"), at("--child-frame-id")), (Some(e.parent.clone()), Some(e.child.clone())));
+            assert_eq!(
+                (at("--frame-id"), at("--child-frame-id")),
+                (Some(e.parent.clone()), Some(e.child.clone()))
+            );
             same(&pose(n), &e.pose);
         }
         let yaml = tf_static_yaml(&e);
@@ -166,7 +201,15 @@ mod tests {
             assert_eq!(t["header"]["frame_id"].as_str(), Some(e.parent.as_str()));
             assert_eq!(t["child_frame_id"].as_str(), Some(e.child.as_str()));
             let f = |k: &str, a: &str| t["transform"][k][a].as_f64().unwrap();
-            let n = [f("translation", "x"), f("translation", "y"), f("translation", "z"), f("rotation", "x"), f("rotation", "y"), f("rotation", "z"), f("rotation", "w")];
+            let n = [
+                f("translation", "x"),
+                f("translation", "y"),
+                f("translation", "z"),
+                f("rotation", "x"),
+                f("rotation", "y"),
+                f("rotation", "z"),
+                f("rotation", "w"),
+            ];
             same(&pose(&n), &e.pose);
         }
     }
@@ -174,7 +217,11 @@ mod tests {
     #[test]
     fn urdf_autoware_and_kitti_round_trip() {
         let e = sample();
-        let urdf = crate::io::recording::urdf::Urdf::parse(&format!("<robot name=\"r\">{}</robot>", urdf_joints(&e))).unwrap();
+        let urdf = crate::io::recording::urdf::Urdf::parse(&format!(
+            "<robot name=\"r\">{}</robot>",
+            urdf_joints(&e)
+        ))
+        .unwrap();
         for e in &e {
             same(&urdf.tree().resolve(&e.parent, &e.child).unwrap(), &e.pose);
         }
@@ -182,7 +229,10 @@ mod tests {
         for e in &e {
             let c = &value[e.parent.as_str()][e.child.as_str()];
             let f = |k: &str| c[k].as_f64().unwrap();
-            same(&pose_from_xyz_rpy([f("x"), f("y"), f("z")], [f("roll"), f("pitch"), f("yaw")]), &e.pose);
+            same(
+                &pose_from_xyz_rpy([f("x"), f("y"), f("z")], [f("roll"), f("pitch"), f("yaw")]),
+                &e.pose,
+            );
         }
         for ((n, words), e) in lines(&kitti_tr(&e)).iter().zip(&e) {
             assert_eq!(words[0], format!("Tr_{}", e.child));
@@ -200,7 +250,10 @@ mod tests {
         let e = sample();
         let poses: Vec<(String, Pose)> = e.iter().map(|e| (e.child.clone(), e.pose)).collect();
         let edited = urdf.with_origins("base_link", &poses).unwrap();
-        assert!(edited.contains("<!-- keep me -->") && edited.contains("<origin xyz=\"1 0 1.5\" rpy=\"0 0 0.1\"/>"));
+        assert!(
+            edited.contains("<!-- keep me -->")
+                && edited.contains("<origin xyz=\"1 0 1.5\" rpy=\"0 0 0.1\"/>")
+        );
         let tree = crate::io::recording::urdf::Urdf::parse(&edited).unwrap().tree();
         for e in &e {
             same(&tree.resolve("base_link", &e.child).unwrap(), &e.pose);

@@ -266,7 +266,9 @@ fn calibrate(flags: Vec<(String, String)>) -> Result<Command, String> {
     }
     out.config = config;
     match (data, &out.bag) {
-        (Some(_), Some(_)) => return Err("calibrate takes --data DIR or --bag FILE, not both".into()),
+        (Some(_), Some(_)) => {
+            return Err("calibrate takes --data DIR or --bag FILE, not both".into());
+        }
         (Some(d), None) => out.data = d,
         (None, Some(_)) => {}
         (None, None) => return Err("calibrate needs --data DIR or --bag FILE".into()),

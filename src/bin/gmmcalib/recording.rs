@@ -37,10 +37,19 @@ pub fn inspect(path: &Path) -> Result<(), String> {
         let topic = rec.topics()[t].clone();
         // The frame id is in each message; the first one's is shown for point clouds.
         let frame = match topic.kind {
-            Kind::PointCloud2 if topic.count > 0 => rec.point_cloud(t, 0).map_or_else(|e| format!("({e})"), |pc| pc.frame_id),
+            Kind::PointCloud2 if topic.count > 0 => {
+                rec.point_cloud(t, 0).map_or_else(|e| format!("({e})"), |pc| pc.frame_id)
+            }
             _ => String::new(),
         };
-        println!("{:<32} {:>7} {:>8.2}  {:<14} {}", topic.name, topic.count, topic.rate_hz(), frame, topic.type_name);
+        println!(
+            "{:<32} {:>7} {:>8.2}  {:<14} {}",
+            topic.name,
+            topic.count,
+            topic.rate_hz(),
+            frame,
+            topic.type_name
+        );
     }
     let (transforms, problems) = rec.transforms(false);
     problems.iter().for_each(|p| eprintln!("gmmcalib: warning: {p}"));
@@ -98,29 +107,57 @@ pub fn rig(path: &Path, req: &BagRequest) -> Result<BagRig, String> {
     let label = rec.file().to_string();
     let names: Vec<String> = match req.topics {
         Some(list) => list.split(',').map(|s| s.trim().to_string()).collect(),
-        None => rec.topics().iter().filter(|t| t.kind == Kind::PointCloud2 && t.count > 0).map(|t| t.name.clone()).collect(),
+        None => rec
+            .topics()
+            .iter()
+            .filter(|t| t.kind == Kind::PointCloud2 && t.count > 0)
+            .map(|t| t.name.clone())
+            .collect(),
     };
     let topics = names
         .iter()
         .map(|n| rec.topic(n).ok_or_else(|| format!("{label}: no topic {n}")))
         .collect::<Result<Vec<_>, _>>()?;
     if topics.len() < 2 {
-        return Err(format!("{label}: {} point-cloud topics; calibration needs two or more (--topics)", topics.len()));
+        return Err(format!(
+            "{label}: {} point-cloud topics; calibration needs two or more (--topics)",
+            topics.len()
+        ));
     }
     let reference = req.reference.map_or(names[0].clone(), str::to_string);
-    let r = *topics.get(names.iter().position(|n| *n == reference).ok_or_else(|| format!("--reference {reference} is not among the topics"))?).unwrap_or(&topics[0]);
-    let chosen = rec.choose(&topics, r, &Select { frames: req.frames, ..Select::default() }).map_err(|e| e.to_string())?;
+    let r = *topics
+        .get(
+            names
+                .iter()
+                .position(|n| *n == reference)
+                .ok_or_else(|| format!("--reference {reference} is not among the topics"))?,
+        )
+        .unwrap_or(&topics[0]);
+    let chosen = rec
+        .choose(&topics, r, &Select { frames: req.frames, ..Select::default() })
+        .map_err(|e| e.to_string())?;
     if chosen.picks.is_empty() {
-        return Err(format!("{label}: no instant where every topic has a scan within 20 ms of {reference}'s"));
+        return Err(format!(
+            "{label}: no instant where every topic has a scan within 20 ms of {reference}'s"
+        ));
     }
     eprintln!("gmmcalib: {} instants from {label}:", chosen.picks.len());
     for (k, p) in chosen.picks.iter().enumerate() {
-        let offsets: Vec<String> = p.others.iter().map(|(_, d)| format!("{:+.1} ms", *d as f64 * 1e-6)).collect();
-        eprintln!("  {}: t = {:.3} s, offsets {}", k + 1, p.reference_ns as f64 * 1e-9, offsets.join(", "));
+        let offsets: Vec<String> =
+            p.others.iter().map(|(_, d)| format!("{:+.1} ms", *d as f64 * 1e-6)).collect();
+        eprintln!(
+            "  {}: t = {:.3} s, offsets {}",
+            k + 1,
+            p.reference_ns as f64 * 1e-9,
+            offsets.join(", ")
+        );
     }
     if chosen.motion.moving {
         let min = chosen.motion.overlap.iter().copied().fold(1.0, f64::min);
-        eprintln!("gmmcalib: warning: the rig moved between instants ({:.0}% overlap of {reference}'s scans); each instant's scans must see the same scene", min * 100.0);
+        eprintln!(
+            "gmmcalib: warning: the rig moved between instants ({:.0}% overlap of {reference}'s scans); each instant's scans must see the same scene",
+            min * 100.0
+        );
     }
     let mut frames: Vec<(String, String)> = Vec::new();
     for s in &chosen.scans {
@@ -141,8 +178,13 @@ pub fn rig(path: &Path, req: &BagRequest) -> Result<BagRig, String> {
         }
     };
     let (nominal, base) = if tree.edges.is_empty() {
-        eprintln!("gmmcalib: no /tf_static and no --urdf: identity nominals (the global alignment finds the rest)");
-        (frames.iter().map(|(t, _)| (t.clone(), Pose::identity())).collect(), req.base_frame.to_string())
+        eprintln!(
+            "gmmcalib: no /tf_static and no --urdf: identity nominals (the global alignment finds the rest)"
+        );
+        (
+            frames.iter().map(|(t, _)| (t.clone(), Pose::identity())).collect(),
+            req.base_frame.to_string(),
+        )
     } else {
         let base = tree.base(req.base_frame).map_err(|e| format!("{label}: {e}"))?;
         (nominals(&tree, &base, &frames).map_err(|e| format!("{label}: {e}"))?, base)
@@ -150,18 +192,29 @@ pub fn rig(path: &Path, req: &BagRequest) -> Result<BagRig, String> {
     let scans = chosen
         .scans
         .into_iter()
-        .map(|s| Scan { source: Some(format!("{label} {} message {}", s.topic, s.message)), sensor: s.topic, frame: s.frame, points: s.cloud.cloud.points })
+        .map(|s| Scan {
+            source: Some(format!("{label} {} message {}", s.topic, s.message)),
+            sensor: s.topic,
+            frame: s.frame,
+            points: s.cloud.cloud.points,
+        })
         .collect();
     Ok(BagRig { scans, nominal, reference, base, frames, urdf })
 }
 
 /// The calibration's extrinsics in the export format `format`.
 pub fn export(format: &str, result: &Calibration, bag: &BagRig) -> Result<String, String> {
-    let frame_of = |sensor: &str| bag.frames.iter().find(|(t, _)| t == sensor).map_or(sensor.to_string(), |(_, f)| f.clone());
+    let frame_of = |sensor: &str| {
+        bag.frames.iter().find(|(t, _)| t == sensor).map_or(sensor.to_string(), |(_, f)| f.clone())
+    };
     let extrinsics: Vec<Extrinsic> = result
         .sensors
         .iter()
-        .map(|s| Extrinsic { parent: bag.base.clone(), child: frame_of(&s.name), pose: s.extrinsic })
+        .map(|s| Extrinsic {
+            parent: bag.base.clone(),
+            child: frame_of(&s.name),
+            pose: s.extrinsic,
+        })
         .collect();
     Ok(match format {
         "ros1" => ros::ros1_static_transform_publisher(&extrinsics),
@@ -171,11 +224,16 @@ pub fn export(format: &str, result: &Calibration, bag: &BagRig) -> Result<String
         "kitti" => ros::kitti_tr(&extrinsics),
         "urdf" => match &bag.urdf {
             Some(urdf) => {
-                let poses: Vec<(String, Pose)> = extrinsics.iter().map(|e| (e.child.clone(), e.pose)).collect();
+                let poses: Vec<(String, Pose)> =
+                    extrinsics.iter().map(|e| (e.child.clone(), e.pose)).collect();
                 urdf.with_origins(&bag.base, &poses)?
             }
             None => ros::urdf_joints(&extrinsics),
         },
-        other => return Err(format!("--export {other}: expected ros1, ros2, tf-yaml, urdf, autoware or kitti")),
+        other => {
+            return Err(format!(
+                "--export {other}: expected ros1, ros2, tf-yaml, urdf, autoware or kitti"
+            ));
+        }
     })
 }

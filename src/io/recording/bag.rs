@@ -42,7 +42,10 @@ impl<'a> Header<'a> {
     }
 
     fn get(&self, name: &str) -> Result<&'a [u8], Bad> {
-        self.fields.get(name.as_bytes()).copied().ok_or_else(|| Bad::at(self.at, format!("header without '{name}'")))
+        self.fields
+            .get(name.as_bytes())
+            .copied()
+            .ok_or_else(|| Bad::at(self.at, format!("header without '{name}'")))
     }
 
     fn op(&self) -> Result<u8, Bad> {
@@ -51,12 +54,16 @@ impl<'a> Header<'a> {
 
     fn u32(&self, name: &str) -> Result<u32, Bad> {
         let v = self.get(name)?;
-        v.try_into().map(u32::from_le_bytes).map_err(|_| Bad::at(self.at, format!("'{name}' is not 4 bytes")))
+        v.try_into()
+            .map(u32::from_le_bytes)
+            .map_err(|_| Bad::at(self.at, format!("'{name}' is not 4 bytes")))
     }
 
     fn u64(&self, name: &str) -> Result<u64, Bad> {
         let v = self.get(name)?;
-        v.try_into().map(u64::from_le_bytes).map_err(|_| Bad::at(self.at, format!("'{name}' is not 8 bytes")))
+        v.try_into()
+            .map(u64::from_le_bytes)
+            .map_err(|_| Bad::at(self.at, format!("'{name}' is not 8 bytes")))
     }
 
     /// A ROS time (sec u32, nsec u32) in ns.
@@ -105,7 +112,10 @@ fn record(src: &mut dyn ReadAt, at: u64, data: bool) -> Result<Record, Bad> {
     let data_at = data_len_at + 4;
     let next = data_at + data_len;
     if next > src.size() {
-        return Err(Bad::at(data_len_at, format!("record data: {data_len} bytes declared, file ends at {}", src.size())));
+        return Err(Bad::at(
+            data_len_at,
+            format!("record data: {data_len} bytes declared, file ends at {}", src.size()),
+        ));
     }
     let data = if data { read(src, data_at, data_len, "record data")? } else { Vec::new() };
     Ok(Record { header, header_at: at + 4, data, data_at, next })
@@ -140,7 +150,10 @@ impl Registry {
     }
 
     fn topic(&self, conn: u32, at: u64) -> Result<usize, Bad> {
-        self.connections.get(&conn).copied().ok_or_else(|| Bad::at(at, format!("unknown connection {conn}")))
+        self.connections
+            .get(&conn)
+            .copied()
+            .ok_or_else(|| Bad::at(at, format!("unknown connection {conn}")))
     }
 }
 
@@ -173,7 +186,12 @@ pub fn open(src: &mut dyn ReadAt, file: &str, progress: Progress) -> Result<Inde
     Ok(scan(src, file, first.next, progress))
 }
 
-fn indexed(src: &mut dyn ReadAt, index_pos: u64, connections: u32, chunks: u32) -> Result<Index, Bad> {
+fn indexed(
+    src: &mut dyn ReadAt,
+    index_pos: u64,
+    connections: u32,
+    chunks: u32,
+) -> Result<Index, Bad> {
     let mut registry = Registry::default();
     let mut pos = index_pos;
     for _ in 0..connections {
@@ -246,7 +264,10 @@ fn decompress(r: &Record, start: u64) -> Result<Vec<u8>, Bad> {
         .ok_or_else(|| Bad::at(start, format!("unknown chunk compression '{name}'")))?;
     let size = u64::from(header.u32("size")?);
     if size > (r.data.len() as u64).saturating_mul(1024).max(1 << 20) {
-        return Err(Bad::at(r.data_at, format!("chunk size {size} implausible for {} bytes", r.data.len())));
+        return Err(Bad::at(
+            r.data_at,
+            format!("chunk size {size} implausible for {} bytes", r.data.len()),
+        ));
     }
     compression::decompress(kind, &r.data, size as usize).map_err(|e| Bad::at(r.data_at, e))
 }
@@ -254,7 +275,8 @@ fn decompress(r: &Record, start: u64) -> Result<Vec<u8>, Bad> {
 /// The data of the message record at `offset` in a chunk's records.
 pub fn message_at(records: &[u8], offset: u64) -> Result<&[u8], Bad> {
     let start = usize::try_from(offset).ok().filter(|&o| o <= records.len());
-    let start = start.ok_or_else(|| Bad::new(format!("message offset {offset} beyond its chunk")))?;
+    let start =
+        start.ok_or_else(|| Bad::new(format!("message offset {offset} beyond its chunk")))?;
     let mut c = Cursor::new(&records[start..], offset);
     let header = Header::parse(c.prefixed("message header")?, offset + 4)?;
     if header.op()? != MESSAGE {
@@ -274,7 +296,10 @@ fn scan(src: &mut dyn ReadAt, file: &str, mut pos: u64, progress: Progress) -> I
         let r = match record(src, pos, true) {
             Ok(r) => r,
             Err(b) => {
-                index.problems.push(Bad { offset: b.offset, problem: format!("truncated: {}", b.problem) }.in_file(file));
+                index.problems.push(
+                    Bad { offset: b.offset, problem: format!("truncated: {}", b.problem) }
+                        .in_file(file),
+                );
                 break;
             }
         };
@@ -301,7 +326,12 @@ fn scan(src: &mut dyn ReadAt, file: &str, mut pos: u64, progress: Progress) -> I
     index
 }
 
-fn scan_chunk(registry: &mut Registry, index: &mut Index, records: &[u8], n: usize) -> Result<(), Bad> {
+fn scan_chunk(
+    registry: &mut Registry,
+    index: &mut Index,
+    records: &[u8],
+    n: usize,
+) -> Result<(), Bad> {
     let mut c = Cursor::new(records, 0);
     while c.remaining() > 0 {
         let offset = c.offset();

@@ -15,7 +15,6 @@ impl<'a> Cursor<'a> {
         Self { data, pos: 0, base }
     }
 
-
     pub fn remaining(&self) -> usize {
         self.data.len() - self.pos
     }

@@ -36,7 +36,12 @@ pub struct Chosen {
 impl Recording {
     /// Picks instants where every topic in `topics` has a message near `reference`'s, and
     /// decodes them. Fails on the first message that cannot be decoded (named).
-    pub fn choose(&mut self, topics: &[usize], reference: usize, settings: &Settings) -> Result<Chosen, RecordingError> {
+    pub fn choose(
+        &mut self,
+        topics: &[usize],
+        reference: usize,
+        settings: &Settings,
+    ) -> Result<Chosen, RecordingError> {
         let others: Vec<usize> = topics.iter().copied().filter(|&t| t != reference).collect();
         let times: Vec<Vec<u64>> = others.iter().map(|&t| self.times(t)).collect();
         let picks = select::pick(&self.times(reference), &times, settings);
@@ -53,14 +58,21 @@ impl Recording {
             }
         }
         let name = &self.topics[reference].name;
-        let reference_scans: Vec<&[[f32; 3]]> =
-            scans.iter().filter(|s| &s.topic == name).map(|s| s.cloud.cloud.points.as_slice()).collect();
+        let reference_scans: Vec<&[[f32; 3]]> = scans
+            .iter()
+            .filter(|s| &s.topic == name)
+            .map(|s| s.cloud.cloud.points.as_slice())
+            .collect();
         let motion = select::motion(&reference_scans);
         Ok(Chosen { topics: topics.to_vec(), reference, picks, scans, motion })
     }
 }
 
 /// `(sensor, T_base_frame)` for each `(sensor, frame_id)` through `tree`.
-pub fn nominals(tree: &Tree, base: &str, frames: &[(String, String)]) -> Result<Vec<(String, Pose)>, TreeError> {
+pub fn nominals(
+    tree: &Tree,
+    base: &str,
+    frames: &[(String, String)],
+) -> Result<Vec<(String, Pose)>, TreeError> {
     frames.iter().map(|(sensor, frame)| Ok((sensor.clone(), tree.resolve(base, frame)?))).collect()
 }

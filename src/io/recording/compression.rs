@@ -40,10 +40,9 @@ pub fn decompress(kind: Compression, data: &[u8], size: usize) -> Result<Vec<u8>
             Ok(decoder) => decoder.take(limit).read_to_end(&mut out).map(|_| ()),
             Err(e) => return Err(format!("zstd: {e}")),
         },
-        Compression::Lz4 => lz4_flex::frame::FrameDecoder::new(data)
-            .take(limit)
-            .read_to_end(&mut out)
-            .map(|_| ()),
+        Compression::Lz4 => {
+            lz4_flex::frame::FrameDecoder::new(data).take(limit).read_to_end(&mut out).map(|_| ())
+        }
         Compression::Bz2 => {
             bzip2::read::BzDecoder::new(data).take(limit).read_to_end(&mut out).map(|_| ())
         }

@@ -73,7 +73,11 @@ impl<'a> Db<'a> {
 
     /// Calls `visit(page, cell, rowid, payload start)` for every cell of the table b-tree
     /// rooted at `root`, in rowid order; `payload start` is the cell's inline payload.
-    fn walk(&mut self, root: u64, visit: &mut dyn FnMut(&mut Self, u64, usize, &[u8]) -> Result<(), Bad>) -> Result<(), Bad> {
+    fn walk(
+        &mut self,
+        root: u64,
+        visit: &mut dyn FnMut(&mut Self, u64, usize, &[u8]) -> Result<(), Bad>,
+    ) -> Result<(), Bad> {
         let mut stack = vec![root];
         let mut seen = 0u64;
         while let Some(n) = stack.pop() {
@@ -88,17 +92,22 @@ impl<'a> Db<'a> {
             let header = if kind == 0x05 { 12 } else { 8 };
             let pointer = |i: usize| -> Result<usize, Bad> {
                 let p = h + header + 2 * i;
-                let b = page.get(p..p + 2).ok_or_else(|| Bad::new(format!("page {n}: cell pointer beyond the page")))?;
+                let b = page
+                    .get(p..p + 2)
+                    .ok_or_else(|| Bad::new(format!("page {n}: cell pointer beyond the page")))?;
                 Ok(usize::from(u16::from_be_bytes([b[0], b[1]])))
             };
             match kind {
                 0x05 => {
-                    let right = u32::from_be_bytes(page[h + 8..h + 12].try_into().unwrap_or([0; 4]));
+                    let right =
+                        u32::from_be_bytes(page[h + 8..h + 12].try_into().unwrap_or([0; 4]));
                     // Children pushed in reverse so they pop in rowid order.
                     stack.push(u64::from(right));
                     for i in (0..cells).rev() {
                         let p = pointer(i)?;
-                        let b = page.get(p..p + 4).ok_or_else(|| Bad::new(format!("page {n}: cell beyond the page")))?;
+                        let b = page
+                            .get(p..p + 4)
+                            .ok_or_else(|| Bad::new(format!("page {n}: cell beyond the page")))?;
                         stack.push(u64::from(u32::from_be_bytes(b.try_into().unwrap_or([0; 4]))));
                     }
                 }
@@ -108,7 +117,11 @@ impl<'a> Db<'a> {
                         visit(self, n, p, &page)?;
                     }
                 }
-                k => return Err(Bad::new(format!("page {n}: type {k:#04x} is not a table b-tree page"))),
+                k => {
+                    return Err(Bad::new(format!(
+                        "page {n}: type {k:#04x} is not a table b-tree page"
+                    )));
+                }
             }
         }
         Ok(())
@@ -129,9 +142,12 @@ impl<'a> Db<'a> {
             if k <= x { k } else { m }
         };
         let end = at + inline as usize;
-        let mut payload = page.get(at..end).ok_or_else(|| Bad::new("cell payload beyond its page"))?.to_vec();
+        let mut payload =
+            page.get(at..end).ok_or_else(|| Bad::new("cell payload beyond its page"))?.to_vec();
         if inline < len {
-            let b = page.get(end..end + 4).ok_or_else(|| Bad::new("overflow pointer beyond its page"))?;
+            let b = page
+                .get(end..end + 4)
+                .ok_or_else(|| Bad::new("overflow pointer beyond its page"))?;
             let mut next = u64::from(u32::from_be_bytes(b.try_into().unwrap_or([0; 4])));
             // The header and the leading columns are inline (rosbag2's blob is the last column).
             while blobs && next != 0 && (payload.len() as u64) < len {
@@ -227,7 +243,15 @@ pub fn open(src: &mut dyn ReadAt, file: &str, progress: Progress) -> Result<Inde
             _ => None,
         };
         ids.insert(id, index.topics.len());
-        index.topics.push(Topic { name: text(r.get(1)), kind: Kind::of(&type_name), type_name, encoding, count: 0, first_ns: 0, last_ns: 0 });
+        index.topics.push(Topic {
+            name: text(r.get(1)),
+            kind: Kind::of(&type_name),
+            type_name,
+            encoding,
+            count: 0,
+            first_ns: 0,
+            last_ns: 0,
+        });
         Ok(())
     })
     .map_err(|b| b.in_file(file))?;
@@ -240,8 +264,14 @@ pub fn open(src: &mut dyn ReadAt, file: &str, progress: Progress) -> Result<Inde
             return Err(Bad::new(format!("page {n}: message row without topic_id and timestamp")));
         };
         match ids.get(topic) {
-            Some(&t) => index.entries.push(Entry { topic: t, time_ns: *time as u64, loc: Loc::Cell { page: n, cell: p } }),
-            None => problems.push(Bad::new(format!("page {n}: message of unknown topic_id {topic}")).in_file(file)),
+            Some(&t) => index.entries.push(Entry {
+                topic: t,
+                time_ns: *time as u64,
+                loc: Loc::Cell { page: n, cell: p },
+            }),
+            None => problems.push(
+                Bad::new(format!("page {n}: message of unknown topic_id {topic}")).in_file(file),
+            ),
         }
         Ok(())
     });
@@ -260,7 +290,12 @@ fn rowid(page: &[u8], p: usize) -> Result<i64, Bad> {
 }
 
 /// The `data` blob of the message in the cell at byte `cell` of page `page`.
-pub fn message(src: &mut dyn ReadAt, _chunks: &[ChunkRef], page: u64, cell: usize) -> Result<Vec<u8>, Bad> {
+pub fn message(
+    src: &mut dyn ReadAt,
+    _chunks: &[ChunkRef],
+    page: u64,
+    cell: usize,
+) -> Result<Vec<u8>, Bad> {
     let mut db = Db::new(src)?;
     let bytes = db.page(page)?;
     match db.record(&bytes, cell, true)?.into_iter().nth(3) {

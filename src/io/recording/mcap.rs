@@ -78,7 +78,10 @@ impl Registry {
     }
 
     fn topic(&self, channel: u16, at: u64) -> Result<usize, Bad> {
-        self.channels.get(&channel).copied().ok_or_else(|| Bad::at(at, format!("unknown channel {channel}")))
+        self.channels
+            .get(&channel)
+            .copied()
+            .ok_or_else(|| Bad::at(at, format!("unknown channel {channel}")))
     }
 }
 
@@ -251,9 +254,13 @@ fn parse_chunk(body: &[u8], at: u64) -> Result<Vec<u8>, Bad> {
     // Zero-filled sizes beyond the file bound what we allocate: stored bytes can expand at most
     // ~255x under lz4 and less under zstd; refuse the implausible before allocating.
     if size > (data.len() as u64).saturating_mul(1024).max(1 << 20) {
-        return Err(Bad::at(records_at, format!("uncompressed size {size} implausible for {} bytes", data.len())));
+        return Err(Bad::at(
+            records_at,
+            format!("uncompressed size {size} implausible for {} bytes", data.len()),
+        ));
     }
-    let out = compression::decompress(kind, data, size as usize).map_err(|e| Bad::at(records_at, e))?;
+    let out =
+        compression::decompress(kind, data, size as usize).map_err(|e| Bad::at(records_at, e))?;
     if crc != 0 && crc32(&out) != crc {
         return Err(Bad::at(records_at, "chunk CRC mismatch"));
     }
@@ -270,7 +277,8 @@ pub fn message_at(records: &[u8], offset: u64, base: u64) -> Result<&[u8], Bad> 
         return Err(Bad::at(base + offset, "no message record where the index points"));
     }
     let len = c.u64("message length")?;
-    let mut body = Cursor::new(c.bytes(usize::try_from(len).unwrap_or(usize::MAX), "message")?, c.offset());
+    let mut body =
+        Cursor::new(c.bytes(usize::try_from(len).unwrap_or(usize::MAX), "message")?, c.offset());
     body.bytes(2 + 4 + 8 + 8, "message header")?;
     body.bytes(body.remaining(), "message data")
 }
@@ -295,7 +303,9 @@ fn scan(src: &mut dyn ReadAt, file: &str, progress: Progress) -> Index {
         let head = match read(src, pos, 9, "record header") {
             Ok(h) => h,
             Err(b) => {
-                index.problems.push(Bad::at(pos, format!("truncated: {}", b.problem)).in_file(file));
+                index
+                    .problems
+                    .push(Bad::at(pos, format!("truncated: {}", b.problem)).in_file(file));
                 break;
             }
         };
@@ -307,13 +317,16 @@ fn scan(src: &mut dyn ReadAt, file: &str, progress: Progress) -> Index {
         let body = match read(src, pos + 9, len, "record") {
             Ok(b) => b,
             Err(b) => {
-                index.problems.push(Bad::at(pos, format!("truncated: {}", b.problem)).in_file(file));
+                index
+                    .problems
+                    .push(Bad::at(pos, format!("truncated: {}", b.problem)).in_file(file));
                 break;
             }
         };
         let outcome = match op {
             SCHEMA | CHANNEL => registry.record(op, &body, pos + 9),
-            MESSAGE => message_entry(&registry, &body, pos + 9, Loc::File(pos)).map(|e| index.entries.push(e)),
+            MESSAGE => message_entry(&registry, &body, pos + 9, Loc::File(pos))
+                .map(|e| index.entries.push(e)),
             CHUNK => scan_chunk(&mut registry, &mut index, &body, pos),
             _ => Ok(()),
         };
@@ -337,7 +350,12 @@ fn message_entry(registry: &Registry, body: &[u8], at: u64, loc: Loc) -> Result<
 }
 
 /// Decompresses a chunk met in a scan and indexes its records.
-fn scan_chunk(registry: &mut Registry, index: &mut Index, body: &[u8], start: u64) -> Result<(), Bad> {
+fn scan_chunk(
+    registry: &mut Registry,
+    index: &mut Index,
+    body: &[u8],
+    start: u64,
+) -> Result<(), Bad> {
     let data = parse_chunk(body, start + 9)?;
     let n = index.chunks.len();
     let mut c = Cursor::new(body, start + 9);
@@ -358,7 +376,12 @@ fn scan_chunk(registry: &mut Registry, index: &mut Index, body: &[u8], start: u6
             SCHEMA | CHANNEL => registry.record(op, rec, at)?,
             MESSAGE => {
                 let offset = at - 9;
-                index.entries.push(message_entry(registry, rec, at, Loc::Chunk { chunk: n, offset })?);
+                index.entries.push(message_entry(
+                    registry,
+                    rec,
+                    at,
+                    Loc::Chunk { chunk: n, offset },
+                )?);
             }
             _ => {}
         }

@@ -23,7 +23,7 @@ mod tf;
 pub mod urdf;
 mod wire;
 
-pub use choose::{ChosenScan, Chosen, nominals};
+pub use choose::{Chosen, ChosenScan, nominals};
 pub use compression::Compression;
 pub use error::RecordingError;
 pub use index::{Container, Encoding, Kind, Topic};
@@ -152,7 +152,9 @@ impl Recording {
     fn read_entry(&mut self, entry: &Entry) -> Result<Vec<u8>, Bad> {
         match entry.loc {
             Loc::File(at) => mcap::loose_message(self.source.as_mut(), at),
-            Loc::Cell { page, cell } => db3::message(self.source.as_mut(), &self.chunks, page, cell),
+            Loc::Cell { page, cell } => {
+                db3::message(self.source.as_mut(), &self.chunks, page, cell)
+            }
             Loc::Chunk { chunk, offset } => {
                 if self.cache.as_ref().is_none_or(|(n, _)| *n != chunk) {
                     let c = self.chunks.get(chunk).ok_or_else(|| Bad::new("no such chunk"))?;
@@ -179,7 +181,11 @@ impl Recording {
     }
 
     /// Message `message` of `topic` decoded as a PointCloud2.
-    pub fn point_cloud(&mut self, topic: usize, message: usize) -> Result<PointCloud, RecordingError> {
+    pub fn point_cloud(
+        &mut self,
+        topic: usize,
+        message: usize,
+    ) -> Result<PointCloud, RecordingError> {
         let encoding = self.encoding(topic, message)?;
         let data = self.message(topic, message)?;
         pointcloud2::decode(&data, encoding).map_err(|e| self.error(topic, message, Bad::new(e)))
@@ -192,7 +198,8 @@ impl Recording {
         let wanted: Vec<usize> = (0..self.topics.len())
             .filter(|&i| {
                 let t = &self.topics[i];
-                t.kind == Kind::TfMessage && (t.name == "/tf_static" || (dynamic && t.name == "/tf"))
+                t.kind == Kind::TfMessage
+                    && (t.name == "/tf_static" || (dynamic && t.name == "/tf"))
             })
             .collect();
         for topic in wanted {

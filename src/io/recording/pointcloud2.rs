@@ -83,15 +83,19 @@ pub fn decode(data: &[u8], encoding: Encoding) -> Result<PointCloud, String> {
     let row_step = w.u32("row_step")? as usize;
     let len = w.u32("data length")? as usize;
     let bytes = w.bytes(len, "data")?;
-    points(&fields, big_endian, point_step, row_step, width, height, bytes).map(|(cloud, dropped)| {
-        PointCloud { stamp_ns, frame_id, cloud, dropped, width, height }
-    })
+    points(&fields, big_endian, point_step, row_step, width, height, bytes)
+        .map(|(cloud, dropped)| PointCloud { stamp_ns, frame_id, cloud, dropped, width, height })
 }
 
 /// The field named `name`, checked to lie within `point_step`.
-fn field<'f>(fields: &'f [Field], name: &str, point_step: usize) -> Result<Option<&'f Field>, String> {
+fn field<'f>(
+    fields: &'f [Field],
+    name: &str,
+    point_step: usize,
+) -> Result<Option<&'f Field>, String> {
     let Some(f) = fields.iter().find(|f| f.name == name) else { return Ok(None) };
-    let size = f.size().ok_or_else(|| format!("field {name} has unknown datatype {}", f.datatype))?;
+    let size =
+        f.size().ok_or_else(|| format!("field {name} has unknown datatype {}", f.datatype))?;
     let end = f.offset as usize + size;
     if end > point_step {
         return Err(format!("field {name} ends at byte {end}, beyond point_step {point_step}"));
@@ -115,16 +119,27 @@ fn points(
     let intensity = field(fields, "intensity", point_step)?;
     // Rows may be padded (row_step beyond width * point_step), never overlap.
     let row = width.checked_mul(point_step).filter(|&r| r <= row_step || height <= 1);
-    let row = row.ok_or_else(|| format!("row_step {row_step} < width {width} x point_step {point_step}"))?;
-    let needed = height.checked_sub(1).map_or(Some(0), |h| h.checked_mul(row_step).and_then(|s| s.checked_add(row)));
+    let row = row
+        .ok_or_else(|| format!("row_step {row_step} < width {width} x point_step {point_step}"))?;
+    let needed = height
+        .checked_sub(1)
+        .map_or(Some(0), |h| h.checked_mul(row_step).and_then(|s| s.checked_add(row)));
     match needed {
         Some(n) if n <= data.len() => {}
-        _ => return Err(format!("{width} x {height} points of {point_step} bytes need more than the {} data bytes", data.len())),
+        _ => {
+            return Err(format!(
+                "{width} x {height} points of {point_step} bytes need more than the {} data bytes",
+                data.len()
+            ));
+        }
     }
     if width == 0 || height == 0 {
         return Ok((Cloud { points: Vec::new(), intensity: intensity.map(|_| Vec::new()) }, 0));
     }
-    let mut cloud = Cloud { points: Vec::with_capacity(width.saturating_mul(height)), intensity: intensity.map(|_| Vec::new()) };
+    let mut cloud = Cloud {
+        points: Vec::with_capacity(width.saturating_mul(height)),
+        intensity: intensity.map(|_| Vec::new()),
+    };
     let mut dropped = 0;
     for r in 0..height {
         for c in 0..width {

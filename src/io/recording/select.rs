@@ -43,7 +43,9 @@ pub fn pick(reference: &[u64], others: &[Vec<u64>], settings: &Settings) -> Vec<
         .filter_map(|(i, &t)| {
             let others = others
                 .iter()
-                .map(|times| nearest(times, t).filter(|(_, d)| d.unsigned_abs() <= settings.tolerance_ns))
+                .map(|times| {
+                    nearest(times, t).filter(|(_, d)| d.unsigned_abs() <= settings.tolerance_ns)
+                })
                 .collect::<Option<Vec<_>>>()?;
             Some(Pick { reference: i, reference_ns: t, others })
         })
@@ -52,7 +54,9 @@ pub fn pick(reference: &[u64], others: &[Vec<u64>], settings: &Settings) -> Vec<
     if n <= want {
         return candidates;
     }
-    let index = |k: usize| if want == 1 { (n - 1) / 2 } else { (k * (n - 1) + (want - 1) / 2) / (want - 1) };
+    let index = |k: usize| {
+        if want == 1 { (n - 1) / 2 } else { (k * (n - 1) + (want - 1) / 2) / (want - 1) }
+    };
     (0..want).map(|k| candidates[index(k)].clone()).collect()
 }
 
@@ -94,7 +98,8 @@ pub fn motion(scans: &[&[[f32; 3]]]) -> Motion {
         overlap.push(if pair[1].is_empty() { 0.0 } else { hits as f64 / pair[1].len() as f64 });
         let c = |s: &[[f32; 3]]| crate::cloud::centroid(s.iter()).unwrap_or([0.0; 3]);
         let (a, b) = (c(pair[0]), c(pair[1]));
-        centroid_shift.push(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt());
+        centroid_shift
+            .push(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt());
     }
     let moving = overlap.iter().any(|&o| o < MOTION_OVERLAP);
     Motion { overlap, centroid_shift, moving }
@@ -108,8 +113,11 @@ mod tests {
     fn picks_spread_instants_within_tolerance() {
         let reference: Vec<u64> = (0..21).map(|i| i * 100_000_000).collect();
         // The other topic is 5 ms late, and silent around 1 s.
-        let other: Vec<u64> =
-            reference.iter().map(|t| t + 5_000_000).filter(|t| !(900_000_000..1_200_000_000).contains(t)).collect();
+        let other: Vec<u64> = reference
+            .iter()
+            .map(|t| t + 5_000_000)
+            .filter(|t| !(900_000_000..1_200_000_000).contains(t))
+            .collect();
         let picks = pick(&reference, &[other], &Settings { frames: 4, tolerance_ns: 20_000_000 });
         let chosen: Vec<usize> = picks.iter().map(|p| p.reference).collect();
         assert_eq!(chosen, [0, 7, 14, 20]);
@@ -120,10 +128,14 @@ mod tests {
 
     #[test]
     fn tells_a_moving_rig() {
-        let scene: Vec<[f32; 3]> = (0..400).map(|i| [(i % 20) as f32 * 0.5, (i / 20) as f32 * 0.5, 0.0]).collect();
+        let scene: Vec<[f32; 3]> =
+            (0..400).map(|i| [(i % 20) as f32 * 0.5, (i / 20) as f32 * 0.5, 0.0]).collect();
         let moved: Vec<[f32; 3]> = scene.iter().map(|p| [p[0] + 3.1, p[1] + 0.37, p[2]]).collect();
         assert!(!motion(&[&scene, &scene]).moving);
         let m = motion(&[&scene, &moved]);
-        assert!(m.moving && (m.centroid_shift[0] - (3.1f64.powi(2) + 0.37f64.powi(2)).sqrt()).abs() < 1e-4);
+        assert!(
+            m.moving
+                && (m.centroid_shift[0] - (3.1f64.powi(2) + 0.37f64.powi(2)).sqrt()).abs() < 1e-4
+        );
     }
 }

@@ -31,9 +31,14 @@ pub fn decode(data: &[u8], encoding: Encoding) -> Result<Vec<Transform>, String>
             [w.f64("rotation")?, w.f64("rotation")?, w.f64("rotation")?, w.f64("rotation")?];
         let q = Quaternion::new(qw, qx, qy, qz);
         if !(t.iter().all(|v| v.is_finite()) && q.norm() > 1e-9 && q.norm().is_finite()) {
-            return Err(format!("transform {parent} -> {child} is not finite or has a zero quaternion"));
+            return Err(format!(
+                "transform {parent} -> {child} is not finite or has a zero quaternion"
+            ));
         }
-        let pose = Pose::from_parts(Translation3::new(t[0], t[1], t[2]), UnitQuaternion::from_quaternion(q));
+        let pose = Pose::from_parts(
+            Translation3::new(t[0], t[1], t[2]),
+            UnitQuaternion::from_quaternion(q),
+        );
         out.push(Transform { parent, child, pose, stamp_ns });
     }
     Ok(out)
@@ -57,7 +62,9 @@ impl std::fmt::Display for TreeError {
             TreeError::NotConnected { frame, base } => {
                 write!(f, "frame '{frame}' is not connected to '{base}'")
             }
-            TreeError::NoRoot(roots) => write!(f, "the transforms have several roots: {}", roots.join(", ")),
+            TreeError::NoRoot(roots) => {
+                write!(f, "the transforms have several roots: {}", roots.join(", "))
+            }
         }
     }
 }

@@ -29,7 +29,11 @@ pub struct Urdf {
 
 fn numbers(value: Option<&str>, what: &str) -> Result<[f64; 3], String> {
     let Some(value) = value else { return Ok([0.0; 3]) };
-    let v: Vec<f64> = value.split_whitespace().map(str::parse).collect::<Result<_, _>>().map_err(|_| format!("{what}=\"{value}\" is not three numbers"))?;
+    let v: Vec<f64> = value
+        .split_whitespace()
+        .map(str::parse)
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("{what}=\"{value}\" is not three numbers"))?;
     match v.as_slice() {
         [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok([*a, *b, *c]),
         _ => Err(format!("{what}=\"{value}\" is not three finite numbers")),
@@ -41,7 +45,9 @@ impl Urdf {
     pub fn parse(text: &str) -> Result<Self, String> {
         let doc = roxmltree::Document::parse(text).map_err(|e| e.to_string())?;
         let mut joints = Vec::new();
-        for j in doc.descendants().filter(|n| n.has_tag_name("joint") && n.parent().is_some_and(|p| p.has_tag_name("robot"))) {
+        for j in doc.descendants().filter(|n| {
+            n.has_tag_name("joint") && n.parent().is_some_and(|p| p.has_tag_name("robot"))
+        }) {
             let name = j.attribute("name").unwrap_or("").to_string();
             let link = |tag: &str| {
                 j.children()
@@ -54,13 +60,19 @@ impl Urdf {
             let origin = j.children().find(|c| c.has_tag_name("origin"));
             let (pose, range, has_origin) = match origin {
                 Some(o) => {
-                    let xyz = numbers(o.attribute("xyz"), "xyz").map_err(|e| format!("joint '{name}': {e}"))?;
-                    let rpy = numbers(o.attribute("rpy"), "rpy").map_err(|e| format!("joint '{name}': {e}"))?;
+                    let xyz = numbers(o.attribute("xyz"), "xyz")
+                        .map_err(|e| format!("joint '{name}': {e}"))?;
+                    let rpy = numbers(o.attribute("rpy"), "rpy")
+                        .map_err(|e| format!("joint '{name}': {e}"))?;
                     (pose_from_xyz_rpy(xyz, rpy), o.range(), true)
                 }
                 None => {
                     let end = j.range().end;
-                    let at = if text[..end].ends_with("</joint>") { end - "</joint>".len() } else { end };
+                    let at = if text[..end].ends_with("</joint>") {
+                        end - "</joint>".len()
+                    } else {
+                        end
+                    };
                     (Pose::identity(), at..at, false)
                 }
             };
@@ -85,8 +97,16 @@ impl Urdf {
         let tree = self.tree();
         let mut edits: Vec<(Range<usize>, String)> = Vec::new();
         for (link, pose) in poses {
-            let joint = self.joints.iter().find(|j| &j.child == link).ok_or_else(|| format!("no joint has child link '{link}'"))?;
-            let parent = if joint.parent == base { Pose::identity() } else { tree.resolve(base, &joint.parent).map_err(|e| e.to_string())? };
+            let joint = self
+                .joints
+                .iter()
+                .find(|j| &j.child == link)
+                .ok_or_else(|| format!("no joint has child link '{link}'"))?;
+            let parent = if joint.parent == base {
+                Pose::identity()
+            } else {
+                tree.resolve(base, &joint.parent).map_err(|e| e.to_string())?
+            };
             let (xyz, rpy) = xyz_rpy(&(parent.inverse() * pose));
             let fmt = |v: [f64; 3]| v.map(|x| format!("{x}")).join(" ");
             let mut element = format!("<origin xyz=\"{}\" rpy=\"{}\"/>", fmt(xyz), fmt(rpy));

@@ -90,7 +90,11 @@ impl<'a> Wire<'a> {
         if !self.cdr {
             self.u32("header seq")?;
         }
-        let sec = if self.cdr { i64::from(self.i32("stamp sec")?) } else { i64::from(self.u32("stamp sec")?) };
+        let sec = if self.cdr {
+            i64::from(self.i32("stamp sec")?)
+        } else {
+            i64::from(self.u32("stamp sec")?)
+        };
         let nsec = i64::from(self.u32("stamp nanosec")?);
         let frame = self.string("frame_id")?;
         Ok((sec * 1_000_000_000 + nsec, frame))
