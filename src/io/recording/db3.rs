@@ -24,6 +24,10 @@ enum Value {
     Blob(Vec<u8>),
 }
 
+/// Called for each leaf cell: the database, the page number, the cell's byte in the page, the
+/// page.
+type Visit<'v, 'a> = dyn FnMut(&mut Db<'a>, u64, usize, &[u8]) -> Result<(), Bad> + 'v;
+
 struct Db<'a> {
     src: &'a mut dyn ReadAt,
     page_size: u64,
@@ -76,7 +80,7 @@ impl<'a> Db<'a> {
     fn walk(
         &mut self,
         root: u64,
-        visit: &mut dyn FnMut(&mut Self, u64, usize, &[u8]) -> Result<(), Bad>,
+        visit: &mut Visit<'_, 'a>,
     ) -> Result<(), Bad> {
         let mut stack = vec![root];
         let mut seen = 0u64;
