@@ -75,13 +75,8 @@ impl<'a> Db<'a> {
         Ok(buf)
     }
 
-    /// Calls `visit(page, cell, rowid, payload start)` for every cell of the table b-tree
-    /// rooted at `root`, in rowid order; `payload start` is the cell's inline payload.
-    fn walk(
-        &mut self,
-        root: u64,
-        visit: &mut Visit<'_, 'a>,
-    ) -> Result<(), Bad> {
+    /// Calls `visit` for every leaf cell of the table b-tree rooted at `root`, in rowid order.
+    fn walk(&mut self, root: u64, visit: &mut Visit<'_, 'a>) -> Result<(), Bad> {
         let mut stack = vec![root];
         let mut seen = 0u64;
         while let Some(n) = stack.pop() {
