@@ -321,3 +321,17 @@ fn fields_overrunning_point_step_are_named() {
     );
     assert!(rec.point_cloud(t, 1).is_ok());
 }
+
+/// Inputs the fuzzers found, kept so they stay fixed (notes-recording.md).
+#[test]
+fn fuzz_findings_are_errors_not_panics() {
+    for name in ["fuzz/db3_value_size_overflow.db3"] {
+        if let Ok(mut rec) = open_bytes(bytes(name), name) {
+            for t in 0..rec.topics().len() {
+                for m in 0..rec.topics()[t].count {
+                    let _ = rec.message(t, m);
+                }
+            }
+        }
+    }
+}

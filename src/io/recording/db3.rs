@@ -182,7 +182,10 @@ fn values(payload: &[u8], len: u64) -> Result<Vec<Value>, Bad> {
             t if t >= 12 => ((t - 12) / 2) as usize,
             t => return Err(Bad::new(format!("record serial type {t} reserved"))),
         };
-        let bytes = payload.get(at..at + size);
+        // A corrupt header can claim any size: sums are checked.
+        let end =
+            at.checked_add(size).ok_or_else(|| Bad::new("record value beyond its payload"))?;
+        let bytes = payload.get(at..end);
         out.push(match (t, bytes) {
             (0, _) => Value::Null,
             (8, _) => Value::Int(0),
@@ -193,10 +196,10 @@ fn values(payload: &[u8], len: u64) -> Result<Vec<Value>, Bad> {
                 Value::Int((v << shift) >> shift)
             }
             (_, Some(b)) => Value::Blob(b.to_vec()),
-            (_, None) if (at + size) as u64 <= len => Value::Blob(Vec::new()),
+            (_, None) if end as u64 <= len => Value::Blob(Vec::new()),
             _ => return Err(Bad::new("record value beyond its payload")),
         });
-        at += size;
+        at = end;
     }
     Ok(out)
 }
