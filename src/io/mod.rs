@@ -17,6 +17,7 @@ pub mod lzf;
 pub mod opencalib;
 mod pcd;
 mod ply;
+pub mod recording;
 mod text;
 mod write;
 

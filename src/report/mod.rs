@@ -3,6 +3,7 @@
 //! calibration's typed notes. Compute code returns typed data; prose is made here.
 
 mod json;
+pub mod ros;
 mod sentences;
 mod text;
 

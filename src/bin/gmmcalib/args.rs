@@ -10,6 +10,10 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
                           [--roi XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX] [--global on|off]
                           [--iterations N] [--components K] [--threads T]
                           [--json OUT.json]
+       gmmcalib calibrate --bag FILE [--topics /a,/b] [--reference /a] [--base-frame base_link]
+                          [--frames N] [--urdf FILE] [--export ros1|ros2|tf-yaml|urdf|autoware|kitti]
+                          (and the options above)
+       gmmcalib inspect FILE
        gmmcalib simulate --out DIR [--preset paper|paper-roof|os1-128|sampled] [--frames F]
                           [--seed S] [--max-angle-deg 3] [--max-translation 0.1]
        gmmcalib experiment --out DIR [--preset paper|...] [--trials N] [--frames F]
@@ -34,6 +38,14 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
   the region where the clouds overlap is used. Flags override CONFIG.yaml. --threads: threads
   sharing JRMPC's E-step and the frame pairs (default: the available cores; the result does
   not depend on it).
+  --bag: a recording (MCAP, ROS 1 .bag, rosbag2 .db3) instead of --data: sensors are its
+  PointCloud2 topics (default: all), frames are N instants (default 10) spread over it where
+  every topic has a scan within 20 ms of the reference's (the first topic unless --reference).
+  Nominals T_base_frame come from --urdf (joint origins) or /tf_static, resolved for each
+  topic's frame_id to --base-frame (default base_link, else the tree's root). --export prints
+  the corrected extrinsics (parent the base frame, child each frame id) in that form; urdf
+  edits the --urdf file's joint origins in place when one was given.
+  inspect: a recording's topics (count, rate, frame id, type) and its /tf_static tree.
   simulate: writes the digital twin in that layout (DIR/config.yaml with miscalibrated nominal
   extrinsics, DIR/data/sensor_N/F.pcd) plus DIR/truth.json; the first sensor is the reference
   and keeps its true mount.
@@ -47,6 +59,7 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
 #[derive(Debug)]
 pub enum Command {
     Help,
+    Inspect(PathBuf),
     Calibrate(CalibrateArgs),
     Simulate(SimulateArgs),
     Experiment(ExperimentArgs),
@@ -68,6 +81,13 @@ pub struct CalibrateArgs {
     /// Threads sharing JRMPC's E-step; default: the available cores.
     pub threads: Option<usize>,
     pub json: Option<PathBuf>,
+    /// A recording instead of `data`, and what to take from it.
+    pub bag: Option<PathBuf>,
+    pub topics: Option<String>,
+    pub base_frame: Option<String>,
+    pub frames: Option<usize>,
+    pub urdf: Option<PathBuf>,
+    pub export: Option<String>,
 }
 
 /// The twin and its miscalibration, shared by `simulate` and `experiment`.
@@ -176,10 +196,17 @@ pub fn parse(args: impl IntoIterator<Item = String>) -> Result<Command, String> 
     let mut args = args.into_iter();
     let command = match args.next().as_deref() {
         None | Some("-h" | "--help" | "help") => return Ok(Command::Help),
+        Some("inspect") => {
+            return match (args.next(), args.next()) {
+                (Some(file), None) if !file.starts_with('-') => Ok(Command::Inspect(file.into())),
+                (Some(h), _) if h == "-h" || h == "--help" => Ok(Command::Help),
+                _ => Err("usage: gmmcalib inspect FILE".into()),
+            };
+        }
         Some(c @ ("calibrate" | "simulate" | "experiment" | "study")) => c.to_string(),
         Some(other) => {
             return Err(format!(
-                "unknown command '{other}' (expected calibrate, simulate, experiment or study)"
+                "unknown command '{other}' (expected calibrate, inspect, simulate, experiment or study)"
             ));
         }
     };
@@ -232,16 +259,28 @@ fn calibrate(flags: Vec<(String, String)>) -> Result<Command, String> {
             "--target" => out.target = Some(value),
             "--roi" => out.roi = Some(six(&flag, &value)?),
             "--global" => out.global = Some(on_off(&flag, &value)?),
-            "--target" => out.target = Some(value),
             "--iterations" => out.iterations = Some(positive(&flag, &value)?),
             "--components" => out.components = Some(positive(&flag, &value)?),
             "--threads" => out.threads = Some(positive(&flag, &value)?),
             "--json" => out.json = Some(PathBuf::from(value)),
+            "--bag" => out.bag = Some(PathBuf::from(value)),
+            "--topics" => out.topics = Some(value),
+            "--base-frame" => out.base_frame = Some(value),
+            "--frames" => out.frames = Some(positive(&flag, &value)?),
+            "--urdf" => out.urdf = Some(PathBuf::from(value)),
+            "--export" => out.export = Some(value),
             _ => return Err(unknown(&flag)),
         }
     }
     out.config = config;
-    out.data = data.ok_or("calibrate needs --data DIR")?;
+    match (data, &out.bag) {
+        (Some(_), Some(_)) => {
+            return Err("calibrate takes --data DIR or --bag FILE, not both".into());
+        }
+        (Some(d), None) => out.data = d,
+        (None, Some(_)) => {}
+        (None, None) => return Err("calibrate needs --data DIR or --bag FILE".into()),
+    }
     Ok(Command::Calibrate(out))
 }
 
@@ -315,6 +354,7 @@ fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
             "--planes" => out.planes = on_off(&flag, &value)?,
             "--level" => out.level = Some(on_off(&flag, &value)?),
             "--global" => out.global = Some(on_off(&flag, &value)?),
+            "--target" => out.target = Some(value),
             "--noise" => out.noise = Some(number(&value)?),
             "--columns" => out.columns = Some(positive(&flag, &value)?),
             "--threads" => out.threads = Some(positive(&flag, &value)?),

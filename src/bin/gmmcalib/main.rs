@@ -16,6 +16,8 @@ mod layout;
 #[cfg(not(target_arch = "wasm32"))]
 mod parallel;
 #[cfg(not(target_arch = "wasm32"))]
+mod recording;
+#[cfg(not(target_arch = "wasm32"))]
 mod simulate;
 #[cfg(not(target_arch = "wasm32"))]
 mod study;
@@ -58,6 +60,7 @@ mod cli {
                 println!("{}", args::USAGE);
                 Ok(ExitCode::SUCCESS)
             }
+            Command::Inspect(file) => done(crate::recording::inspect(&file)),
             Command::Calibrate(a) => calibrate(&a),
             Command::Simulate(a) => done(crate::simulate::run(&a)),
             Command::Experiment(a) => done(crate::experiment::run(&a)),
@@ -114,8 +117,26 @@ mod cli {
 
         // 2. Scans, and the rig they make with the config: nominals from the config, else the
         // layout's guess, else identity for every sensor.
-        let dataset::Dataset { scans, guess } = dataset::read_dir(&a.data)?;
+        // A recording gives scans, nominals and a reference of its own.
+        let bag = match &a.bag {
+            Some(path) => Some(crate::recording::rig(
+                path,
+                &crate::recording::BagRequest {
+                    topics: a.topics.as_deref(),
+                    reference: a.reference.as_deref(),
+                    base_frame: a.base_frame.as_deref().unwrap_or("base_link"),
+                    frames: a.frames.unwrap_or(10),
+                    urdf: a.urdf.as_deref(),
+                },
+            )?),
+            None => None,
+        };
+        let dataset::Dataset { scans, guess } = match &bag {
+            Some(b) => dataset::Dataset { scans: b.scans.clone(), guess: Some(b.nominal.clone()) },
+            None => dataset::read_dir(&a.data)?,
+        };
         let nominal = match (&config, guess) {
+            (_, Some(guess)) if bag.is_some() => guess,
             (Some(c), _) if !c.nominal.is_empty() => {
                 for scan in &scans {
                     if !c.nominal.iter().any(|n| n.sensor == scan.sensor) {
@@ -135,6 +156,7 @@ mod cli {
         let reference = a
             .reference
             .clone()
+            .or(bag.as_ref().map(|b| b.reference.clone()))
             .or(config.as_ref().and_then(|c| c.reference.clone()))
             .or_else(|| scans.first().map(|s| s.sensor.clone()));
         let roi = a
@@ -159,6 +181,9 @@ mod cli {
             let result = outcome.as_ref().map_err(|e| e.to_string())?;
             print!("{}", report::summary(result));
             write_json(a.json.as_deref(), &Report::from(result))?;
+            if let (Some(format), Some(bag)) = (&a.export, &bag) {
+                print!("\n{}", crate::recording::export(format, result, bag)?);
+            }
             return Ok(status([result.verdict.level]));
         }
         let failures: Vec<String> = outcomes

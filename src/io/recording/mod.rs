@@ -1,0 +1,219 @@
+//! ROS recordings: MCAP, ROS 1 bags (v2.0) and rosbag2's SQLite `.db3`, read through
+//! [`ReadAt`] so only the summary, the index and the chunks holding the chosen messages are
+//! ever read; `sensor_msgs/PointCloud2` into [`Cloud`](crate::Cloud)s and
+//! `tf2_msgs/TFMessage` into a transform [`Tree`]; the instants to calibrate from
+//! ([`select`]); nominal extrinsics from `/tf_static` or a URDF ([`urdf`]).
+//!
+//! Every failure is a [`RecordingError`] naming the file, the topic, the message's index in
+//! its topic and what is wrong. Damage that leaves the rest readable (a truncated tail, a
+//! corrupt chunk) is kept in [`Recording::problems`] and the rest stays usable.
+
+mod bag;
+mod bytes;
+mod choose;
+mod compression;
+mod db3;
+mod error;
+mod index;
+mod mcap;
+mod pointcloud2;
+pub mod select;
+mod source;
+mod tf;
+pub mod urdf;
+mod wire;
+
+pub use choose::{Chosen, ChosenScan, nominals};
+pub use compression::Compression;
+pub use error::RecordingError;
+pub use index::{Container, Encoding, Kind, Topic};
+pub use pointcloud2::{PointCloud, decode as decode_point_cloud};
+#[cfg(not(target_arch = "wasm32"))]
+pub use source::FileSource;
+pub use source::ReadAt;
+pub use tf::{Transform, Tree, TreeError, decode as decode_tf};
+
+use error::Bad;
+use index::{ChunkRef, Entry, Loc};
+
+/// An open recording: its topics and where each message lies. Reading a message reads (and
+/// decompresses) only its chunk; the last chunk is kept, so messages read in file order
+/// decompress each chunk once.
+pub struct Recording {
+    file: String,
+    container: Container,
+    source: Box<dyn ReadAt>,
+    topics: Vec<Topic>,
+    /// Per topic, its messages in time order (stable: file order among equal times).
+    entries: Vec<Vec<Entry>>,
+    chunks: Vec<ChunkRef>,
+    cache: Option<(usize, Vec<u8>)>,
+    problems: Vec<RecordingError>,
+}
+
+impl Recording {
+    /// Opens a recording, telling the container by its first bytes. `file` labels errors.
+    /// `progress(done, total)` is called (bytes) while a file without an index is scanned.
+    pub fn open(
+        mut source: Box<dyn ReadAt>,
+        file: &str,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<Self, RecordingError> {
+        let mut head = vec![0; source.size().min(16) as usize];
+        source.read_at(0, &mut head).map_err(|e| Bad::at(0, e.to_string()).in_file(file))?;
+        let (container, index) = if head.starts_with(mcap::MAGIC) {
+            (Container::Mcap, mcap::open(source.as_mut(), file, progress)?)
+        } else if head.starts_with(bag::MAGIC) {
+            (Container::Bag, bag::open(source.as_mut(), file, progress)?)
+        } else if head.starts_with(db3::MAGIC) {
+            (Container::Db3, db3::open(source.as_mut(), file, progress)?)
+        } else {
+            let problem = "not a recording: expected MCAP, a ROS 1 bag v2.0 or a rosbag2 .db3";
+            return Err(Bad::at(0, problem).in_file(file));
+        };
+        let mut topics = index.topics;
+        let mut entries = vec![Vec::new(); topics.len()];
+        for e in index.entries {
+            if let Some(list) = entries.get_mut(e.topic) {
+                list.push(e);
+            }
+        }
+        for (topic, list) in topics.iter_mut().zip(&mut entries) {
+            list.sort_by_key(|e| e.time_ns);
+            topic.count = list.len();
+            topic.first_ns = list.first().map_or(0, |e| e.time_ns);
+            topic.last_ns = list.last().map_or(0, |e| e.time_ns);
+        }
+        Ok(Self {
+            file: file.to_string(),
+            container,
+            source,
+            topics,
+            entries,
+            chunks: index.chunks,
+            cache: None,
+            problems: index.problems,
+        })
+    }
+
+    /// Opens a file on disk.
+    #[cfg(not(target_arch = "wasm32"))]
+    pub fn open_path(
+        path: &std::path::Path,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<Self, RecordingError> {
+        let label = path.display().to_string();
+        let source = FileSource::open(path).map_err(|e| Bad::new(e.to_string()).in_file(&label))?;
+        Self::open(Box::new(source), &label, progress)
+    }
+
+    pub fn file(&self) -> &str {
+        &self.file
+    }
+
+    pub fn container(&self) -> Container {
+        self.container
+    }
+
+    pub fn topics(&self) -> &[Topic] {
+        &self.topics
+    }
+
+    /// The index of the topic named `name`.
+    pub fn topic(&self, name: &str) -> Option<usize> {
+        self.topics.iter().position(|t| t.name == name)
+    }
+
+    /// Damage found while opening that left the rest readable.
+    pub fn problems(&self) -> &[RecordingError] {
+        &self.problems
+    }
+
+    /// Recording times (ns) of `topic`'s messages, in order.
+    pub fn times(&self, topic: usize) -> Vec<u64> {
+        self.entries.get(topic).map_or(Vec::new(), |l| l.iter().map(|e| e.time_ns).collect())
+    }
+
+    fn error(&self, topic: usize, message: usize, bad: Bad) -> RecordingError {
+        RecordingError {
+            topic: self.topics.get(topic).map(|t| t.name.clone()),
+            message: Some(message),
+            ..bad.in_file(&self.file)
+        }
+    }
+
+    /// The serialised bytes of message `message` of `topic`.
+    pub fn message(&mut self, topic: usize, message: usize) -> Result<Vec<u8>, RecordingError> {
+        let entry = self.entries.get(topic).and_then(|l| l.get(message)).copied();
+        let entry = entry.ok_or_else(|| self.error(topic, message, Bad::new("no such message")))?;
+        self.read_entry(&entry).map_err(|bad| self.error(topic, message, bad))
+    }
+
+    fn read_entry(&mut self, entry: &Entry) -> Result<Vec<u8>, Bad> {
+        match entry.loc {
+            Loc::File(at) => mcap::loose_message(self.source.as_mut(), at),
+            Loc::Cell { page, cell } => {
+                db3::message(self.source.as_mut(), &self.chunks, page, cell)
+            }
+            Loc::Chunk { chunk, offset } => {
+                if self.cache.as_ref().is_none_or(|(n, _)| *n != chunk) {
+                    let c = self.chunks.get(chunk).ok_or_else(|| Bad::new("no such chunk"))?;
+                    let data = match self.container {
+                        Container::Bag => bag::load_chunk(self.source.as_mut(), c)?,
+                        _ => mcap::load_chunk(self.source.as_mut(), c)?,
+                    };
+                    self.cache = Some((chunk, data));
+                }
+                let records = self.cache.as_ref().map_or(&[][..], |(_, d)| d.as_slice());
+                match self.container {
+                    Container::Bag => bag::message_at(records, offset).map(<[u8]>::to_vec),
+                    _ => mcap::message_at(records, offset, 0).map(<[u8]>::to_vec),
+                }
+            }
+        }
+    }
+
+    fn encoding(&self, topic: usize, message: usize) -> Result<Encoding, RecordingError> {
+        let t = self.topics.get(topic);
+        t.and_then(|t| t.encoding).ok_or_else(|| {
+            self.error(topic, message, Bad::new("messages neither CDR nor ROS 1 encoded"))
+        })
+    }
+
+    /// Message `message` of `topic` decoded as a PointCloud2.
+    pub fn point_cloud(
+        &mut self,
+        topic: usize,
+        message: usize,
+    ) -> Result<PointCloud, RecordingError> {
+        let encoding = self.encoding(topic, message)?;
+        let data = self.message(topic, message)?;
+        pointcloud2::decode(&data, encoding).map_err(|e| self.error(topic, message, Bad::new(e)))
+    }
+
+    /// Every transform on `/tf_static` (and on `/tf` too with `dynamic`), in time order per
+    /// topic; a message that cannot be read is reported and skipped.
+    pub fn transforms(&mut self, dynamic: bool) -> (Vec<Transform>, Vec<RecordingError>) {
+        let (mut out, mut problems) = (Vec::new(), Vec::new());
+        let wanted: Vec<usize> = (0..self.topics.len())
+            .filter(|&i| {
+                let t = &self.topics[i];
+                t.kind == Kind::TfMessage
+                    && (t.name == "/tf_static" || (dynamic && t.name == "/tf"))
+            })
+            .collect();
+        for topic in wanted {
+            for m in 0..self.entries[topic].len() {
+                let decoded = self.encoding(topic, m).and_then(|enc| {
+                    let data = self.message(topic, m)?;
+                    tf::decode(&data, enc).map_err(|e| self.error(topic, m, Bad::new(e)))
+                });
+                match decoded {
+                    Ok(t) => out.extend(t),
+                    Err(e) => problems.push(e),
+                }
+            }
+        }
+        (out, problems)
+    }
+}
