@@ -7,6 +7,7 @@
 mod calibrate;
 mod config;
 mod files;
+mod recording;
 mod session;
 mod simulate;
 
@@ -21,6 +22,7 @@ use crate::se3::{Pose, xyz_rpy};
 pub use calibrate::{calibrate, methods};
 pub use config::{parse_config, parse_open_calib};
 pub use files::parse_cloud;
+pub use recording::RecordingFile;
 pub use session::{CalibrationSession, JrmpcShard, align_pairs};
 pub use simulate::simulate_rig;
 

@@ -21,24 +21,25 @@ export function gmmcalibYaml(result, roi) {
   return `${lines.join('\n')}\n`;
 }
 
-export function urdf(result, parent) {
+// `child(name)`: the frame a sensor's points are in (a recording's frame id; else its name).
+export function urdf(result, parent, child = (name) => name) {
   return result.sensors
     .map((s) => [
-      `<joint name="${parent}_to_${s.name}" type="fixed">`,
+      `<joint name="${parent}_to_${child(s.name)}" type="fixed">`,
       `  <parent link="${parent}"/>`,
-      `  <child link="${s.name}"/>`,
+      `  <child link="${child(s.name)}"/>`,
       `  <origin xyz="${list(xyzOf(s.extrinsic))}" rpy="${list(rpyOf(s.extrinsic))}"/>`,
       '</joint>',
     ].join('\n'))
     .join('\n');
 }
 
-export function ros2(result, parent) {
+export function ros2(result, parent, child = (name) => name) {
   return result.sensors
     .map((s) => {
       const [[x, y, z], [roll, pitch, yaw]] = [xyzOf(s.extrinsic), rpyOf(s.extrinsic)];
       return `ros2 run tf2_ros static_transform_publisher --x ${num(x)} --y ${num(y)} --z ${num(z)} ` +
-        `--roll ${num(roll)} --pitch ${num(pitch)} --yaw ${num(yaw)} --frame-id ${parent} --child-frame-id ${s.name}`;
+        `--roll ${num(roll)} --pitch ${num(pitch)} --yaw ${num(yaw)} --frame-id ${parent} --child-frame-id ${child(s.name)}`;
     })
     .join('\n');
 }
@@ -54,14 +55,16 @@ export function targetPly({ means, sigmas, priors }) {
   return `${[...header, ...body].join('\n')}\n`;
 }
 
-// {key, title, direction, file, text} for each export of `result`.
-export function exportsOf(result, { roi, parent = 'vehicle' }) {
+// {key, title, direction, file, text} for each export of `result`. `frameIds`: sensor -> the
+// frame its points are in, for a recording's sensors (named by topic).
+export function exportsOf(result, { roi, parent = 'vehicle', frameIds = {} }) {
+  const child = (name) => frameIds[name] ?? name;
   const direction = `parent ${parent}, child each sensor: maps sensor points into ${parent} (T_${parent}_sensor)`;
   const out = [
     { key: 'json', title: 'JSON (everything)', direction: 'as the CLI\'s --json; matrices row-major T_vehicle_sensor / C_ref_s / T_ref_s', file: 'gmmcalib-result.json', text: resultJson(result) },
     { key: 'yaml', title: 'GMMCalib YAML', direction: `transform_<sensor>: sensor -> ${parent}`, file: 'config-calibrated.yaml', text: gmmcalibYaml(result, roi) },
-    { key: 'urdf', title: 'URDF origins', direction, file: 'extrinsics.urdf.xml', text: urdf(result, parent) },
-    { key: 'ros2', title: 'ROS 2 static_transform_publisher', direction: `--frame-id ${parent} (parent), --child-frame-id the sensor`, file: 'static_transforms.sh', text: ros2(result, parent) },
+    { key: 'urdf', title: 'URDF origins', direction, file: 'extrinsics.urdf.xml', text: urdf(result, parent, child) },
+    { key: 'ros2', title: 'ROS 2 static_transform_publisher', direction: `--frame-id ${parent} (parent), --child-frame-id the sensor`, file: 'static_transforms.sh', text: ros2(result, parent, child) },
   ];
   if (result.reconstruction.priors.length) {
     out.push({ key: 'ply', title: 'Reconstructed target (PLY)', direction: 'points in the vehicle frame (where the reference sees the target)', file: 'target.ply', text: targetPly(result.reconstruction) });

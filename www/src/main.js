@@ -15,6 +15,7 @@ import { writeHash } from './url.js';
 import { describeDone } from './progress.js';
 import { clearState, createState, nominalPoses, pointBounds, rebuildRig, shownPoses, sortScans } from './state.js';
 import { runCalibration } from './run.js';
+import { describeInstants, isRecording, renderRecording } from './recording.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
@@ -86,6 +87,9 @@ function rigChanged(what) {
 
 async function loadFiles(entries) {
   showError(null);
+  const recording = entries.find((e) => isRecording(e.path));
+  if (recording) await openRecording(recording);
+  entries = entries.filter((e) => !isRecording(e.path));
   if (!entries.length) return;
   if (state.truth) clearAll(); // user files replace a demo
   const read = {
@@ -112,11 +116,57 @@ async function loadFiles(entries) {
   if (state.bad.length) showError(state.bad.map((b) => `${b.path}: ${b.error}`).join('\n'));
 }
 
+// A recording is opened in the worker (read where it lies) and its topics offered; its scans
+// load when the user asks (loadRecording).
+async function openRecording({ path, file }) {
+  setStatus(`Opening ${path}…`);
+  try {
+    if (state.recording) client.request('closeRecording', { handle: state.recording.handle }).catch(() => {});
+    const onProgress = ({ done, total }) => setStatus(`Scanning ${path} (${Math.round((100 * done) / Math.max(total, 1))} %)…`);
+    const opened = await client.request('openRecording', { file }, { onProgress });
+    state.recording = { handle: opened.handle, path };
+    renderRecording($('recording'), path, opened, (options) => loadRecording(path, opened.handle, options));
+    const clouds = opened.topics.filter((t) => t.kind === 'pointCloud' && t.count > 0).length;
+    setStatus(clouds ? `${path}: pick the topics, then Load scans.` : `${path}: no point-cloud messages.`);
+    // Damage that leaves the rest readable (a truncated tail, a corrupt chunk) is named.
+    if (opened.problems.length) showError(opened.problems.join('\n'));
+  } catch (error) {
+    setStatus('Failed.');
+    showError(error);
+  }
+}
+
+async function loadRecording(path, handle, options) {
+  showError(null);
+  setStatus(`Reading ${options.topics.length} topics at ${options.frames} instants from ${path}…`);
+  try {
+    const rig = await client.request('recordingRig', { handle, options });
+    if (state.truth) clearAll(); // a recording replaces a demo
+    // Loading again (other topics, other instants) replaces this recording's scans.
+    state.scans = state.scans.filter((s) => s.recording !== path);
+    const format = path.split('.').at(-1);
+    state.scans.push(...rig.scans.map((v) => ({ id: `scan:${nextScanId++}`, path: `${path} ${v.sensor} #${v.frame}`, recording: path, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: 0, format })));
+    state.exportFrames = { parent: rig.baseFrame, frameIds: rig.frameIds };
+    sortScans(state);
+    rigFrom({ nominal: rig.nominal, reference: rig.reference });
+    forgetResults();
+    renderPanels();
+    redraw();
+    viewerLookAt();
+    setStatus(`${rig.scans.length} scans of ${options.topics.length} sensors loaded from ${path} (${describeInstants(rig)}).`);
+    if (rig.problems.length) showError(rig.problems.join('\n'));
+  } catch (error) {
+    setStatus('Failed.');
+    showError(error);
+  }
+}
+
 function clearAll() {
   clearState(state);
   display.clear();
   forgetResults();
   $('rig').innerHTML = '<p class="hint">Load scans first.</p>';
+  $('recording').replaceChildren();
   renderPanels();
 }
 
@@ -200,7 +250,7 @@ async function showResults(results, failures, json) {
   await nextTask();
   if (state.results !== results) return;
   drawConvergence($('convergence'), results[0].history);
-  renderExports($('exports'), exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi }));
+  renderExports($('exports'), exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, ...state.exportFrames }));
   await nextTask();
   if (state.results !== results) return;
   $('result-json').textContent = resultJson(json);

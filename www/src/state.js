@@ -20,12 +20,14 @@ export function createState() {
     colour: 'sensor',
     allFrames: false,
     running: false,
+    recording: null, // {handle, path}: the recording open in the worker
+    exportFrames: {}, // {parent, frameIds}: a recording's base frame and each topic's frame id
   };
 }
 
 // Forgets the loaded scans, the rig and the results.
 export function clearState(state) {
-  Object.assign(state, { scans: [], bad: [], truth: null, results: null, rig: { sensors: [], nominal: {}, roi: null, reference: '' } });
+  Object.assign(state, { scans: [], bad: [], truth: null, results: null, exportFrames: {}, rig: { sensors: [], nominal: {}, roi: null, reference: '' } });
 }
 
 // Sensors from the scans (natural order); nominal, ROI, reference and settings taken from

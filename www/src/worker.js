@@ -5,7 +5,12 @@ import init, * as wasm from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
 import { calibrateSharded } from './shard-pool.js';
 
-const { calibrate, methods, parseCloud, parseConfig, parseOpenCalib, simulateRig } = wasm;
+const { calibrate, methods, parseCloud, parseConfig, parseOpenCalib, simulateRig, RecordingFile } = wasm;
+
+// Open recordings by id. A recording is read where it lies: FileReaderSync on slices of the
+// File, so a multi-gigabyte file is never in memory; only its index and the chosen chunks are.
+const recordings = new Map();
+let nextRecording = 1;
 
 const ready = init({ module_or_path: wasmUrl });
 
@@ -20,6 +25,24 @@ const handlers = {
   config: ({ text, name }) => parseConfig(text, name),
   opencalib: ({ paths, pathsName, guess, guessName }) => parseOpenCalib(paths, pathsName, guess ?? null, guessName ?? null),
   methods: () => methods(),
+  openRecording: ({ file }, id) => {
+    const reader = new FileReaderSync();
+    const readAt = (offset, length) => new Uint8Array(reader.readAsArrayBuffer(file.slice(offset, offset + length)));
+    const onProgress = (done, total) => self.postMessage({ type: 'progress', id, progress: { done, total } });
+    const recording = new RecordingFile(file.size, readAt, file.name, onProgress);
+    const handle = nextRecording++;
+    recordings.set(handle, recording);
+    return { handle, topics: recording.topics(), problems: recording.problems() };
+  },
+  recordingRig: ({ handle, options }) => {
+    const recording = recordings.get(handle);
+    if (!recording) throw new Error('the recording is no longer open; drop it again');
+    return recording.rig(options);
+  },
+  closeRecording: ({ handle }) => {
+    recordings.get(handle)?.free();
+    recordings.delete(handle);
+  },
   simulate: ({ options }) => simulateRig(options),
   // `workers` > 1 shares JRMPC's E-step and the frame pairs' ICP with that many workers in
   // all (this one included), where a worker can start workers of its own.

@@ -132,7 +132,9 @@ mod cli {
             None => None,
         };
         let dataset::Dataset { scans, guess } = match &bag {
-            Some(b) => dataset::Dataset { scans: b.scans.clone(), guess: Some(b.nominal.clone()) },
+            Some(b) => {
+                dataset::Dataset { scans: b.rig.scans.clone(), guess: Some(b.rig.nominal.clone()) }
+            }
             None => dataset::read_dir(&a.data)?,
         };
         let nominal = match (&config, guess) {
@@ -156,7 +158,7 @@ mod cli {
         let reference = a
             .reference
             .clone()
-            .or(bag.as_ref().map(|b| b.reference.clone()))
+            .or(bag.as_ref().map(|b| b.rig.reference.clone()))
             .or(config.as_ref().and_then(|c| c.reference.clone()))
             .or_else(|| scans.first().map(|s| s.sensor.clone()));
         let roi = a

@@ -4,12 +4,11 @@
 
 use std::path::Path;
 
-use gmmcalib::calib::{Calibration, Scan};
+use gmmcalib::calib::Calibration;
 use gmmcalib::io::recording::select::Settings as Select;
 use gmmcalib::io::recording::urdf::Urdf;
-use gmmcalib::io::recording::{Kind, Recording, Tree, nominals};
+use gmmcalib::io::recording::{Kind, Recording, RecordingRig, RigRequest, Tree};
 use gmmcalib::report::ros::{self, Extrinsic};
-use gmmcalib::se3::Pose;
 
 /// Opens `path`, with a progress line on stderr while a file without index is scanned.
 fn open(path: &Path) -> Result<Recording, String> {
@@ -91,58 +90,33 @@ pub struct BagRequest<'a> {
     pub urdf: Option<&'a Path>,
 }
 
-/// The rig's parts from a recording.
+/// The rig a recording makes, and the URDF its nominals came from (for the `urdf` export).
 pub struct BagRig {
-    pub scans: Vec<Scan>,
-    pub nominal: Vec<(String, Pose)>,
-    pub reference: String,
-    pub base: String,
-    /// Per sensor (topic), its frame id.
-    pub frames: Vec<(String, String)>,
+    pub rig: RecordingRig,
     pub urdf: Option<Urdf>,
 }
 
+/// The library's rig from the recording at `path`, with what it chose said on stderr.
 pub fn rig(path: &Path, req: &BagRequest) -> Result<BagRig, String> {
     let mut rec = open(path)?;
     let label = rec.file().to_string();
-    let names: Vec<String> = match req.topics {
-        Some(list) => list.split(',').map(|s| s.trim().to_string()).collect(),
-        None => rec
-            .topics()
-            .iter()
-            .filter(|t| t.kind == Kind::PointCloud2 && t.count > 0)
-            .map(|t| t.name.clone())
-            .collect(),
+    let urdf = match req.urdf {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            Some(Urdf::parse(&text).map_err(|e| format!("{}: {e}", p.display()))?)
+        }
+        None => None,
     };
-    let topics = names
-        .iter()
-        .map(|n| rec.topic(n).ok_or_else(|| format!("{label}: no topic {n}")))
-        .collect::<Result<Vec<_>, _>>()?;
-    if topics.len() < 2 {
-        return Err(format!(
-            "{label}: {} point-cloud topics; calibration needs two or more (--topics)",
-            topics.len()
-        ));
-    }
-    let reference = req.reference.map_or(names[0].clone(), str::to_string);
-    let r = *topics
-        .get(
-            names
-                .iter()
-                .position(|n| *n == reference)
-                .ok_or_else(|| format!("--reference {reference} is not among the topics"))?,
-        )
-        .unwrap_or(&topics[0]);
-    let chosen = rec
-        .choose(&topics, r, &Select { frames: req.frames, ..Select::default() })
-        .map_err(|e| e.to_string())?;
-    if chosen.picks.is_empty() {
-        return Err(format!(
-            "{label}: no instant where every topic has a scan within 20 ms of {reference}'s"
-        ));
-    }
-    eprintln!("gmmcalib: {} instants from {label}:", chosen.picks.len());
-    for (k, p) in chosen.picks.iter().enumerate() {
+    let request = RigRequest {
+        topics: req.topics.map(|list| list.split(',').map(|s| s.trim().to_string()).collect()),
+        reference: req.reference.map(str::to_string),
+        base_frame: req.base_frame.to_string(),
+        select: Select { frames: req.frames, ..Select::default() },
+        urdf: urdf.as_ref(),
+    };
+    let rig = rec.rig(&request).map_err(|e| format!("{label}: {e}"))?;
+    eprintln!("gmmcalib: {} instants from {label}:", rig.picks.len());
+    for (k, p) in rig.picks.iter().enumerate() {
         let offsets: Vec<String> =
             p.others.iter().map(|(_, d)| format!("{:+.1} ms", *d as f64 * 1e-6)).collect();
         eprintln!(
@@ -152,66 +126,37 @@ pub fn rig(path: &Path, req: &BagRequest) -> Result<BagRig, String> {
             offsets.join(", ")
         );
     }
-    if chosen.motion.moving {
-        let min = chosen.motion.overlap.iter().copied().fold(1.0, f64::min);
+    if rig.motion.moving {
+        let min = rig.motion.overlap.iter().copied().fold(1.0, f64::min);
         eprintln!(
-            "gmmcalib: warning: the rig moved between instants ({:.0}% overlap of {reference}'s scans); each instant's scans must see the same scene",
-            min * 100.0
+            "gmmcalib: warning: the rig moved between instants ({:.0}% overlap of {}'s scans); each instant's scans must see the same scene",
+            min * 100.0,
+            rig.reference
         );
     }
-    let mut frames: Vec<(String, String)> = Vec::new();
-    for s in &chosen.scans {
-        if !frames.iter().any(|(t, _)| *t == s.topic) {
-            frames.push((s.topic.clone(), s.cloud.frame_id.clone()));
-        }
-    }
-    let (tree, urdf) = match req.urdf {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
-            let urdf = Urdf::parse(&text).map_err(|e| format!("{}: {e}", p.display()))?;
-            (urdf.tree(), Some(urdf))
-        }
-        None => {
-            let (t, problems) = rec.transforms(false);
-            problems.iter().for_each(|p| eprintln!("gmmcalib: warning: {p}"));
-            (Tree::new(t), None)
-        }
-    };
-    let (nominal, base) = if tree.edges.is_empty() {
+    rig.problems.iter().for_each(|p| eprintln!("gmmcalib: warning: {p}"));
+    if rig.identity_nominals {
         eprintln!(
             "gmmcalib: no /tf_static and no --urdf: identity nominals (the global alignment finds the rest)"
         );
-        (
-            frames.iter().map(|(t, _)| (t.clone(), Pose::identity())).collect(),
-            req.base_frame.to_string(),
-        )
-    } else {
-        let base = tree.base(req.base_frame).map_err(|e| format!("{label}: {e}"))?;
-        (nominals(&tree, &base, &frames).map_err(|e| format!("{label}: {e}"))?, base)
-    };
-    let scans = chosen
-        .scans
-        .into_iter()
-        .map(|s| Scan {
-            source: Some(format!("{label} {} message {}", s.topic, s.message)),
-            sensor: s.topic,
-            frame: s.frame,
-            points: s.cloud.cloud.points,
-        })
-        .collect();
-    Ok(BagRig { scans, nominal, reference, base, frames, urdf })
+    }
+    Ok(BagRig { rig, urdf })
 }
 
 /// The calibration's extrinsics in the export format `format`.
 pub fn export(format: &str, result: &Calibration, bag: &BagRig) -> Result<String, String> {
     let frame_of = |sensor: &str| {
-        bag.frames.iter().find(|(t, _)| t == sensor).map_or(sensor.to_string(), |(_, f)| f.clone())
+        bag.rig
+            .frames
+            .iter()
+            .find(|(t, _)| t == sensor)
+            .map_or(sensor.to_string(), |(_, f)| f.clone())
     };
     let extrinsics: Vec<Extrinsic> = result
         .sensors
         .iter()
         .map(|s| Extrinsic {
-            parent: bag.base.clone(),
+            parent: bag.rig.base.clone(),
             child: frame_of(&s.name),
             pose: s.extrinsic,
         })
@@ -224,9 +169,9 @@ pub fn export(format: &str, result: &Calibration, bag: &BagRig) -> Result<String
         "kitti" => ros::kitti_tr(&extrinsics),
         "urdf" => match &bag.urdf {
             Some(urdf) => {
-                let poses: Vec<(String, Pose)> =
+                let poses: Vec<(String, gmmcalib::Pose)> =
                     extrinsics.iter().map(|e| (e.child.clone(), e.pose)).collect();
-                urdf.with_origins(&bag.base, &poses)?
+                urdf.with_origins(&bag.rig.base, &poses)?
             }
             None => ros::urdf_joints(&extrinsics),
         },

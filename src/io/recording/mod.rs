@@ -17,6 +17,7 @@ mod error;
 mod index;
 mod mcap;
 mod pointcloud2;
+mod rig;
 pub mod select;
 mod source;
 mod tf;
@@ -28,6 +29,7 @@ pub use compression::Compression;
 pub use error::RecordingError;
 pub use index::{Container, Encoding, Kind, Topic};
 pub use pointcloud2::{PointCloud, decode as decode_point_cloud};
+pub use rig::{RecordingRig, RigError, RigRequest};
 #[cfg(not(target_arch = "wasm32"))]
 pub use source::FileSource;
 pub use source::ReadAt;
