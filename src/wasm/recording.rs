@@ -83,6 +83,8 @@ struct RigOutput {
     moving: bool,
     identity_nominals: bool,
     problems: Vec<String>,
+    /// Topics left out (not named, and not in the tree): "topic: why".
+    left_out: Vec<String>,
 }
 
 #[wasm_bindgen]
@@ -182,6 +184,7 @@ impl RecordingFile {
             moving: rig.motion.moving,
             identity_nominals: rig.identity_nominals,
             problems: rig.problems.iter().map(ToString::to_string).collect(),
+            left_out: rig.left_out.iter().map(|(t, why)| format!("{t}: {why}")).collect(),
         })
     }
 }

@@ -135,6 +135,9 @@ pub fn rig(path: &Path, req: &BagRequest) -> Result<BagRig, String> {
         );
     }
     rig.problems.iter().for_each(|p| eprintln!("gmmcalib: warning: {p}"));
+    for (topic, why) in &rig.left_out {
+        eprintln!("gmmcalib: left out {topic}: {why}");
+    }
     if rig.identity_nominals {
         eprintln!(
             "gmmcalib: no /tf_static and no --urdf: identity nominals (the global alignment finds the rest)"

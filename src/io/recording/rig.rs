@@ -54,6 +54,8 @@ pub struct RecordingRig {
     pub identity_nominals: bool,
     /// Transforms that could not be read (the rest were used).
     pub problems: Vec<RecordingError>,
+    /// Topics left out when none were named: their frame is not in the tree.
+    pub left_out: Vec<(String, TreeError)>,
 }
 
 /// Why a recording makes no rig.
@@ -98,14 +100,42 @@ impl std::error::Error for RigError {}
 impl Recording {
     /// The rig `req` asks for.
     pub fn rig(&mut self, req: &RigRequest) -> Result<RecordingRig, RigError> {
+        let (tree, problems) = match req.urdf {
+            Some(urdf) => (urdf.tree(), Vec::new()),
+            None => {
+                let (transforms, problems) = self.transforms(false);
+                (Tree::new(transforms), problems)
+            }
+        };
+        let identity_nominals = tree.edges.is_empty();
+        let mut left_out = Vec::new();
         let names: Vec<String> = match &req.topics {
             Some(list) => list.clone(),
-            None => self
-                .topics()
-                .iter()
-                .filter(|t| t.kind == Kind::PointCloud2 && t.count > 0)
-                .map(|t| t.name.clone())
-                .collect(),
+            None => {
+                let clouds: Vec<usize> = (0..self.topics().len())
+                    .filter(|&t| self.topics()[t].kind == Kind::PointCloud2)
+                    .filter(|&t| self.topics()[t].count > 0)
+                    .collect();
+                // Topics the user did not name are left out when the tree cannot place them
+                // (a recording's other point clouds: a depth camera, a map); named ones must
+                // resolve. A topic's frame is its first message's.
+                let base = (!identity_nominals).then(|| tree.base(&req.base_frame)).transpose();
+                let base = base.map_err(RigError::Tree)?;
+                let mut kept = Vec::new();
+                for t in clouds {
+                    let name = self.topics()[t].name.clone();
+                    let Some(base) = &base else {
+                        kept.push(name);
+                        continue;
+                    };
+                    let frame = self.point_cloud(t, 0).map_err(RigError::Recording)?.frame_id;
+                    match tree.resolve(base, &frame) {
+                        Ok(_) => kept.push(name),
+                        Err(e) => left_out.push((name, e)),
+                    }
+                }
+                kept
+            }
         };
         let topics = names
             .iter()
@@ -131,14 +161,7 @@ impl Recording {
                 frames.push((s.topic.clone(), s.cloud.frame_id.clone()));
             }
         }
-        let (tree, problems) = match req.urdf {
-            Some(urdf) => (urdf.tree(), Vec::new()),
-            None => {
-                let (transforms, problems) = self.transforms(false);
-                (Tree::new(transforms), problems)
-            }
-        };
-        let identity_nominals = tree.edges.is_empty();
+        let scans = chosen.scans;
         let (nominal, base) = if identity_nominals {
             let identity = frames.iter().map(|(t, _)| (t.clone(), Pose::identity())).collect();
             (identity, req.base_frame.clone())
@@ -147,8 +170,7 @@ impl Recording {
             (nominals(&tree, &base, &frames).map_err(RigError::Tree)?, base)
         };
         let label = self.file().to_string();
-        let scans = chosen
-            .scans
+        let scans = scans
             .into_iter()
             .map(|s| Scan {
                 source: Some(format!("{label} {} message {}", s.topic, s.message)),
@@ -167,6 +189,7 @@ impl Recording {
             motion: chosen.motion,
             identity_nominals,
             problems,
+            left_out,
         })
     }
 }
