@@ -59,10 +59,8 @@ impl Mesh {
     pub fn bounds(&self) -> Aabb {
         let mut b = Aabb::new([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
         for p in self.triangles.iter().flat_map(|t| self.corners(t)) {
-            for i in 0..3 {
-                b.min[i] = b.min[i].min(p[i]);
-                b.max[i] = b.max[i].max(p[i]);
-            }
+            b.min = std::array::from_fn(|i| b.min[i].min(p[i]));
+            b.max = std::array::from_fn(|i| b.max[i].max(p[i]));
         }
         b
     }
