@@ -66,6 +66,23 @@ impl Scalar {
         })
     }
 
+    /// The value at the start of `b`, converted to f64 (exact for every type but 64-bit
+    /// integers beyond 2^53); `None` when `b` is shorter than [`Scalar::size`].
+    pub fn read_f64(self, b: &[u8], e: Endian) -> Option<f64> {
+        Some(match self {
+            Scalar::F32 => read_as!(f32, b, e).into(),
+            Scalar::F64 => read_as!(f64, b, e),
+            Scalar::I8 => read_as!(i8, b, e).into(),
+            Scalar::U8 => read_as!(u8, b, e).into(),
+            Scalar::I16 => read_as!(i16, b, e).into(),
+            Scalar::U16 => read_as!(u16, b, e).into(),
+            Scalar::I32 => read_as!(i32, b, e).into(),
+            Scalar::U32 => read_as!(u32, b, e).into(),
+            Scalar::I64 => read_as!(i64, b, e) as f64,
+            Scalar::U64 => read_as!(u64, b, e) as f64,
+        })
+    }
+
     /// A PLY list length at the start of `b`: `None` for float types, negative values or short
     /// input.
     pub fn read_count(self, b: &[u8], e: Endian) -> Option<usize> {

@@ -7,6 +7,8 @@
 //! is an [`IoError`] naming the file, the position and the problem. No input panics: sizes from
 //! headers are checked against the bytes actually present before anything is allocated.
 //!
+//! Triangle meshes (a target's shape: OBJ, PLY, STL) are read by [`mesh::parse_mesh`].
+//!
 //! Missing returns (NaN/inf coordinates and exact zeros `0 0 0`, `-0 0 0`) are dropped while
 //! decoding and counted in [`ParsedCloud::dropped`]. Coordinates are metres as stored.
 
@@ -14,6 +16,7 @@ pub mod config;
 mod decode;
 mod kitti;
 pub mod lzf;
+pub mod mesh;
 pub mod opencalib;
 mod pcd;
 mod ply;

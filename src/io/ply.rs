@@ -6,12 +6,15 @@
 //! no padding, and list properties make records variable-length, so elements stored before
 //! `vertex` (faces, say) are walked record by record to find where the vertices begin.
 
+mod faces;
 mod header;
 
 use super::decode::{Builder, Column, Endian, decode_columns};
 use super::text::{TextLines, parse_f32, tokenize};
 use super::{Decoded, Fault, Format};
 use header::{Element, Property, parse_header};
+
+pub(crate) use faces::read_mesh;
 
 /// Reads a PLY file.
 pub(crate) fn read(bytes: &[u8]) -> Result<Decoded, Fault> {

@@ -99,7 +99,8 @@ mod tests {
     use rand_pcg::Pcg64;
 
     fn street() -> Scene {
-        Scene { ground: true, boxes: vec![OrientedBox::new([8.0, 0.0, 1.0], 0.2, [1.0, 4.0, 2.0])] }
+        let boxes = vec![OrientedBox::new([8.0, 0.0, 1.0], 0.2, [1.0, 4.0, 2.0])];
+        Scene { ground: true, boxes, ..Default::default() }
     }
 
     fn mount() -> Pose {
@@ -169,8 +170,10 @@ mod tests {
     fn range_noise_statistics() {
         // One beam straight ahead onto a wall 5 m away, scanned n times.
         let lidar = Lidar::uniform(1, 0.0, 0.0, 4, 30.0, 0.01);
-        let scene =
-            Scene { ground: false, boxes: vec![OrientedBox::new([5.5, 0.0, 0.0], 0.0, [1.0; 3])] };
+        let scene = Scene {
+            boxes: vec![OrientedBox::new([5.5, 0.0, 0.0], 0.0, [1.0; 3])],
+            ..Default::default()
+        };
         let mut rng = Pcg64::seed_from_u64(11);
         let n = 4000;
         let ranges: Vec<f64> = (0..n)

@@ -2,7 +2,8 @@
 //! one preset table, one seed rule, so the same seed gives the same rig in the page, the CLI
 //! and the tests.
 //!
-//! - [`Preset`]: the ray-cast presets (paper section V): a static scene of ground and boxes,
+//! - [`Preset`]: the ray-cast presets (paper section V): a static scene of ground, boxes and
+//!   meshes ([`MeshObject`]; [`shapes`] builds a chair and a board on a stand),
 //!   rotating LiDARs ([`lidar`]) with exact ray intersection ([`scene`]), so occlusion, ring
 //!   spacing, beam incidence and missing returns look like a real scan.
 //! - [`Sampling`]: a cube sampled afresh for every view, for any number of sensors and points.
@@ -14,9 +15,11 @@
 //! several starts for the same scans). Changing the bounds keeps the scans.
 
 pub mod lidar;
+mod mesh_object;
 mod preset;
 mod sampled;
 pub mod scene;
+pub mod shapes;
 
 use rand::{Rng, RngExt, SeedableRng};
 use rand_pcg::Pcg64;
@@ -26,6 +29,7 @@ use crate::cloud::{Aabb, Cloud, is_valid_point};
 use crate::se3::{Pose, pose_from_xyz_rpy};
 
 pub use lidar::Lidar;
+pub use mesh_object::MeshObject;
 pub use preset::{Preset, SensorSpec};
 pub use sampled::Sampling;
 pub use scene::{OrientedBox, Scene};
@@ -46,7 +50,8 @@ pub enum Model {
 
 /// The presets by name: what the page's demo picker, `gmmcalib simulate --preset` and the
 /// studies take.
-pub const PRESETS: [&str; 4] = ["paper", "paper-roof", "os1-128", "sampled"];
+pub const PRESETS: [&str; 7] =
+    ["paper", "paper-roof", "os1-128", "sampled", "paper-chair", "paper-board", "street"];
 
 impl Model {
     /// The preset named `name` (one of [`PRESETS`]).
@@ -56,6 +61,9 @@ impl Model {
             "paper-roof" => Some(Model::RayCast(Preset::paper_roof())),
             "os1-128" => Some(Model::RayCast(Preset::os1_128())),
             "sampled" => Some(Model::Sampled(Sampling::default())),
+            "paper-chair" => Some(Model::RayCast(Preset::paper_chair())),
+            "paper-board" => Some(Model::RayCast(Preset::paper_board())),
+            "street" => Some(Model::RayCast(Preset::street())),
             _ => None,
         }
     }

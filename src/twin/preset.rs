@@ -3,13 +3,17 @@
 
 use std::f64::consts::PI;
 
+use nalgebra::{UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
 use super::OrganizedScan;
 use super::lidar::Lidar;
+use super::mesh_object::MeshObject;
 use super::scene::{OrientedBox, Scene};
+use super::shapes;
 use crate::cloud::Aabb;
+use crate::io::mesh::Mesh;
 use crate::se3::{Pose, pose_from_xyz_rpy};
 
 /// One simulated sensor.
@@ -22,7 +26,7 @@ pub struct SensorSpec {
 }
 
 /// A complete twin: sensors, scene (vehicle frame, ground at z = 0), and the ROI (vehicle
-/// frame, m) around the calibration cubes.
+/// frame, m) around the calibration targets (cubes or meshes; the whole scene when targetless).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Preset {
     pub sensors: Vec<SensorSpec>,
@@ -34,10 +38,16 @@ pub struct Preset {
     /// each frame shifts every target by up to this much (m) along x and y and turns it by up
     /// to 30 deg, drawn from a stream of its own. `None`: a static scene.
     pub target_motion: Option<f64>,
+    /// True when the boxes are scenery (buildings, poles, cars), not targets: a scene without a
+    /// calibration target, whose [`Preset::targets`] is empty.
+    pub targetless: bool,
 }
 
 /// Edge of the calibration and validation cubes (m).
 const CUBE_EDGE: f64 = 0.5;
+/// Where the paper's three calibration cubes stand: x, y (m) and yaw (deg).
+const TARGET_PLACES: [(f64, f64, f64); 3] =
+    [(12.3, -1.5, 0.0), (12.3, 0.0, 20.0), (12.3, 1.5, 40.0)];
 /// The stream the targets' motion between frames draws from.
 const MOTION_STREAM: u64 = u64::MAX - 1;
 
@@ -81,13 +91,13 @@ impl Preset {
         };
         let scene = Scene {
             ground: true,
-            boxes: vec![
-                OrientedBox::cube_on_ground(12.3, -1.5, CUBE_EDGE, 0.0),
-                OrientedBox::cube_on_ground(12.3, 0.0, CUBE_EDGE, 20.0 * d),
-                OrientedBox::cube_on_ground(12.3, 1.5, CUBE_EDGE, 40.0 * d),
+            boxes: TARGET_PLACES
+                .iter()
+                .map(|&(x, y, yaw)| OrientedBox::cube_on_ground(x, y, CUBE_EDGE, yaw * d))
                 // Validation cube, 16 m ahead of the sensors; visible above the middle cube.
-                OrientedBox::cube_on_ground(18.3, 0.0, CUBE_EDGE, 30.0 * d),
-            ],
+                .chain([OrientedBox::cube_on_ground(18.3, 0.0, CUBE_EDGE, 30.0 * d)])
+                .collect(),
+            meshes: Vec::new(),
         };
         Self {
             sensors: vec![
@@ -98,16 +108,77 @@ impl Preset {
             roi: Aabb::new([11.0, -2.5, -0.5], [13.5, 2.5, 1.0]),
             validation_box: Some(3),
             target_motion: None,
+            targetless: false,
         }
     }
 
-    /// The calibration targets: every box except the validation cube.
+    /// The paper's rig with a chair ([`shapes::chair`], GMMCalib's CAD-model target) in place of
+    /// each calibration cube (same places and yaws, facing the sensors); the validation cube
+    /// stays.
+    pub fn paper_chair() -> Self {
+        Self::paper_with(&shapes::chair(), 1.0)
+    }
+
+    /// The paper's rig with a board on a stand ([`shapes::board_on_stand`], 0.8 x 0.6 m, 1.2 m
+    /// tall) in place of each calibration cube; the ROI reaches 1.4 m up to take the boards in.
+    pub fn paper_board() -> Self {
+        Self::paper_with(&shapes::board_on_stand(), 1.4)
+    }
+
+    /// [`Preset::paper`] with `target` standing at each cube's place, the ROI up to `top` (m).
+    fn paper_with(target: &Mesh, top: f64) -> Self {
+        let mut preset = Self::paper();
+        let validation = preset.scene.boxes.swap_remove(3);
+        preset.scene.boxes = vec![validation];
+        preset.validation_box = Some(0);
+        preset.scene.meshes = TARGET_PLACES
+            .iter()
+            .map(|&(x, y, yaw)| MeshObject::on_ground(target, x, y, yaw.to_radians()))
+            .collect();
+        preset.roi.max[2] = top;
+        preset
+    }
+
+    /// A street without a calibration target, for targetless calibration with truth: the
+    /// paper's rig on a ground plane between two building walls at different angles, with
+    /// poles and parked cars spread over +-20 m. The ROI is the whole street.
+    pub fn street() -> Self {
+        let mut preset = Self::paper();
+        let wall = |x, y, yaw: f64, length, height| {
+            OrientedBox::new([x, y, height / 2.0], yaw.to_radians(), [length, 0.5, height])
+        };
+        let pole = |x, y| OrientedBox::new([x, y, 2.5], 0.0, [0.2, 0.2, 5.0]);
+        let car =
+            |x, y, yaw: f64| OrientedBox::new([x, y, 0.75], yaw.to_radians(), [4.5, 1.8, 1.5]);
+        // Walls not parallel, so together they fix both horizontal directions.
+        preset.scene.boxes = vec![
+            wall(6.0, 14.0, 8.0, 30.0, 8.0),
+            wall(-2.0, -15.0, -35.0, 24.0, 6.0),
+            pole(15.0, -5.0),
+            pole(-10.0, 5.0),
+            pole(8.0, 7.5),
+            pole(19.0, 3.0),
+            pole(-14.0, -7.0),
+            car(11.0, -6.0, 3.0),
+            car(-8.0, -4.0, 85.0),
+            car(17.0, 8.0, -15.0),
+            car(-15.0, 9.0, 20.0),
+            car(3.0, 9.5, 0.0),
+        ];
+        preset.validation_box = None;
+        preset.targetless = true;
+        preset.roi = Aabb::new([-22.0, -22.0, -0.5], [22.0, 22.0, 8.5]);
+        preset
+    }
+
+    /// The calibration boxes: every box except the validation cube; none when targetless.
+    /// Mesh targets are `scene.meshes`.
     pub fn targets(&self) -> impl Iterator<Item = &OrientedBox> {
         self.scene
             .boxes
             .iter()
             .enumerate()
-            .filter(|(i, _)| Some(*i) != self.validation_box)
+            .filter(|(i, _)| !self.targetless && Some(*i) != self.validation_box)
             .map(|(_, b)| b)
     }
 
@@ -146,6 +217,79 @@ impl Preset {
             b.centre.y += rng.random_range(-reach..=reach);
             b.yaw += rng.random_range(-0.5..=0.5);
         }
+        // Meshes draw after the boxes, so presets without meshes move exactly as before.
+        for m in &mut scene.meshes {
+            let (dx, dy) = (rng.random_range(-reach..=reach), rng.random_range(-reach..=reach));
+            let turn =
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rng.random_range(-0.5..=0.5));
+            m.pose.translation.vector += Vector3::new(dx, dy, 0.0);
+            m.pose.rotation = turn * m.pose.rotation;
+        }
         scene
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Point3;
+
+    /// Each sensor's hits of one frame, in the world frame.
+    fn world_hits(preset: &Preset) -> Vec<Vec<Vector3<f64>>> {
+        let views = preset.simulate(1, 1);
+        preset
+            .sensors
+            .iter()
+            .zip(&views)
+            .map(|(s, view)| {
+                let hits = view.cloud.points.iter().filter(|p| **p != [0.0; 3]);
+                hits.map(|p| (s.mount * Point3::from(p.map(f64::from))).coords).collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn mesh_presets_put_points_on_every_target() {
+        for preset in [Preset::paper_chair(), Preset::paper_board()] {
+            assert_eq!(preset.targets().count(), 0, "the only box is the validation cube");
+            assert_eq!(preset.scene.meshes.len(), 3);
+            for (s, hits) in preset.sensors.iter().zip(world_hits(&preset)) {
+                let in_roi: Vec<_> =
+                    hits.iter().filter(|w| preset.roi.contains([w.x, w.y, w.z])).collect();
+                // On a target: inside its bounds, above the ground's noise; else the ground.
+                let on = |w: &Vector3<f64>, m: &MeshObject| w.z > 0.03 && m.contains(*w, 0.03);
+                let per_target: Vec<usize> = (preset.scene.meshes.iter())
+                    .map(|m| in_roi.iter().filter(|w| on(w, m)).count())
+                    .collect();
+                assert!(per_target.iter().all(|&n| n > 50), "{}: {per_target:?}", s.name);
+                let stray = in_roi
+                    .iter()
+                    .filter(|w| !preset.scene.meshes.iter().any(|m| on(w, m)) && w.z.abs() > 0.05)
+                    .count();
+                assert_eq!(stray, 0, "{}: every ROI point is on a target or the ground", s.name);
+            }
+        }
+    }
+
+    #[test]
+    fn street_has_no_target_but_walls_poles_and_cars() {
+        let street = Preset::street();
+        assert_eq!(street.targets().count(), 0);
+        assert!(street.scene.meshes.is_empty() && street.validation_box.is_none());
+        let hits = world_hits(&street);
+        for (i, b) in street.scene.boxes.iter().enumerate() {
+            let seen: usize = hits
+                .iter()
+                .map(|h| h.iter().filter(|w| w.z > 0.05 && b.contains(**w, 0.02)).count())
+                .sum();
+            assert!(seen > 20, "box {i} ({:?}) has {seen} points", b.size);
+        }
+        let ground: usize =
+            hits.iter().map(|h| h.iter().filter(|w| w.z.abs() < 0.05).count()).sum();
+        assert!(ground > 10_000, "ground {ground}");
+        // The ROI holds every point off the ground (the ground runs on to the sensors' range).
+        for w in hits.iter().flatten().filter(|w| w.z > 0.05) {
+            assert!(street.roi.contains([w.x, w.y, w.z]), "{w:?} outside the ROI");
+        }
     }
 }

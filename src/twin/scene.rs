@@ -1,7 +1,9 @@
-//! Scene geometry of the digital twin: an optional ground plane (z = 0) and oriented boxes,
-//! with exact ray intersection. All coordinates are in the world (here: vehicle) frame, metres.
+//! Scene geometry of the digital twin: an optional ground plane (z = 0), oriented boxes and
+//! placed triangle meshes ([`MeshObject`]), with exact ray intersection. All coordinates are in the world (here: vehicle) frame, metres.
 
 use nalgebra::Vector3;
+
+use super::mesh_object::MeshObject;
 
 /// A box standing upright, turned about the world +z axis.
 #[derive(Clone, Debug, PartialEq)]
@@ -76,6 +78,8 @@ pub struct Scene {
     /// Whether the ground plane z = 0 is present.
     pub ground: bool,
     pub boxes: Vec<OrientedBox>,
+    /// Triangle meshes (targets of any shape).
+    pub meshes: Vec<MeshObject>,
 }
 
 impl Scene {
@@ -103,9 +107,12 @@ impl Scene {
     ) -> Option<f64> {
         let ground =
             if self.ground { Self::intersect_ground(origin, dir, max_range) } else { None };
+        // Boxes first, then meshes, then the ground: `min_by` keeps the first of equal
+        // distances, so a scene without meshes casts exactly as before they existed.
         self.boxes
             .iter()
             .filter_map(|b| b.intersect(origin, dir, max_range))
+            .chain(self.meshes.iter().filter_map(|m| m.intersect(origin, dir, max_range)))
             .chain(ground)
             .min_by(f64::total_cmp)
     }
@@ -149,7 +156,7 @@ mod tests {
 
     #[test]
     fn ground_hit_at_exact_range_and_up_ray_misses() {
-        let scene = Scene { ground: true, boxes: vec![] };
+        let scene = Scene { ground: true, ..Default::default() };
         let origin = Vector3::new(1.0, 2.0, 1.6);
         let dir = Vector3::new(3.0, 4.0, -1.6).normalize();
         let expected = (9.0f64 + 16.0 + 1.6 * 1.6).sqrt();
@@ -166,6 +173,7 @@ mod tests {
         let scene = Scene {
             ground: true,
             boxes: vec![OrientedBox::new([10.0, 0.0, 1.0], 0.0, [1.0, 1.0, 1.0])],
+            ..Default::default()
         };
         let origin = Vector3::new(0.0, 0.0, 1.0);
         assert!(scene.intersect(origin, X, 9.6).is_some());
@@ -183,6 +191,7 @@ mod tests {
                 OrientedBox::new([20.0, 0.0, 1.0], 0.0, [1.0, 1.0, 2.0]),
                 OrientedBox::new([10.0, 0.0, 1.0], 0.3, [1.0, 1.0, 2.0]),
             ],
+            ..Default::default()
         };
         // Slightly downward: would reach the ground at 100 m, the near box comes first.
         let dir = Vector3::new(1.0, 0.0, -0.01).normalize();
