@@ -2,6 +2,9 @@
 //! make.py: PyPI `rosbags` and `mcap`): every container and compression, every PointCloud2
 //! layout, the tf tree, the same calibration as from PCD files, and damaged files.
 
+// Native: reads fixtures from disk and compares with serde_json.
+#![cfg(not(target_arch = "wasm32"))]
+
 use std::path::PathBuf;
 
 use gmmcalib::calib::{self, Method, Rig, Scan, Settings};

@@ -14,7 +14,7 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
                           [--frames N] [--urdf FILE] [--export ros1|ros2|tf-yaml|urdf|autoware|kitti]
                           (and the options above)
        gmmcalib inspect FILE
-       gmmcalib simulate --out DIR [--preset paper|paper-roof|os1-128|sampled] [--frames F]
+       gmmcalib simulate --out DIR [--preset paper|paper-roof|paper-chair|...] [--frames F]
                           [--seed S] [--max-angle-deg 3] [--max-translation 0.1]
        gmmcalib experiment --out DIR [--preset paper|...] [--trials N] [--frames F]
                           [--seed S] [--methods gmm,jrmpc,p2p,p2l,gicp] [--threads T]
@@ -46,6 +46,8 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
   the corrected extrinsics (parent the base frame, child each frame id) in that form; urdf
   edits the --urdf file's joint origins in place when one was given.
   inspect: a recording's topics (count, rate, frame id, type) and its /tf_static tree.
+  Presets: paper, paper-roof (3 sensors), os1-128, sampled, paper-chair and paper-board (a
+  chair / a board on a stand as the target), street (no target: walls, poles, cars).
   simulate: writes the digital twin in that layout (DIR/config.yaml with miscalibrated nominal
   extrinsics, DIR/data/sensor_N/F.pcd) plus DIR/truth.json; the first sensor is the reference
   and keeps its true mount.
