@@ -84,7 +84,7 @@ test('GMMCalib config: nested and plain lists, our keys, errors naming file and 
   assert.deepEqual(config.roi, { min: [-1, -2, -3], max: [1, 2, 3] });
   assert.equal(config.initialSigma, 'prior');
   assert.equal(config.edge, 0.4);
-  assert.throws(() => parseConfig('transform_a: [1, 2]\n', 'c.yaml'), /c\.yaml: transform_a: expected 6 numbers/);
+  assert.throws(() => parseConfig('transform_a: [1, 2]\n', 'c.yaml'), /c\.yaml: transform_a: expected \[roll, pitch, yaw, x, y, z\], \[x, y, z, qx, qy, qz, qw\] or a 4x4 row-major, got 2 numbers/);
   assert.throws(() => parseConfig('a: [1, 2\n', 'c.yaml'), /c\.yaml: bad YAML/);
   assert.throws(() => parseConfig('- 1\n', 'c.yaml'), /c\.yaml: expected a mapping/);
   assert.throws(() => parseConfig('min_bound: [1, 2, 3]\n', 'c.yaml'), /c\.yaml: missing key max_bound/);
