@@ -16,7 +16,7 @@
 use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 
 use super::notes::{BevWarning, SearchRange};
-use crate::plane::Plane;
+use crate::plane::{GroundFrame, Plane};
 use crate::se3::{Pose, rotation_about};
 
 /// The search range and resolution.
@@ -88,33 +88,6 @@ pub fn warning(found: Option<&BevAlignment>, settings: &BevSettings) -> Option<B
         return Some(BevWarning::LowOverlap { share, range });
     }
     found.at_edge.then_some(BevWarning::AtEdge { range })
-}
-
-/// Coordinates along the ground: an orthonormal basis (u, v) of the plane, u along the
-/// vehicle's x where it can be.
-struct GroundFrame {
-    plane: Plane,
-    u: Vector3<f64>,
-    v: Vector3<f64>,
-}
-
-impl GroundFrame {
-    fn new(plane: Plane) -> Self {
-        let n = plane.normal;
-        let u = (Vector3::x() - n * n.x)
-            .try_normalize(1e-9)
-            .unwrap_or_else(|| (Vector3::y() - n * n.y).normalize());
-        Self { plane, u, v: n.cross(&u) }
-    }
-
-    /// Plane coordinates of the points whose height above the plane lies in `heights`.
-    fn structure(&self, points: &[Vector3<f64>], heights: [f64; 2]) -> Vec<Vector2<f64>> {
-        points
-            .iter()
-            .filter(|p| (heights[0]..=heights[1]).contains(&self.plane.distance(p)))
-            .map(|p| Vector2::new(p.dot(&self.u), p.dot(&self.v)))
-            .collect()
-    }
 }
 
 /// The reference's blurred occupancy over a rectangle of cells.
@@ -201,7 +174,7 @@ pub fn search(
     if source.is_empty() {
         return None;
     }
-    let centre = Vector2::new(pivot.dot(&frame.u), pivot.dot(&frame.v));
+    let centre = frame.along(pivot);
     let yaw_steps = (settings.max_yaw / settings.yaw_step).round() as i64;
     let shift_steps = (settings.max_shift / settings.cell).round() as i64;
     // (score, yaw step, shift cells): the unchanged candidate unless another scores higher, so
@@ -245,7 +218,7 @@ pub fn search(
     }
     let (score, k, [a, b]) = best;
     let yaw = k as f64 * settings.yaw_step;
-    let shift = (frame.u * a as f64 + frame.v * b as f64) * settings.cell;
+    let shift = frame.vector(Vector2::new(a as f64, b as f64)) * settings.cell;
     let rotation = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(ground.normal), yaw);
     let applied = rotation_about(rotation, pivot, &shift);
     let at_edge = (yaw_steps > 0 && k.abs() == yaw_steps)

@@ -23,7 +23,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 use rustfft::num_complex::Complex32;
 use rustfft::{Fft, FftPlanner};
 
-use crate::plane::Plane;
+use crate::plane::{GroundFrame, Plane};
 use crate::se3::{Pose, rotation_about};
 
 /// The search range and resolution.
@@ -108,41 +108,6 @@ impl YawShift {
     }
 }
 
-/// Coordinates along the ground: an orthonormal basis (u, v) of the plane, u along the
-/// vehicle's x where it can be.
-struct Along {
-    plane: Plane,
-    u: Vector3<f64>,
-    v: Vector3<f64>,
-}
-
-impl Along {
-    fn new(plane: Plane) -> Self {
-        let n = plane.normal;
-        let u = (Vector3::x() - n * n.x)
-            .try_normalize(1e-9)
-            .unwrap_or_else(|| (Vector3::y() - n * n.y).normalize());
-        Self { plane, u, v: n.cross(&u) }
-    }
-
-    /// Plane coordinates, relative to `centre`, of the points whose height lies in `heights`
-    /// and whose distance from `centre` is at most `radius`.
-    fn structure(
-        &self,
-        points: &[Vector3<f64>],
-        heights: [f64; 2],
-        centre: &Vector2<f64>,
-        radius: f64,
-    ) -> Vec<Vector2<f64>> {
-        points
-            .iter()
-            .filter(|p| (heights[0]..=heights[1]).contains(&self.plane.distance(p)))
-            .map(|p| Vector2::new(p.dot(&self.u), p.dot(&self.v)) - centre)
-            .filter(|p| p.norm() <= radius)
-            .collect()
-    }
-}
-
 /// The yaw about the ground normal through `pivot` (the sensor's position) and the shift along
 /// the ground that best overlay `points`' structure on `reference`'s, over every yaw and every
 /// shift within `max_shift`. Both point sets are in the vehicle frame, levelled onto `ground`
@@ -154,11 +119,16 @@ pub fn search(
     pivot: &Vector3<f64>,
     settings: &CorrelateSettings,
 ) -> Option<YawShift> {
-    let along = Along::new(*ground);
-    let centre = Vector2::new(pivot.dot(&along.u), pivot.dot(&along.v));
+    let along = GroundFrame::new(*ground);
+    let centre = along.along(pivot);
+    // Plane coordinates relative to the sensor, within `radius` of it.
+    let near = |points: &[Vector3<f64>], radius: f64| -> Vec<Vector2<f64>> {
+        let relative = along.structure(points, settings.heights).into_iter().map(|p| p - centre);
+        relative.filter(|p| p.norm() <= radius).collect()
+    };
     let reach = settings.radius + settings.max_shift + 2.0 * settings.coarse_cell;
-    let source = along.structure(points, settings.heights, &centre, settings.radius);
-    let target = along.structure(reference, settings.heights, &centre, reach);
+    let source = near(points, settings.radius);
+    let target = near(reference, reach);
     if source.is_empty() || target.is_empty() {
         return None;
     }
@@ -190,7 +160,7 @@ pub fn search(
     // 3. The best and the distinct runners-up.
     let distinct = distinct(&refined, &middle, settings, settings.runners_up + 1);
     let candidate = |&(score, yaw, shift): &(f64, f64, Vector2<f64>)| {
-        let shift = along.u * shift.x + along.v * shift.y;
+        let shift = along.vector(shift);
         let rotation = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(ground.normal), yaw);
         Candidate { yaw, shift, applied: rotation_about(rotation, pivot, &shift), score }
     };

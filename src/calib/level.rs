@@ -10,7 +10,6 @@
 
 use crate::cloud::{Aabb, is_valid_point};
 pub use crate::plane::Plane;
-use crate::plane::principal_axes;
 use crate::se3::{Pose, rotation_about};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
@@ -106,16 +105,9 @@ pub fn fit_ground(
 /// points' extent (m) along the in-plane direction of lesser spread (the side of a uniformly
 /// covered rectangle).
 fn least_squares_plane(points: &[&Vector3<f64>]) -> Option<(Plane, f64)> {
-    let (centroid, eig) = principal_axes(points.iter().copied())?;
-    let normal = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
-    let normal = if normal.z < 0.0 { -normal } else { normal };
-    let mut spread: Vec<f64> = eig.eigenvalues.iter().copied().collect();
-    spread.sort_by(f64::total_cmp);
-    let extent = (12.0 * spread[1].max(0.0)).sqrt();
-    normal
-        .iter()
-        .all(|c| c.is_finite())
-        .then(|| (Plane { normal, offset: -normal.dot(&centroid) }, extent))
+    let (plane, extent) = crate::plane::least_squares_plane(points.iter().copied())?;
+    // Pointing up: the negated normal and offset are exactly what the fit would give.
+    Some((if plane.normal.z < 0.0 { plane.flipped() } else { plane }, extent))
 }
 
 /// The smallest rigid motion taking `from` onto `to`: the shortest rotation between the

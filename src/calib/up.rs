@@ -14,13 +14,13 @@
 //! The candidates are returned ranked, so a caller can break a near tie with other evidence
 //! (the global stage picks the one whose levelled scan overlays the reference's best).
 
-use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use std::collections::HashSet;
 
 use crate::cloud::is_valid_point;
-use crate::plane::Plane;
+use crate::plane::{Plane, least_squares_plane};
 
 /// How the ground is searched for in a sensor's own frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -208,30 +208,17 @@ fn extract_planes(points: &[Vector3<f64>], settings: &UpSettings, seed: u64) -> 
 /// The plane with its normal flipped, where needed, so that the origin (the sensor) lies on
 /// its positive side.
 fn toward_origin(plane: Plane) -> Plane {
-    if plane.offset < 0.0 { Plane { normal: -plane.normal, offset: -plane.offset } } else { plane }
+    if plane.offset < 0.0 { plane.flipped() } else { plane }
 }
 
-/// Least-squares plane through the points' centroid and their extent (m) along the in-plane
-/// direction of lesser spread (the side of a uniformly covered rectangle).
-fn fit_plane<'a>(points: impl Iterator<Item = &'a Vector3<f64>> + Clone) -> Option<(Plane, f64)> {
-    let n = points.clone().count();
-    if n < 3 {
+/// Least-squares plane ([`least_squares_plane`]) of at least three points.
+fn fit_plane<'a>(
+    points: impl ExactSizeIterator<Item = &'a Vector3<f64>> + Clone,
+) -> Option<(Plane, f64)> {
+    if points.len() < 3 {
         return None;
     }
-    let centroid = points.clone().fold(Vector3::zeros(), |s, p| s + p) / n as f64;
-    let covariance = points.fold(Matrix3::zeros(), |s, p| {
-        let d = p - centroid;
-        s + d * d.transpose()
-    }) / n as f64;
-    let eig = SymmetricEigen::try_new(covariance, f64::EPSILON, 1000)?;
-    let normal = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
-    let mut spread: Vec<f64> = eig.eigenvalues.iter().copied().collect();
-    spread.sort_by(f64::total_cmp);
-    let extent = (12.0 * spread[1].max(0.0)).sqrt();
-    normal
-        .iter()
-        .all(|c| c.is_finite())
-        .then(|| (Plane { normal, offset: -normal.dot(&centroid) }, extent))
+    least_squares_plane(points)
 }
 
 /// The evidence that `found` is the ground, or `None` when it cannot be: the sensor not above it

@@ -74,17 +74,20 @@ impl Views {
         let stages = Stages::of(settings);
         let nominals: Vec<Pose> = sensors.iter().map(|s| rig.nominal_of(s)).collect();
 
+        // Each sensor's points over all its scans, gathered once for the stages that need them.
+        let scans = std::cell::OnceCell::new();
+        let all_scans = || scans.get_or_init(|| sensor_scans(rig, &sensors));
+
         // Align globally, when the stages say so: from then on each sensor starts from
         // `global * nominal` as if that were its nominal.
         let global = match &stages.global {
             Some(global_settings) => {
-                let scans = sensor_scans(rig, &sensors);
                 let seeds: Vec<u64> = (0..sensors.len())
                     .map(|s| {
                         if s == r { settings.seed } else { sensor_seed(settings.seed, &sensors, s) }
                     })
                     .collect();
-                global::align(&scans, &nominals, r, global_settings, &seeds)
+                global::align(all_scans(), &nominals, r, global_settings, &seeds)
             }
             None => Vec::new(),
         };
@@ -94,8 +97,7 @@ impl Views {
         let starts: Vec<Pose> = global_motion.iter().zip(&nominals).map(|(g, n)| g * n).collect();
         let roi = match rig.roi {
             Some(roi) => roi,
-            None => region::overlap_region(&sensor_scans(rig, &sensors), &starts, r)
-                .ok_or(CalibError::NoOverlap)?,
+            None => region::overlap_region(all_scans(), &starts, r).ok_or(CalibError::NoOverlap)?,
         };
 
         // Level, then search from above, when the stages say so.

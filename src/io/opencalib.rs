@@ -23,48 +23,33 @@ pub struct Device {
 }
 
 /// `initial_extrinsic.txt`: `(device id, T_device0_device)` in the file's order.
-pub fn read_guess(text: &str, file: &str) -> Result<Vec<(u32, Pose)>, IoError> {
+pub fn read_guess<'t>(text: &'t str, file: &str) -> Result<Vec<(u32, Pose)>, IoError> {
     let mut out = Vec::new();
-    let mut id = None;
-    for (n, line) in text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())) {
-        let fail =
-            |problem: String| IoError { file: file.into(), offset: Some(Offset::Line(n)), problem };
-        if line.is_empty() {
-            continue;
-        }
-        if let Some(v) = line.strip_prefix("device_id:") {
-            id = Some(
-                v.trim()
-                    .parse::<u32>()
-                    .map_err(|_| fail(format!("device_id '{}' is not a number", v.trim())))?,
-            );
-        } else if let Some((_, v)) = line.split_once("):") {
-            let device =
-                id.take().ok_or_else(|| fail("an extrinsic before its device_id".into()))?;
-            let v: Vec<f64> = v
-                .split_whitespace()
-                .map(|x| x.parse::<f64>().ok().filter(|x| x.is_finite()))
-                .collect::<Option<_>>()
-                .ok_or_else(|| {
-                    fail(
-                        "expected six finite numbers (roll, pitch, yaw in deg, tx, ty, tz in m)"
-                            .into(),
-                    )
-                })?;
-            let &[roll, pitch, yaw, x, y, z] = v.as_slice() else {
-                return Err(fail(format!(
-                    "expected six numbers (Roll,Pitch,Yaw,tx,ty,tz), got {}",
-                    v.len()
-                )));
-            };
-            out.push((
-                device,
-                pose_from_xyz_rpy([x, y, z], [roll, pitch, yaw].map(f64::to_radians)),
-            ));
-        } else {
-            return Err(fail(format!("unexpected line '{line}'")));
-        }
-    }
+    let value = |line: &'t str| line.split_once("):").map(|(_, v)| v);
+    device_entries(text, file, "an extrinsic", value, |device, line, v| {
+        let fail = |problem: String| IoError {
+            file: file.into(),
+            offset: Some(Offset::Line(line)),
+            problem,
+        };
+        let v: Vec<f64> = v
+            .split_whitespace()
+            .map(|x| x.parse::<f64>().ok().filter(|x| x.is_finite()))
+            .collect::<Option<_>>()
+            .ok_or_else(|| {
+                fail(
+                    "expected six finite numbers (roll, pitch, yaw in deg, tx, ty, tz in m)".into(),
+                )
+            })?;
+        let &[roll, pitch, yaw, x, y, z] = v.as_slice() else {
+            return Err(fail(format!(
+                "expected six numbers (Roll,Pitch,Yaw,tx,ty,tz), got {}",
+                v.len()
+            )));
+        };
+        out.push((device, pose_from_xyz_rpy([x, y, z], [roll, pitch, yaw].map(f64::to_radians))));
+        Ok(())
+    })?;
     if out.is_empty() {
         return Err(IoError {
             file: file.into(),
@@ -76,8 +61,41 @@ pub fn read_guess(text: &str, file: &str) -> Result<Vec<(u32, Pose)>, IoError> {
 }
 
 /// `lidar_cloud_path.txt`: each device's file, in the file's order.
-pub fn read_paths(text: &str, file: &str) -> Result<Vec<Device>, IoError> {
-    let mut out = Vec::new();
+pub fn read_paths<'t>(text: &'t str, file: &str) -> Result<Vec<Device>, IoError> {
+    let mut out: Vec<Device> = Vec::new();
+    let value = |line: &'t str| line.strip_prefix("path:");
+    device_entries(text, file, "a path", value, |id, line, path| {
+        let path = path.trim().to_string();
+        let stem = path.rsplit('/').next().unwrap_or(&path);
+        let stem = stem.rsplit_once('.').map_or(stem, |(s, _)| s);
+        let name = stem.split('-').next().filter(|s| !s.is_empty()).unwrap_or(stem).to_string();
+        if out.iter().any(|d| d.name == name) {
+            return Err(IoError {
+                file: file.into(),
+                offset: Some(Offset::Line(line)),
+                problem: format!("two devices named '{name}'"),
+            });
+        }
+        out.push(Device { id, path, name });
+        Ok(())
+    })?;
+    if out.is_empty() {
+        return Err(IoError { file: file.into(), offset: None, problem: "no device paths".into() });
+    }
+    Ok(out)
+}
+
+/// The layout both files share: `device_id: N` lines, each followed by one value line that
+/// `value` recognises (returning the value's text), `what` in messages. `each(device id, line
+/// number, value)` runs on every entry in order; any other line, a bad id or a value before
+/// its id is an error naming the line.
+fn device_entries<'t>(
+    text: &'t str,
+    file: &str,
+    what: &str,
+    value: impl Fn(&'t str) -> Option<&'t str>,
+    mut each: impl FnMut(u32, usize, &'t str) -> Result<(), IoError>,
+) -> Result<(), IoError> {
     let mut id = None;
     for (n, line) in text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())) {
         let fail =
@@ -91,24 +109,14 @@ pub fn read_paths(text: &str, file: &str) -> Result<Vec<Device>, IoError> {
                     .parse::<u32>()
                     .map_err(|_| fail(format!("device_id '{}' is not a number", v.trim())))?,
             );
-        } else if let Some(path) = line.strip_prefix("path:") {
-            let id = id.take().ok_or_else(|| fail("a path before its device_id".into()))?;
-            let path = path.trim().to_string();
-            let stem = path.rsplit('/').next().unwrap_or(&path);
-            let stem = stem.rsplit_once('.').map_or(stem, |(s, _)| s);
-            let name = stem.split('-').next().filter(|s| !s.is_empty()).unwrap_or(stem).to_string();
-            if out.iter().any(|d: &Device| d.name == name) {
-                return Err(fail(format!("two devices named '{name}'")));
-            }
-            out.push(Device { id, path, name });
+        } else if let Some(v) = value(line) {
+            let device = id.take().ok_or_else(|| fail(format!("{what} before its device_id")))?;
+            each(device, n, v)?;
         } else {
             return Err(fail(format!("unexpected line '{line}'")));
         }
     }
-    if out.is_empty() {
-        return Err(IoError { file: file.into(), offset: None, problem: "no device paths".into() });
-    }
-    Ok(out)
+    Ok(())
 }
 
 /// Each device's nominal by its name: the guess of each device in `paths`.

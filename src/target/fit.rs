@@ -105,25 +105,20 @@ pub fn fit_shape(target: &Target, means: &[Vector3<f64>], priors: &[f64]) -> Opt
     let total: f64 = points.iter().map(|(_, w)| w).sum();
     let centroid = points.iter().fold(Vector3::zeros(), |c, (m, w)| c + m * *w) / total;
     match target {
-        Target::Cube { edge } => {
-            // The cube's yaw in the scene is unknown: start from several and keep the best.
-            (0..6)
-                .map(|i| {
-                    let yaw = i as f64 * 15f64.to_radians();
-                    let start = [0.0, 0.0, yaw, centroid.x, centroid.y, centroid.z, edge / 2.0];
-                    fit(&points, &start, &cube_distance)
-                })
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .map(|(_, p)| summary(target, &points, &p, &cube_distance, 2.0 * p[6].abs()))
-        }
-        Target::Box { size } => {
-            // Half extents `p[6] * aspect`: the shape is the given box's, its scale is fitted.
-            let largest = size.iter().copied().fold(0.0, f64::max);
-            let aspect = Vector3::from(size.map(|s| s / largest));
+        Target::Cube { .. } | Target::Box { .. } => {
+            // Half extents `p[6] * aspect`: the shape is the given one's, its scale is fitted
+            // (a cube's aspect is exactly 1 on every axis).
+            let edges = match target {
+                Target::Box { size } => *size,
+                _ => [target.size().unwrap_or(0.0); 3],
+            };
+            let largest = edges.iter().copied().fold(0.0, f64::max);
+            let aspect = Vector3::from(edges.map(|s| s / largest));
             let distance = move |p: &Params, x: &Vector3<f64>| {
                 let q = local(p, x).abs() - aspect * p[6].abs();
                 q.sup(&Vector3::zeros()).norm() + q.max().min(0.0)
             };
+            // The target's yaw in the scene is unknown: start from several and keep the best.
             (0..6)
                 .map(|i| {
                     let yaw = i as f64 * 15f64.to_radians();
@@ -148,12 +143,6 @@ type Params = [f64; 7];
 fn local(p: &Params, x: &Vector3<f64>) -> Vector3<f64> {
     let r = Rotation3::new(Vector3::new(p[0], p[1], p[2]));
     r.inverse() * (x - Vector3::new(p[3], p[4], p[5]))
-}
-
-/// Signed distance from the surface of a cube of half edge `p[6]`.
-fn cube_distance(p: &Params, x: &Vector3<f64>) -> f64 {
-    let q = local(p, x).abs() - Vector3::repeat(p[6].abs());
-    q.sup(&Vector3::zeros()).norm() + q.max().min(0.0)
 }
 
 fn sphere_distance(p: &Params, x: &Vector3<f64>) -> f64 {

@@ -64,6 +64,15 @@ function rigFrom(config) {
   syncSettingsInputs();
 }
 
+// New scans are in: the rig from them and `config`, no result, every panel and the view anew.
+function showLoaded(config) {
+  rigFrom(config);
+  forgetResults();
+  renderPanels();
+  redraw();
+  viewerLookAt();
+}
+
 function renderPanels() {
   renderFiles($('files'), { scans: state.scans, bad: state.bad, sensors: state.rig.sensors }, reassign);
   if (state.rig.sensors.length) renderRig($('rig'), state.rig, rigChanged);
@@ -106,11 +115,7 @@ async function loadFiles(entries) {
   sortScans(state);
   state.settings.demo = '';
   writeHash(state.settings);
-  rigFrom(config);
-  forgetResults();
-  renderPanels();
-  redraw();
-  viewerLookAt();
+  showLoaded(config);
   const sensors = state.rig.sensors.length;
   setStatus(`${state.scans.length} scans of ${sensors} sensor${sensors === 1 ? '' : 's'} loaded${paired ? ` (${paired})` : ''}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
   if (state.bad.length) showError(state.bad.map((b) => `${b.path}: ${b.error}`).join('\n'));
@@ -148,11 +153,7 @@ async function loadRecording(path, handle, options) {
     state.scans.push(...rig.scans.map((v) => ({ id: `scan:${nextScanId++}`, path: `${path} ${v.sensor} #${v.frame}`, recording: path, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: 0, format })));
     state.exportFrames = { parent: rig.baseFrame, frameIds: rig.frameIds };
     sortScans(state);
-    rigFrom({ nominal: rig.nominal, reference: rig.reference });
-    forgetResults();
-    renderPanels();
-    redraw();
-    viewerLookAt();
+    showLoaded({ nominal: rig.nominal, reference: rig.reference });
     setStatus(`${rig.scans.length} scans of ${options.topics.length} sensors loaded from ${path} (${describeInstants(rig)}).`);
     if (rig.problems.length) showError(rig.problems.join('\n'));
   } catch (error) {

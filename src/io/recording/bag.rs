@@ -10,8 +10,8 @@ use std::collections::HashMap;
 use super::bytes::Cursor;
 use super::compression::{self, Compression};
 use super::error::{Bad, RecordingError};
-use super::index::{ChunkRef, Encoding, Entry, Index, Kind, Loc, Progress, Topic};
-use super::source::ReadAt;
+use super::index::{ChunkRef, Encoding, Entry, Index, Loc, Progress, Topic};
+use super::source::{ReadAt, read};
 
 pub const MAGIC: &[u8; 13] = b"#ROSBAG V2.0\n";
 
@@ -86,17 +86,6 @@ struct Record {
     next: u64,
 }
 
-fn read(src: &mut dyn ReadAt, offset: u64, len: u64, what: &str) -> Result<Vec<u8>, Bad> {
-    let end = offset.checked_add(len).filter(|&e| e <= src.size());
-    if end.is_none() {
-        let size = src.size();
-        return Err(Bad::at(offset, format!("{what}: {len} bytes declared, file ends at {size}")));
-    }
-    let mut buf = vec![0; len as usize];
-    src.read_at(offset, &mut buf).map_err(|e| Bad::at(offset, format!("{what}: {e}")))?;
-    Ok(buf)
-}
-
 fn u32_at(src: &mut dyn ReadAt, at: u64, what: &str) -> Result<u64, Bad> {
     let b = read(src, at, 4, what)?;
     Ok(u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])))
@@ -137,15 +126,7 @@ impl Registry {
         let name = header.string("topic")?;
         let type_name = Header::parse(data, data_at)?.string("type")?;
         self.connections.insert(conn, self.topics.len());
-        self.topics.push(Topic {
-            name,
-            kind: Kind::of(&type_name),
-            type_name,
-            encoding: Some(Encoding::Ros1),
-            count: 0,
-            first_ns: 0,
-            last_ns: 0,
-        });
+        self.topics.push(Topic::declared(name, type_name, Some(Encoding::Ros1)));
         Ok(())
     }
 

@@ -11,7 +11,7 @@
 use std::collections::HashMap;
 
 use super::error::{Bad, RecordingError};
-use super::index::{ChunkRef, Encoding, Entry, Index, Kind, Loc, Progress, Topic};
+use super::index::{ChunkRef, Encoding, Entry, Index, Loc, Progress, Topic};
 use super::source::ReadAt;
 
 pub const MAGIC: &[u8; 16] = b"SQLite format 3\0";
@@ -245,15 +245,7 @@ pub fn open(src: &mut dyn ReadAt, file: &str, progress: Progress) -> Result<Inde
             _ => None,
         };
         ids.insert(id, index.topics.len());
-        index.topics.push(Topic {
-            name: text(r.get(1)),
-            kind: Kind::of(&type_name),
-            type_name,
-            encoding,
-            count: 0,
-            first_ns: 0,
-            last_ns: 0,
-        });
+        index.topics.push(Topic::declared(text(r.get(1)), type_name, encoding));
         Ok(())
     })
     .map_err(|b| b.in_file(file))?;

@@ -60,6 +60,12 @@ pub struct Topic {
 }
 
 impl Topic {
+    /// A topic as a container's header declares it; its messages are counted afterwards.
+    pub(super) fn declared(name: String, type_name: String, encoding: Option<Encoding>) -> Self {
+        let kind = Kind::of(&type_name);
+        Self { name, type_name, kind, encoding, count: 0, first_ns: 0, last_ns: 0 }
+    }
+
     /// Messages per second between the first and the last; 0 with fewer than two.
     pub fn rate_hz(&self) -> f64 {
         if self.count < 2 || self.last_ns <= self.first_ns {

@@ -15,8 +15,8 @@ use std::collections::HashMap;
 use super::bytes::{Cursor, crc32};
 use super::compression::{self, Compression};
 use super::error::{Bad, RecordingError};
-use super::index::{ChunkRef, Encoding, Entry, Index, Kind, Loc, Progress, Topic};
-use super::source::ReadAt;
+use super::index::{ChunkRef, Encoding, Entry, Index, Loc, Progress, Topic};
+use super::source::{ReadAt, read};
 
 pub const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
 
@@ -62,15 +62,7 @@ impl Registry {
                 }
                 let type_name = self.schemas.get(&schema).cloned().unwrap_or_default();
                 self.channels.insert(id, self.topics.len());
-                self.topics.push(Topic {
-                    name,
-                    kind: Kind::of(&type_name),
-                    type_name,
-                    encoding,
-                    count: 0,
-                    first_ns: 0,
-                    last_ns: 0,
-                });
+                self.topics.push(Topic::declared(name, type_name, encoding));
             }
             _ => {}
         }
@@ -83,18 +75,6 @@ impl Registry {
             .copied()
             .ok_or_else(|| Bad::at(at, format!("unknown channel {channel}")))
     }
-}
-
-/// Reads `len` bytes at `offset`, as an error naming what was being read.
-fn read(src: &mut dyn ReadAt, offset: u64, len: u64, what: &str) -> Result<Vec<u8>, Bad> {
-    let end = offset.checked_add(len).filter(|&e| e <= src.size());
-    if end.is_none() {
-        let size = src.size();
-        return Err(Bad::at(offset, format!("{what}: {len} bytes declared, file ends at {size}")));
-    }
-    let mut buf = vec![0; len as usize];
-    src.read_at(offset, &mut buf).map_err(|e| Bad::at(offset, format!("{what}: {e}")))?;
-    Ok(buf)
 }
 
 /// Iterates `opcode, body, body offset` over the records in `data`.

@@ -11,6 +11,25 @@ pub trait ReadAt {
     fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> std::io::Result<()>;
 }
 
+/// Reads `len` bytes at `offset` of `src`; a length beyond the file, or a failed read, is an
+/// error naming what was being read. The containers read every record through it.
+pub(super) fn read(
+    src: &mut dyn ReadAt,
+    offset: u64,
+    len: u64,
+    what: &str,
+) -> Result<Vec<u8>, super::error::Bad> {
+    use super::error::Bad;
+    let end = offset.checked_add(len).filter(|&e| e <= src.size());
+    if end.is_none() {
+        let size = src.size();
+        return Err(Bad::at(offset, format!("{what}: {len} bytes declared, file ends at {size}")));
+    }
+    let mut buf = vec![0; len as usize];
+    src.read_at(offset, &mut buf).map_err(|e| Bad::at(offset, format!("{what}: {e}")))?;
+    Ok(buf)
+}
+
 impl ReadAt for &[u8] {
     fn size(&self) -> u64 {
         self.len() as u64
