@@ -14,6 +14,7 @@ pub mod se3;
 pub mod io;
 // Engines and the target.
 pub mod icp;
+pub mod cad;
 pub mod jrmpc;
 pub mod target;
 // The pipeline.

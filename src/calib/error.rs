@@ -30,6 +30,12 @@ pub enum CalibError {
     FramesFailed {
         sensor: String,
     },
+    /// The CAD model (its file's name) is larger across (m) than the region of interest.
+    TargetLargerThanRoi {
+        target: String,
+        size: f64,
+        roi: f64,
+    },
 }
 
 impl fmt::Display for CalibError {
@@ -67,6 +73,11 @@ impl fmt::Display for CalibError {
             Self::FramesFailed { sensor } => {
                 write!(f, "no frame of sensor '{sensor}' could be registered: every frame failed")
             }
+            Self::TargetLargerThanRoi { target, size, roi } => write!(
+                f,
+                "target {target}: the model is {size:.2} m across, larger than the region of \
+                 interest ({roi:.2} m): is the file in millimetres, or the ROI too small?"
+            ),
         }
     }
 }

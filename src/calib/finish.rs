@@ -38,6 +38,7 @@ pub(super) fn finish(
         mut skipped,
         pairs: frame_pairs,
         ground,
+        placements,
         same_scans,
         roi,
     } = views;
@@ -113,7 +114,7 @@ pub(super) fn finish(
     }
 
     // The reconstruction and its plausibility.
-    let (reconstruction, iterations, converged, cancelled, history) = match registration {
+    let (mut reconstruction, iterations, converged, cancelled, history) = match registration {
         Some(reg) => {
             let reference_views: Vec<usize> = frame_pairs[r].iter().map(|&(v, _)| v).collect();
             let reconstruction = reconstruct(&reg, &reference_views, ground, &settings.target);
@@ -121,6 +122,7 @@ pub(super) fn finish(
         }
         None => (Default::default(), 0, true, false, Vec::new()),
     };
+    reconstruction.placements = placements;
     // The verdict, from evidence measured on the same views.
     let mut surfaces: Vec<Option<ReferenceSurface>> = clouds.iter().map(|_| None).collect();
     for &(reference_view, _) in &frame_pairs[r] {

@@ -28,5 +28,6 @@ pub(super) fn reconstruct(
         sigmas: mix.variances.iter().map(|v| v.sqrt()).collect(),
         priors: mix.priors.clone(),
         fits: fit_targets(target, &means, &mix.priors, ground),
+        placements: Vec::new(),
     }
 }

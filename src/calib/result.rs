@@ -9,7 +9,7 @@ use super::verdict::Verdict;
 use crate::jrmpc;
 use crate::plane::Plane;
 use crate::se3::Pose;
-use crate::target::ShapeFit;
+use crate::target::{Placement, ShapeFit};
 
 /// Per-axis standard deviation of the per-frame corrections around their mean.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -47,6 +47,9 @@ pub struct Reconstruction {
     /// The target's shape fitted to each target among the means, off the reference's ground,
     /// largest first (empty for the ICP methods, which reconstruct nothing).
     pub fits: Vec<ShapeFit>,
+    /// Where a CAD-model target was found standing in the reference's data, before any
+    /// registration (`T_vehicle_model` per copy, best first); empty for the other targets.
+    pub placements: Vec<Placement>,
 }
 
 /// The ground of one sensor and the levelling applied to its points.

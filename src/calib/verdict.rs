@@ -51,6 +51,9 @@ pub const SAME_PLACE: (f64, f64) = (0.01, 0.1 * std::f64::consts::PI / 180.0);
 /// A fitted target whose size is off by more than this share, or whose RMS exceeds this share
 /// of its size, fits badly.
 pub const TARGET_SIZE_OFF: f64 = 0.2;
+/// A mesh fits badly when less of the reconstructed target than this lies within a tenth of
+/// its size of its surface (as a placement needs of the data).
+const MESH_INLIERS: f64 = 0.7;
 pub const TARGET_RMS: f64 = 0.1;
 
 /// Two methods agree when every sensor's extrinsics are within this (rad, m).
@@ -335,7 +338,9 @@ impl ReasonKind {
     /// A fitted target that fits badly: its size off, or its surface blurred.
     pub fn fits_badly(target: &Target, fit: &ShapeFit) -> bool {
         let Some(size) = target.size() else { return false };
-        (fit.size - size).abs() > TARGET_SIZE_OFF * size || fit.rms > TARGET_RMS * size
+        // A rigid mesh keeps its size; most of the target must lie on it instead.
+        let off_the_mesh = matches!(target, Target::Mesh(_)) && fit.inlier_share < MESH_INLIERS;
+        (fit.size - size).abs() > TARGET_SIZE_OFF * size || fit.rms > TARGET_RMS * size || off_the_mesh
     }
 }
 

@@ -18,7 +18,7 @@ use crate::cloud::{Aabb, Cloud};
 use crate::jrmpc::{self, Em, Registration};
 use crate::plane::Plane;
 use crate::se3::Pose;
-use crate::target::Target;
+use crate::target::{ModelCloud, PlaceSettings, Placement, Target};
 
 /// One cropped, pre-aligned view and whose it is.
 pub(super) struct View {
@@ -52,6 +52,9 @@ pub struct Views {
     pub(super) pairs: Vec<Vec<(usize, usize)>>,
     /// The reference's ground, for the reconstruction's fit and the verdict.
     pub(super) ground: Option<Plane>,
+    /// Where a CAD-model target stands (`T_vehicle_model` per copy found in the reference's
+    /// views); empty for the other targets.
+    pub(super) placements: Vec<Placement>,
     /// Per sensor, another sensor one of whose scans is one of its own, if any.
     pub(super) same_scans: Vec<(String, String)>,
     /// The region of interest the scans were cropped to.
@@ -130,6 +133,7 @@ impl Views {
             Some(l) => l.ground,
             None => sensor_ground(rig, &roi, &sensors, &starts, r, settings).1.map(|(g, _)| g),
         };
+        let placements = place_targets(&settings.target, &views, r, ground.as_ref(), &roi)?;
         let same_scans = same_scans(rig);
         Ok(Self {
             settings: settings.clone(),
@@ -145,6 +149,7 @@ impl Views {
             skipped,
             pairs,
             ground,
+            placements,
             same_scans,
             roi,
         })
@@ -184,6 +189,20 @@ impl Views {
                 let all: Vec<&[f32; 3]> = clouds.iter().flat_map(|c| c.iter()).collect();
                 let stride = all.len().div_ceil(settings.components.max(1)).max(1);
                 all.iter().step_by(stride).map(|p| p.map(f64::from)).collect()
+            }
+            // A CAD model: samples on every copy placed, the components shared among them.
+            Target::Mesh(ref m) if !self.placements.is_empty() => {
+                let copies = self.placements.len();
+                (0..copies)
+                    .flat_map(|c| {
+                        let k = settings.components / copies + usize::from(c < settings.components % copies);
+                        let pose = self.placements[c].pose;
+                        m.mesh.sample(k, settings.seed.wrapping_add(c as u64)).into_iter().map(move |p| {
+                            let q = pose * nalgebra::Point3::from(p);
+                            [q.x, q.y, q.z]
+                        })
+                    })
+                    .collect()
             }
             _ => settings.target.surface(settings.components, centre, settings.seed),
         };
@@ -416,4 +435,28 @@ fn same_scans(rig: &Rig) -> Vec<(String, String)> {
         }
     }
     found
+}
+
+/// Where a CAD-model target stands in the reference's views (vehicle frame), on its ground
+/// (or, without one, on the vehicle's z = 0 plane); empty for the other targets. A model larger
+/// than the region of interest cannot be in it.
+fn place_targets(
+    target: &Target,
+    views: &[View],
+    r: usize,
+    ground: Option<&Plane>,
+    roi: &Aabb,
+) -> Result<Vec<Placement>, CalibError> {
+    let Target::Mesh(m) = target else { return Ok(Vec::new()) };
+    let size = target.size().unwrap_or(0.0);
+    let roi_size = (0..3).map(|i| roi.max[i] - roi.min[i]).fold(0.0, f64::max);
+    if size > roi_size {
+        return Err(CalibError::TargetLargerThanRoi { target: m.name.clone(), size, roi: roi_size });
+    }
+    let settings = PlaceSettings::default();
+    let Some(model) = ModelCloud::new(&m.mesh, &settings) else { return Ok(Vec::new()) };
+    let points: Vec<[f32; 3]> =
+        views.iter().filter(|v| v.sensor == r).flat_map(|v| v.cloud.points.iter().copied()).collect();
+    let level = Plane { normal: nalgebra::Vector3::z(), offset: 0.0 };
+    Ok(crate::target::place(&model, &points, ground.unwrap_or(&level), &settings))
 }

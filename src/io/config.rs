@@ -9,7 +9,8 @@
 //!   - [8.5, -3, -1]                        # ROI in the vehicle frame (m)
 //! max_bound: [11, 4, 2]                    # the plain form, without the extra list, works too
 //! # ours, all optional: reference, method (a name or "all"), components, iterations,
-//! # target (cube:EDGE, box:W,D,H, sphere:DIAMETER or none), target_edge (a cube's edge, m),
+//! # target (cube:EDGE, box:W,D,H, sphere:DIAMETER, mesh:PATH (relative to the config) or
+//! # none), target_edge (a cube's edge, m),
 //! # initial_sigma (m, or "prior" / "bbox")
 //! ```
 //!
@@ -56,6 +57,9 @@ pub struct Config {
     pub components: Option<usize>,
     pub iterations: Option<usize>,
     pub target: Option<Target>,
+    /// `target: mesh:PATH`: the CAD model's path as written (the caller reads the file, relative
+    /// to the config's folder, and sets the target).
+    pub target_mesh: Option<String>,
     pub initial_sigma: Option<InitialSigma>,
 }
 
@@ -101,7 +105,10 @@ impl Config {
             }
         }
         let edge = positive_number(&map, "target_edge").map_err(fail)?;
-        let target = match (string(&map, "target").map_err(fail)?, edge) {
+        let named = string(&map, "target").map_err(fail)?;
+        let target_mesh = named.as_deref().and_then(mesh_path).map(str::to_string);
+        let target = match (named, edge) {
+            (Some(_), _) if target_mesh.is_some() => None,
             (Some(t), _) => Some(t.parse::<Target>().map_err(|e| fail(format!("target: {e}")))?),
             (None, Some(edge)) => Some(Target::Cube { edge }),
             (None, None) => None,
@@ -114,6 +121,7 @@ impl Config {
             components: count(&map, "components").map_err(fail)?,
             iterations: count(&map, "iterations").map_err(fail)?,
             target,
+            target_mesh,
             initial_sigma: initial_sigma(&map).map_err(fail)?,
         })
     }
@@ -148,6 +156,12 @@ impl Config {
             settings.initial_sigma = sigma;
         }
     }
+}
+
+/// The path of a `mesh:PATH` target, if `target` is one.
+pub fn mesh_path(target: &str) -> Option<&str> {
+    let (kind, path) = target.trim().split_once(':')?;
+    (kind.eq_ignore_ascii_case("mesh") && !path.trim().is_empty()).then(|| path.trim())
 }
 
 /// A sensor's nominal in any of the forms users have: GMMCalib's six numbers `[roll, pitch,
@@ -313,6 +327,8 @@ max_bound:
         assert_eq!(all.roi, None, "the ROI is optional");
         let none = parse("target: none\n").unwrap();
         assert_eq!(none.target, Some(Target::None));
+        let mesh = parse("target: mesh:models/chair.obj\n").unwrap();
+        assert_eq!((mesh.target, mesh.target_mesh.as_deref()), (None, Some("models/chair.obj")));
     }
 
     #[test]

@@ -41,6 +41,18 @@ fn point_major(cloud: &Cloud, intensity: Option<&[f32]>) -> Vec<u8> {
     out
 }
 
+/// A triangle mesh as Wavefront OBJ text: `v x y z` lines, then `f a b c` (1-based).
+pub fn write_obj(mesh: &crate::io::mesh::Mesh) -> String {
+    let mut out = String::from("# gmmcalib\n");
+    for v in &mesh.vertices {
+        out += &format!("v {:?} {:?} {:?}\n", v[0], v[1], v[2]);
+    }
+    for t in &mesh.triangles {
+        out += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    out
+}
+
 /// PCD v0.7, `DATA binary`: `FIELDS x y z [intensity]`, all `F` of size 4, `HEIGHT 1`.
 pub fn write_pcd_binary(cloud: &Cloud) -> Vec<u8> {
     binary_pcd(cloud, [cloud.len(), 1])

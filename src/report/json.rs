@@ -127,11 +127,27 @@ pub struct ReconstructionReport {
     pub priors: Vec<f64>,
     /// The target's shape fitted to each target off the ground, largest first.
     pub fits: Vec<FitReport>,
+    /// Where a CAD-model target was found in the reference's data before registration, best
+    /// first (empty for the other targets).
+    pub placements: Vec<PlacementReport>,
+}
+
+/// One placed copy of a CAD-model target.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlacementReport {
+    /// `T_vehicle_model`, row-major 4x4, and as xyz (m) and roll, pitch, yaw (rad).
+    pub pose: [f64; 16],
+    pub xyz: [f64; 3],
+    pub rpy: [f64; 3],
+    /// The reference's points fitted, the share within the tolerance, their RMS distance (m).
+    pub points: usize,
+    pub inliers: f64,
+    pub rms: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]
 pub struct FitReport {
-    /// `cube`, `box` or `sphere`: the shape fitted.
+    /// `cube`, `box`, `sphere` or `mesh`: the shape fitted.
     pub shape: &'static str,
     /// RMS distance (m) of the target's means from the fitted shape.
     pub rms: f64,
@@ -194,6 +210,21 @@ impl From<&Calibration> for Report {
                         centre: f.centre,
                         rotation: f.rotation,
                         weight: f.weight,
+                    })
+                    .collect(),
+                placements: t
+                    .placements
+                    .iter()
+                    .map(|p| {
+                        let (xyz, rpy) = xyz_rpy(&p.pose);
+                        PlacementReport {
+                            pose: to_row_major(&p.pose),
+                            xyz,
+                            rpy,
+                            points: p.points,
+                            inliers: p.inliers,
+                            rms: p.rms,
+                        }
                     })
                     .collect(),
             },

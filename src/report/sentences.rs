@@ -215,7 +215,7 @@ impl fmt::Display for ReasonKind {
             ReasonKind::FarFromNominal { angle, distance, supported: false } => write!(
                 f,
                 "the result is {:.1} deg / {distance:.2} m from the nominal: the nominal was \
-                 wrong, or the result is",
+                 wrong, or the result is wrong",
                 deg(*angle)
             ),
             ReasonKind::Ambiguous { ambiguity, yaw, shift } => write!(
@@ -245,6 +245,20 @@ impl fmt::Display for ReasonKind {
             ReasonKind::NotConverged { iterations } => {
                 write!(f, "JRMPC stopped at its limit of {iterations} iterations before converging")
             }
+            ReasonKind::TargetFit { target, fit } if fit.shape == "mesh" => write!(
+                f,
+                "the mesh ({:.2} m across) fits a reconstructed target with RMS {:.1} mm, {:.0} % \
+                 of it within {:.0} mm{}",
+                fit.size,
+                1e3 * fit.rms,
+                1e2 * fit.inlier_share,
+                1e2 * fit.size,
+                if ReasonKind::fits_badly(target, fit) {
+                    "; it fits badly: another shape, or a blurred reconstruction"
+                } else {
+                    ""
+                }
+            ),
             ReasonKind::TargetFit { target, fit } => {
                 let size = if fit.shape == "sphere" { "diameter" } else { "edge" };
                 write!(

@@ -65,7 +65,11 @@ pub fn summary(c: &Calibration) -> String {
             "\ntarget at {x:.3}, {y:.3}, {z:.3} m ({:.0} % of the weight): rms {:.4} m, {} {:.4} m",
             fit.weight * 100.0,
             fit.rms,
-            if fit.shape == "sphere" { "diameter" } else { "edge" },
+            match fit.shape {
+                "sphere" => "diameter",
+                "mesh" => "across",
+                _ => "edge",
+            },
             fit.size
         );
     }

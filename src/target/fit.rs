@@ -9,6 +9,7 @@
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 
 use super::Target;
+use super::place::{ModelCloud, PlaceSettings};
 
 /// The fitted shape.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -132,6 +133,30 @@ pub fn fit_shape(target: &Target, means: &[Vector3<f64>], priors: &[f64]) -> Opt
             let start = [0.0, 0.0, 0.0, centroid.x, centroid.y, centroid.z, 0.5 * diameter];
             let (_, p) = fit(&points, &start, &sphere_distance);
             Some(summary(target, &points, &p, &sphere_distance, 2.0 * p[6].abs()))
+        }
+        Target::Mesh(m) => {
+            // The reconstruction's means as the placement's data: the rigid fit of the model
+            // (not rescaled) from every yaw about +z, its base below the means' centroid.
+            let size = target.size().unwrap_or(0.0);
+            let settings = PlaceSettings { tolerance: 0.1 * size, ..PlaceSettings::default() };
+            let model = ModelCloud::new(&m.mesh, &settings)?;
+            let data: Vec<[f32; 3]> = points.iter().map(|(p, _)| p.map(|c| c as f32).into()).collect();
+            let low = points.iter().map(|(p, _)| p.z).fold(f64::INFINITY, f64::min);
+            let base = Vector3::new(centroid.x, centroid.y, low);
+            let fit = model.best_fit(&data, &base, &Vector3::z(), &settings)?;
+            let b = m.mesh.bounds();
+            let extents: [f64; 3] = std::array::from_fn(|i| b.max[i] - b.min[i]);
+            let middle = Vector3::from(std::array::from_fn::<f64, 3, _>(|i| 0.5 * (b.min[i] + b.max[i])));
+            Some(ShapeFit {
+                shape: target.kind(),
+                rms: fit.rms,
+                size,
+                extents,
+                centre: (fit.pose * nalgebra::Point3::from(middle)).coords.into(),
+                rotation: fit.pose.rotation.scaled_axis().into(),
+                inlier_share: fit.inliers,
+                weight: 1.0,
+            })
         }
         Target::None => None,
     }

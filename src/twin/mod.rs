@@ -76,6 +76,23 @@ impl Model {
         }
     }
 
+    /// The calibration target the scene holds: a 0.5 m cube, the mesh standing in the cubes'
+    /// places (centred, as a file would give it), or none for a scene without one.
+    pub fn target(&self) -> crate::target::Target {
+        use crate::target::{MeshTarget, Target};
+        match self {
+            Model::RayCast(p) if p.targetless => Target::None,
+            Model::RayCast(p) => match p.scene.meshes.first() {
+                Some(m) => Target::Mesh(MeshTarget {
+                    name: "twin target".into(),
+                    mesh: std::sync::Arc::new(m.mesh().centred()),
+                }),
+                None => Target::default(),
+            },
+            Model::Sampled(_) => Target::default(),
+        }
+    }
+
     pub fn roi(&self) -> Aabb {
         match self {
             Model::RayCast(p) => p.roi,

@@ -139,11 +139,19 @@ impl Preset {
         preset
     }
 
-    /// A street without a calibration target, for targetless calibration with truth: the
-    /// paper's rig on a ground plane between two building walls at different angles, with
-    /// poles and parked cars spread over +-20 m. The ROI is the whole street.
+    /// A street without a calibration target, for targetless calibration with truth: a ground
+    /// plane between two building walls at different angles, with poles and parked cars spread
+    /// over +-20 m, seen by the paper's sensor model on a road vehicle's roof corners (1.9 m up,
+    /// 0.7 m either side, yawed +-45 deg out and pitched 5 deg down, as road rigs mount them).
+    /// The paper's mounts rolled +-20 deg towards cubes see opposite halves of such a street
+    /// (one looks up where the other looks down) and are left to the cube scenes. The ROI is
+    /// the whole street.
     pub fn street() -> Self {
         let mut preset = Self::paper();
+        let d = PI / 180.0;
+        for (sensor, side) in preset.sensors.iter_mut().zip([1.0, -1.0]) {
+            sensor.mount = pose_from_xyz_rpy([1.0, 0.7 * side, 1.9], [0.0, 5.0 * d, 45.0 * d * side]);
+        }
         let wall = |x, y, yaw: f64, length, height| {
             OrientedBox::new([x, y, height / 2.0], yaw.to_radians(), [length, 0.5, height])
         };

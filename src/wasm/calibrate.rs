@@ -31,7 +31,17 @@ enum TargetInput {
     Cube { edge: f64 },
     Box { size: [f64; 3] },
     Sphere { diameter: f64 },
+    /// A CAD model: its file in `targetMesh` (bytes cannot travel inside a tagged enum).
+    Mesh,
     None,
+}
+
+/// A CAD-model target's file: its name (the extension picks the reader) and bytes.
+#[derive(Deserialize)]
+struct MeshInput {
+    name: String,
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    bytes: js_sys::Uint8Array,
 }
 
 #[derive(Deserialize)]
@@ -45,6 +55,8 @@ pub(super) struct CalibrateInput {
     /// A method's name, or `all`.
     method: Option<String>,
     target: Option<TargetInput>,
+    /// The file of a `mesh` target.
+    target_mesh: Option<MeshInput>,
     components: Option<usize>,
     iterations: Option<usize>,
     tolerance: Option<f64>,
@@ -201,6 +213,12 @@ pub(super) fn rig_and_settings(
             TargetInput::Cube { edge } => Target::Cube { edge },
             TargetInput::Box { size } => Target::Box { size },
             TargetInput::Sphere { diameter } => Target::Sphere { diameter },
+            TargetInput::Mesh => {
+                let Some(MeshInput { name, bytes }) = &input.target_mesh else {
+                    return Err(error("a mesh target needs its file in targetMesh".into()));
+                };
+                Target::from_mesh_file(&bytes.to_vec(), name).map_err(|e| error(e.to_string()))?
+            }
             TargetInput::None => Target::None,
         }
         .checked()

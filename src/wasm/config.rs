@@ -62,7 +62,11 @@ pub fn parse_config(text: &str, file_name: &str) -> Result<JsValue, JsError> {
             Target::Cube { edge } => Some(*edge),
             _ => None,
         }),
-        target: c.target.as_ref().map(short_form),
+        target: c
+            .target
+            .as_ref()
+            .map(short_form)
+            .or_else(|| c.target_mesh.as_ref().map(|path| format!("mesh:{path}"))),
         initial_sigma,
     })
 }
@@ -73,6 +77,7 @@ fn short_form(t: &Target) -> String {
         Target::Cube { edge } => format!("cube:{edge}"),
         Target::Box { size: [w, d, h] } => format!("box:{w},{d},{h}"),
         Target::Sphere { diameter } => format!("sphere:{diameter}"),
+        Target::Mesh(m) => format!("mesh:{}", m.name),
         Target::None => "none".into(),
     }
 }

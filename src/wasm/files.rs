@@ -1,4 +1,5 @@
-//! `parseCloud(bytes, fileName)`: a PCD, PLY or KITTI file in, flat points out.
+//! `parseCloud(bytes, fileName)`: a PCD, PLY or KITTI file in, flat points out;
+//! `parseMesh(bytes, fileName)`: a CAD-model target's OBJ, PLY or STL in, its outline out.
 
 use js_sys::Float32Array;
 use serde::Serialize;
@@ -41,5 +42,38 @@ pub fn parse_cloud(bytes: &[u8], file_name: &str) -> Result<JsValue, JsError> {
         width: parsed.width,
         height: parsed.height,
         viewpoint_applied: parsed.viewpoint_applied,
+    })
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct MeshOutput {
+    /// Corner positions, flat x, y, z, ... (m), base centre at the origin (as placed).
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    vertices: Float32Array,
+    /// Corner indices, three per triangle.
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    triangles: js_sys::Uint32Array,
+    /// Extents along x, y, z (m) and the largest (the target's size).
+    extents: [f64; 3],
+    size: f64,
+}
+
+/// Parses a CAD-model target (`.obj`, `.ply` or `.stl` by `fileName`), centred as the
+/// calibration uses it. Throws an `Error` naming the file, the place and the problem (no
+/// faces, NaN vertices, a point cloud given as a mesh, ...).
+#[wasm_bindgen(js_name = parseMesh)]
+pub fn parse_mesh(bytes: &[u8], file_name: &str) -> Result<JsValue, JsError> {
+    let target = crate::target::Target::from_mesh_file(bytes, file_name)
+        .map_err(|e| JsError::new(&e.to_string()))?;
+    let crate::target::Target::Mesh(m) = &target else { unreachable!("a mesh file gives a mesh") };
+    let b = m.mesh.bounds();
+    let vertices: Vec<f32> = m.mesh.vertices.iter().flatten().map(|&c| c as f32).collect();
+    let triangles: Vec<u32> = m.mesh.triangles.iter().flatten().copied().collect();
+    to_js(&MeshOutput {
+        vertices: Float32Array::from(vertices.as_slice()),
+        triangles: js_sys::Uint32Array::from(triangles.as_slice()),
+        extents: std::array::from_fn(|i| b.max[i] - b.min[i]),
+        size: target.size().unwrap_or(0.0),
     })
 }

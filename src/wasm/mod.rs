@@ -60,12 +60,17 @@ struct RigScan {
 
 /// A generated rig in the shape `calibrate` takes, plus `truth` (true `T_vehicle_sensor`).
 #[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
 struct RigOutput {
     scans: Vec<RigScan>,
     nominal: BTreeMap<String, XyzRpy>,
     truth: BTreeMap<String, XyzRpy>,
     roi: Roi,
     reference: String,
+    /// The scene's target in `Target`'s short form (`cube:0.5`, `none`, `mesh:target.obj`),
+    /// and for a CAD model its OBJ text.
+    target: String,
+    target_obj: Option<String>,
 }
 
 #[wasm_bindgen(start)]

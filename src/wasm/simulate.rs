@@ -7,6 +7,8 @@ use js_sys::Float32Array;
 use serde::Deserialize;
 use wasm_bindgen::prelude::*;
 
+use crate::target::Target;
+
 use super::{RigOutput, RigScan, Roi, XyzRpy, options_or_default, to_js};
 use crate::twin::{self, Miscalibration, Model, Sampling, Twin};
 
@@ -82,6 +84,15 @@ pub fn simulate_rig(options: JsValue) -> Result<JsValue, JsError> {
         truth: named(&twin.truth),
         roi: Roi { min: twin.roi.min, max: twin.roi.max },
         reference: twin.truth[0].0.clone(),
+        target: match model.target() {
+            Target::Cube { edge } => format!("cube:{edge}"),
+            Target::Mesh(_) => "mesh:target.obj".into(),
+            _ => "none".into(),
+        },
+        target_obj: match model.target() {
+            Target::Mesh(m) => Some(crate::io::write_obj(&m.mesh)),
+            _ => None,
+        },
     })
 }
 

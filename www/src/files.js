@@ -9,6 +9,9 @@ const CONFIG = /(^|\/)[^/]*\.ya?ml$/i;
 const OPENCALIB_PATHS = /(^|\/)lidar_cloud_path\.txt$/i;
 const OPENCALIB_GUESS = /(^|\/)initial_extrinsic\.txt$/i;
 
+// A target's CAD model: OBJ or STL (a PLY is taken for a scan).
+export const isMesh = (path) => /\.(obj|stl)$/i.test(path);
+
 // [{path, file}] from a file input: webkitRelativePath for folder picks, else the name.
 export function fromInput(fileList) {
   return Array.from(fileList, (file) => ({ path: file.webkitRelativePath || file.name, file }));

@@ -5,7 +5,7 @@
 import { WorkerClient } from './rpc.js';
 import { Viewer } from './viewer.js';
 import { Display, livePoses, sensorColour } from './display.js';
-import { fromDrop, fromInput, pair, readEntries } from './files.js';
+import { fromDrop, fromInput, isMesh, pair, readEntries } from './files.js';
 import { renderFiles } from './filelist.js';
 import { renderRig } from './rig.js';
 import { drawConvergence, renderResults } from './results.js';
@@ -98,7 +98,11 @@ async function loadFiles(entries) {
   showError(null);
   const recording = entries.find((e) => isRecording(e.path));
   if (recording) await openRecording(recording);
-  entries = entries.filter((e) => !isRecording(e.path));
+  // An .obj or .stl among the files is the target's CAD model (a .ply is a scan: pick a PLY
+  // model with the target's "CAD model…").
+  const model = entries.find((e) => isMesh(e.path));
+  if (model) await loadTargetMesh(model);
+  entries = entries.filter((e) => !isRecording(e.path) && !isMesh(e.path));
   if (!entries.length) return;
   if (state.truth) clearAll(); // user files replace a demo
   const read = {
@@ -186,6 +190,9 @@ async function loadDemo() {
     clearAll();
     state.scans = rig.scans.map((v) => ({ id: `scan:${nextScanId++}`, path: `${v.sensor}_${v.frame}`, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: v.dropped, format: 'simulated' }));
     state.truth = rig.truth;
+    // The scene's own target: its cube, its CAD model, or none.
+    if (rig.targetObj) await loadTargetMesh({ path: 'target.obj', file: new Blob([rig.targetObj]) });
+    else state.settings.target = rig.target;
     rigFrom({ nominal: rig.nominal, roi: rig.roi, reference: rig.reference });
     renderPanels();
     redraw();
@@ -272,8 +279,9 @@ function syncSettingsInputs() {
   for (const key of SETTING_INPUTS) $(key).value = state.settings[key];
   const [kind, size = ''] = state.settings.target.split(':');
   $('target-kind').value = kind;
-  $('target-size').value = size;
-  $('target-size').disabled = kind === 'none';
+  // A model's size is its own: shown, not edited.
+  $('target-size').value = kind === 'mesh' ? (state.targetMesh?.extents.map((e) => e.toFixed(2)).join(',') ?? '') : size;
+  $('target-size').disabled = kind === 'none' || kind === 'mesh';
   if (state.settings.demo) $('demo-preset').value = state.settings.demo; // else the last one picked
   $('demo-seed').value = state.settings.seed;
   $('demo-frames').value = state.settings.frames;
@@ -296,6 +304,13 @@ for (const key of SETTING_INPUTS) {
 // back; a size that is not positive numbers is put back (to the default when the kind changed).
 function targetChanged() {
   const kind = $('target-kind').value;
+  if (kind === 'mesh') {
+    if (state.targetMesh) state.settings.target = `mesh:${state.targetMesh.name}`;
+    else $('mesh-input').click(); // the kind shows once a model is loaded
+    syncSettingsInputs();
+    writeHash(state.settings);
+    return;
+  }
   const [previousKind] = state.settings.target.split(':');
   let size = $('target-size').value.split(',').filter((v) => v.trim()).map(Number);
   if (kind === 'box' && size.length === 1) size = [size[0], size[0], size[0]];
@@ -308,6 +323,29 @@ function targetChanged() {
   writeHash(state.settings);
 }
 $('target-kind').addEventListener('change', targetChanged);
+$('mesh-input').addEventListener('change', async (e) => {
+  const [file] = e.target.files;
+  if (file) await loadTargetMesh({ path: file.name, file });
+  e.target.value = '';
+});
+
+// A CAD-model target: checked and measured by the library (a bad file is named and changes
+// nothing), kept with its bytes for the calibration.
+async function loadTargetMesh({ path, file }) {
+  try {
+    const bytes = await file.arrayBuffer();
+    const mesh = await client.request('mesh', { bytes: bytes.slice(0), name: path });
+    state.targetMesh = { name: path, bytes, extents: mesh.extents, size: mesh.size, triangles: mesh.triangles.length / 3 };
+    state.settings.target = `mesh:${path}`;
+    forgetResults();
+    syncSettingsInputs();
+    writeHash(state.settings);
+    setStatus(`Target: ${path}, ${state.targetMesh.triangles} triangles, ${mesh.extents.map((x) => x.toFixed(2)).join(' × ')} m; where it stands is found from the data.`);
+  } catch (error) {
+    showError(`${error.message ?? error}`);
+    syncSettingsInputs();
+  }
+}
 $('target-size').addEventListener('change', targetChanged);
 
 function viewerLookAt() {

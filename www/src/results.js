@@ -120,15 +120,17 @@ function comparisonHtml(results, truth, failures) {
 export function renderResults(container, results, truth, failures = []) {
   const r = results[0];
   const t = r.reconstruction;
-  const sizeText = (x) => ({ sphere: `diameter ${x.size.toFixed(3)}`, box: `box ${x.extents.map((e) => e.toFixed(3)).join(' × ')}` })[x.shape] ?? `edge ${x.size.toFixed(3)}`;
-  const fitText = (x) => `${sizeText(x)} m, RMS ${(x.rms * 1000).toFixed(1)} mm`;
+  const sizeText = (x) => ({ sphere: `diameter ${x.size.toFixed(3)}`, box: `box ${x.extents.map((e) => e.toFixed(3)).join(' × ')}`, mesh: `the model (${x.size.toFixed(2)}`})[x.shape] ?? `edge ${x.size.toFixed(3)}`;
+  const fitText = (x) => `${sizeText(x)} m${x.shape === 'mesh' ? ' across)' : ''}, RMS ${(x.rms * 1000).toFixed(1)} mm`;
+  const placed = t.placements?.length ? `; the CAD model found standing ${t.placements.length === 1 ? 'once' : `${t.placements.length} times`} in the reference's scans (${t.placements.map((p) => `${(100 * p.inliers).toFixed(0)} % of ${p.points} points within 3 cm`).join(', ')})` : '';
   const fit = t.fits.length
     ? `${t.fits.length === 1 ? 'target' : `${t.fits.length} targets`}: ${t.fits.map(fitText).join('; ')}`
     : t.means.length ? 'no target stands out from the ground' : 'no target reconstructed (none given, or an ICP method)';
+  const targetText = fit + placed;
   container.innerHTML = `
     ${verdictHtml(r)}
     ${results.length + failures.length > 1 ? `<h3>All methods</h3>${comparisonHtml(results, truth, failures)}<h3>Details: ${r.method}</h3>` : ''}
-    <p>method ${r.method}, reference ${esc(r.reference)}${r.iterations ? `, ${r.iterations} EM iterations${r.converged ? ', converged' : ''}` : ''}${r.cancelled ? ', cancelled' : ''}; ${fit}</p>
+    <p>method ${r.method}, reference ${esc(r.reference)}${r.iterations ? `, ${r.iterations} EM iterations${r.converged ? ', converged' : ''}` : ''}${r.cancelled ? ', cancelled' : ''}; ${targetText}</p>
     ${(r.levelling ?? []).filter((l) => l.warning).map((l) => `<p class="error" data-testid="warning">${esc(l.sensor)}: ${esc(l.warning)}</p>`).join('')}
     ${r.sensors.map((s) => sensorHtml(s, r.reference, truth, r)).join('')}
     ${levellingHtml(r.levelling)}

@@ -23,6 +23,7 @@ async function calibrateInput(state) {
     reference: state.rig.reference,
     method: s.method,
     target: targetInput(s.target),
+    targetMesh: s.target.startsWith('mesh:') ? meshInput(state.targetMesh) : undefined,
     alignGlobally: { on: true, off: false }[s.global],
     components: s.components,
     iterations: s.iterations,
@@ -31,14 +32,22 @@ async function calibrateInput(state) {
   return { input, transfer: scans.map((v) => v.points.buffer) };
 }
 
-// The target's short form (`cube:0.5`, `box:W,D,H`, `sphere:D`, `none`) as `calibrate` takes it.
+// The target's short form (`cube:0.5`, `box:W,D,H`, `sphere:D`, `mesh:NAME`, `none`) as
+// `calibrate` takes it; a mesh's file goes beside it (meshInput).
 export function targetInput(short) {
   const [kind, size = ''] = String(short).split(':');
+  if (kind === 'mesh') return { kind };
   const numbers = size.split(',').map(Number);
   if (kind === 'box') return { kind, size: numbers };
   if (kind === 'sphere') return { kind, diameter: numbers[0] };
   if (kind === 'none') return { kind };
   return { kind: 'cube', edge: numbers[0] };
+}
+
+// The CAD model loaded ({name, bytes}) as `calibrate`'s targetMesh.
+function meshInput(mesh) {
+  if (!mesh) throw new Error('the target is a CAD model: load its .obj, .ply or .stl file first');
+  return { name: mesh.name, bytes: new Uint8Array(mesh.bytes) };
 }
 
 // Workers sharing the registration: one per core (the page's own thread mostly waits), at

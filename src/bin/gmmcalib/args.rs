@@ -6,7 +6,7 @@ use std::path::PathBuf;
 pub const USAGE: &str = "\
 usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
                           [--method gmm|jrmpc|p2p|p2l|gicp|all] [--reference NAME]
-                          [--target cube:EDGE|box:W,D,H|sphere:DIAMETER|none]
+                          [--target cube:EDGE|box:W,D,H|sphere:DIAMETER|mesh:PATH|none]
                           [--roi XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX] [--global on|off]
                           [--iterations N] [--components K] [--threads T]
                           [--json OUT.json]
@@ -21,7 +21,7 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
                           [--max-angle-deg 3] [--max-translation 0.1]
        gmmcalib study [--preset paper|paper-roof|...] [--seeds 20] [--starts 5] [--frames 5]
                           [--max-angle-deg 3] [--max-yaw-deg DEG] [--max-translation 0.1]
-                          [--method gmm] [--target cube:0.5|...|none] [--components K]
+                          [--method gmm] [--target cube:0.5|...|mesh:PATH|none] [--components K]
                           [--iterations N] [--tolerance T]
                           [--bev on|off] [--planes on|off] [--level on|off] [--global on|off] [--noise M]
                           [--columns N] [--threads T] [--notes]
@@ -476,5 +476,19 @@ mod tests {
         };
         assert_eq!((s.preset.as_str(), s.seeds, s.starts), ("paper-roof", 3, 5));
         assert_eq!((s.max_yaw_deg, s.planes, s.bev, s.notes), (Some(8.0), false, true, true));
+    }
+}
+
+/// A target in its short form (`Target`'s), or `mesh:PATH` with PATH (relative to `dir`) read
+/// here: the library parses the bytes.
+pub fn target(value: &str, dir: &std::path::Path) -> Result<gmmcalib::target::Target, String> {
+    match gmmcalib::io::config::mesh_path(value) {
+        Some(path) => {
+            let path = dir.join(path);
+            let label = path.display().to_string();
+            let bytes = std::fs::read(&path).map_err(|e| format!("{label}: {e}"))?;
+            gmmcalib::target::Target::from_mesh_file(&bytes, &label).map_err(|e| e.to_string())
+        }
+        None => value.parse(),
     }
 }

@@ -101,8 +101,16 @@ mod cli {
             }
             (None, None) => vec![settings.method],
         };
+        if let (Some(config), Some(path)) = (&config, a.config.as_ref()) {
+            if let Some(mesh) = &config.target_mesh {
+                let dir = path.parent().unwrap_or(std::path::Path::new("."));
+                let value = format!("mesh:{mesh}");
+                settings.target = args::target(&value, dir).map_err(|e| format!("{label}: {e}"))?;
+            }
+        }
         if let Some(target) = &a.target {
-            settings.target = target.parse().map_err(|e| format!("--target: {e}"))?;
+            settings.target = args::target(target, std::path::Path::new("."))
+                .map_err(|e| format!("--target: {e}"))?;
         }
         if let Some(k) = a.components {
             settings.components = k;

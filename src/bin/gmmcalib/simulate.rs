@@ -4,12 +4,14 @@
 //! DIR/config.yaml             nominal (miscalibrated) extrinsics and the preset's ROI
 //! DIR/data/sensor_N/F.pcd     binary PCD, organized WIDTH columns x HEIGHT channels, misses 0
 //! DIR/truth.json              true extrinsics, nominals, expected corrections (row-major 4x4)
+//! DIR/target.obj              the CAD-model target, for the scenes that hold one
 //! ```
 
 use std::fs;
 use std::path::Path;
 
-use gmmcalib::io::{write_pcd_binary, write_pcd_binary_organized};
+use gmmcalib::io::{write_obj, write_pcd_binary, write_pcd_binary_organized};
+use gmmcalib::target::Target;
 use gmmcalib::se3::{Pose, to_row_major};
 use serde::Serialize;
 
@@ -63,8 +65,19 @@ pub fn write(files: &TwinFiles, args: &TwinArgs, dir: &Path) -> Result<(), Strin
             .unwrap_or_else(|| write_pcd_binary(&view.cloud));
         fs::write(&file, bytes).map_err(|e| fail(&file, e))?;
     }
+    // The scene's target, so that the folder calibrates as it is: a mesh beside the config.
+    let mut yaml = config_yaml(files);
+    match files.model.target() {
+        Target::Mesh(m) => {
+            let obj = dir.join("target.obj");
+            fs::write(&obj, write_obj(&m.mesh)).map_err(|e| fail(&obj, e))?;
+            yaml += "target: mesh:target.obj\n";
+        }
+        Target::None => yaml += "target: none\n",
+        _ => {}
+    }
     let config = dir.join("config.yaml");
-    fs::write(&config, config_yaml(files)).map_err(|e| fail(&config, e))?;
+    fs::write(&config, yaml).map_err(|e| fail(&config, e))?;
     let truth = Truth {
         preset: &args.preset,
         seed: args.seed,

@@ -35,7 +35,11 @@ pub fn run(a: &StudyArgs) -> Result<(), String> {
             s.lidar.range_noise = a.noise.unwrap_or(s.lidar.range_noise);
         }
     }
-    let settings = settings(a)?;
+    let mut settings = settings(a)?;
+    // The scene's own target unless the flag names another.
+    if a.target.is_none() {
+        settings.target = model.target();
+    }
     let angle = a.max_angle_deg.to_radians();
     let yaw = a.max_yaw_deg.map_or(angle, f64::to_radians);
     let translation = a.max_translation;
@@ -104,7 +108,8 @@ fn settings(a: &StudyArgs) -> Result<Settings, String> {
     settings.level_ground = a.level;
     settings.align_globally = a.global;
     if let Some(target) = &a.target {
-        settings.target = target.parse().map_err(|e| format!("--target: {e}"))?;
+        settings.target = crate::args::target(target, std::path::Path::new("."))
+            .map_err(|e| format!("--target: {e}"))?;
     }
     Ok(settings)
 }

@@ -1,0 +1,357 @@
+//! CAD-informed registration (GMMCalib's CADCalib, TUMFTM/GMMCalib `src/cad_calib.py`): every
+//! sensor's points are registered to a Gaussian mixture whose centres are FIXED samples of a
+//! CAD mesh already placed in the vehicle frame, so the calibration is anchored to the known
+//! geometry rather than to a mixture that floats with the data (as in [`crate::jrmpc`]).
+//!
+//! Following CADCalib:
+//! - centre `k` has the precision `(I + a_k n_k n_k^T) / sigma^2`, one global `sigma^2`, its
+//!   anisotropy `a_k` from the surface's curvature ([`CadModel::from_samples`]): flat faces act
+//!   point-to-plane, edges point-to-point;
+//! - the priors `1 / (K (gamma + 1))` with GMMBase's `gamma = 0.1`, the centre weights
+//!   `F_k` and the uniform outlier class (`outlier_weight`, the bounding volume of all points
+//!   and centres), whose constant is fixed at the initial sigma; the initial `sigma^2` is the
+//!   squared diagonal of that bounding box;
+//! - each sensor has one rigid transform shared by all its views; the M-step takes damped
+//!   Gauss-Newton steps (2, damping 1e-6) on `sum_ik r_ik (T p_i - c_k)^T Lambda_k (T p_i - c_k)`
+//!   with the responsibilities fixed, then re-estimates `sigma^2 = sum r d^T Lambda d / (3 sum r)`
+//!   with `Lambda_k = I + a_k n_k n_k^T`. The centres never move.
+//!
+//! Where it differs, and why:
+//! - the E-step is sparse: only centres within `radius_sigmas * sigma` of a point are
+//!   evaluated (a hash grid of the centres), and of those only terms within that Mahalanobis
+//!   distance; every Gaussian's broadest axis is `sigma`, so the bound is exact for the terms
+//!   kept. CADCalib evaluates every point against every centre (points x K per iteration);
+//! - it stops once no parameter (a sensor's rotation in rad, its translation at its points'
+//!   centroid in m, or sigma in m) changes by more than `tolerance` in an iteration, with
+//!   `max_iterations` as a cap; CADCalib runs a fixed 100;
+//! - any number of sensors, each view assigned explicitly (CADCalib: two sensors, views split
+//!   in halves);
+//! - the Gauss-Newton increment is taken about the centres' centroid in the vehicle frame
+//!   (left-multiplied) rather than in the sensor frame (right-multiplied): the same fixed point,
+//!   a better conditioned system; and the per-point responsibilities are reduced to a few sums,
+//!   so the two steps cost O(points), not O(points x K);
+//! - sigma^2 is floored (`variance_floor`), so it cannot collapse on noiseless data.
+
+mod em;
+mod model;
+
+use std::fmt;
+
+use nalgebra::Vector3;
+
+pub use model::CadModel;
+
+use crate::jrmpc::Control;
+use crate::se3::Pose;
+use em::{Grid, Mixture, Summary};
+
+/// GMMBase's `gamma` (`gmm_base.py`, `_initialize_common_parameters`): the priors are
+/// `1 / (K (gamma + 1))`.
+const GAMMA: f64 = 0.1;
+
+/// Registration settings. Defaults are CADCalib's where it has them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CadSettings {
+    /// Upper bound on EM iterations (CADCalib runs exactly 100).
+    pub max_iterations: usize,
+    /// Stop once no sensor's rotation (rad) or translation at its points' centroid (m), nor
+    /// sigma (m), changes by more than this in one iteration. 0 runs all `max_iterations`.
+    pub tolerance: f64,
+    /// CADCalib's outlier ratio `w` (0.1), in [0, 1).
+    pub outlier_weight: f64,
+    /// Largest anisotropy, given to flat faces (CADCalib's `alimit`, 30; about 10 suits noisy
+    /// real data). Used by [`CadModel::from_samples`]; kept here so one settings value
+    /// describes a run.
+    pub a_max: f64,
+    /// Initial sigma (m). `None`: CADCalib's rule, the diagonal of the bounding box of all
+    /// points and centres.
+    pub initial_sigma: Option<f64>,
+    /// Lower bound on sigma^2 (m^2).
+    pub variance_floor: f64,
+    /// Added to the Gauss-Newton system's diagonal (CADCalib: 1e-6).
+    pub damping: f64,
+    /// Gauss-Newton steps per M-step (CADCalib: 2).
+    pub gauss_newton_steps: usize,
+    /// The E-step's radius in sigmas: terms farther (in Mahalanobis distance) are skipped.
+    pub radius_sigmas: f64,
+}
+
+impl Default for CadSettings {
+    fn default() -> Self {
+        Self {
+            max_iterations: 100,
+            tolerance: 1e-7,
+            outlier_weight: 0.1,
+            a_max: 30.0,
+            initial_sigma: None,
+            variance_floor: 1e-6,
+            damping: 1e-6,
+            gauss_newton_steps: 2,
+            radius_sigmas: 3.5,
+        }
+    }
+}
+
+/// What the progress callback sees after each iteration, and the history keeps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CadIteration {
+    /// 1-based iteration just completed.
+    pub iteration: usize,
+    /// Sigma after the iteration (m).
+    pub sigma: f64,
+    /// Largest parameter change in the iteration: a rotation (rad), a translation at a
+    /// sensor's points' centroid (m) or sigma's (m).
+    pub max_change: f64,
+}
+
+/// The outcome of a registration.
+#[derive(Clone, Debug)]
+pub struct CadRegistration {
+    /// Per sensor: maps the sensor's (already pre-aligned) points onto the model.
+    pub poses: Vec<Pose>,
+    /// Final sigma (m).
+    pub sigma: f64,
+    /// Iterations run.
+    pub iterations: usize,
+    /// The tolerance was reached before `max_iterations`.
+    pub converged: bool,
+    /// The progress callback asked to stop.
+    pub cancelled: bool,
+    pub history: Vec<CadIteration>,
+    /// Per sensor: its points with any centre within reach at the last E-step.
+    pub support: Vec<usize>,
+    /// Per sensor: the anisotropic RMS residual `sqrt(sum r d^T (I + a n n^T) d / sum r)` (m)
+    /// at the final poses with the last responsibilities; 0 without support.
+    pub rms: Vec<f64>,
+}
+
+/// Why a registration could not start.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CadError {
+    NoCentres,
+    /// No view of this sensor has a point.
+    NoPoints {
+        sensor: usize,
+    },
+    NonFinitePoint {
+        view: usize,
+        index: usize,
+    },
+    /// The named setting or input is out of range (or the model's arrays disagree).
+    InvalidSetting(&'static str),
+}
+
+impl fmt::Display for CadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoCentres => write!(f, "the CAD model has no centres"),
+            Self::NoPoints { sensor } => write!(f, "sensor {sensor} has no points"),
+            Self::NonFinitePoint { view, index } => {
+                write!(f, "view {view}: point {index} is not finite")
+            }
+            Self::InvalidSetting(what) => write!(f, "invalid setting: {what}"),
+        }
+    }
+}
+
+impl std::error::Error for CadError {}
+
+/// Registers every sensor to the fixed CAD mixture.
+///
+/// `views`: every view's points, already pre-aligned into the vehicle frame by the nominal
+/// extrinsics; `sensor_of_view[v]` in `0..sensors` names the sensor view `v` belongs to, and
+/// all of a sensor's views share its one transform. `progress` runs after every iteration and
+/// may stop the run (`Control::Stop`). Deterministic.
+pub fn register(
+    views: &[&[[f32; 3]]],
+    sensor_of_view: &[usize],
+    sensors: usize,
+    model: &CadModel,
+    settings: &CadSettings,
+    mut progress: impl FnMut(&CadIteration) -> Control,
+) -> Result<CadRegistration, CadError> {
+    validate(views, sensor_of_view, sensors, model, settings)?;
+
+    // Raw points (f64) in view order, with their sensor.
+    let points: Vec<(Vector3<f64>, usize)> = views
+        .iter()
+        .zip(sensor_of_view)
+        .flat_map(|(view, &s)| view.iter().map(move |p| (Vector3::from(p.map(f64::from)), s)))
+        .collect();
+    let mut counts = vec![0usize; sensors];
+    let mut centroids = vec![Vector3::zeros(); sensors];
+    for (p, s) in &points {
+        counts[*s] += 1;
+        centroids[*s] += p;
+    }
+    for (c, &n) in centroids.iter_mut().zip(&counts) {
+        *c /= n as f64;
+    }
+
+    // CADCalib `_initialize_distribution_parameters` and `_initialize_bounding_volume`: the
+    // box of all (identity-transformed) points and all centres; sigma^2 = its squared diagonal.
+    let (volume, diagonal2) =
+        em::bounding_box(points.iter().map(|(p, _)| *p).chain(model.centres.iter().copied()));
+    let mut sigma2 = match settings.initial_sigma {
+        Some(s) => s * s,
+        None => diagonal2,
+    }
+    .max(settings.variance_floor);
+    let mixture = Mixture::new(model, GAMMA, settings.outlier_weight, sigma2, volume);
+    let origin = mixture.origin;
+
+    let mut poses = vec![Pose::identity(); sensors];
+    let mut summaries = vec![Summary::default(); points.len()];
+    let mut support = vec![0usize; sensors];
+    let mut rms = vec![0.0; sensors];
+    let mut history = Vec::new();
+    let (mut converged, mut cancelled) = (false, false);
+
+    for iteration in 1..=settings.max_iterations {
+        // E-step.
+        let sigma = sigma2.sqrt();
+        let grid = Grid::new(&mixture, settings.radius_sigmas * sigma);
+        let half_inv_sigma2 = 0.5 / sigma2;
+        let outlier = mixture.outlier_term(sigma2);
+        support.iter_mut().for_each(|s| *s = 0);
+        for ((y, s), summary) in points.iter().zip(summaries.iter_mut()) {
+            let x = poses[*s].transform_point(&(*y).into()).coords - origin;
+            let (sum, supported) = grid.e_step(&x, half_inv_sigma2, outlier);
+            *summary = sum;
+            support[*s] += usize::from(supported);
+        }
+
+        // M-step: each sensor's pose, then sigma^2.
+        let previous = poses.clone();
+        for (s, pose) in poses.iter_mut().enumerate() {
+            let sensor_points = points
+                .iter()
+                .zip(&summaries)
+                .filter(move |((_, of), _)| *of == s)
+                .map(|((y, _), summary)| (*y, *summary));
+            em::gauss_newton(
+                pose,
+                &origin,
+                sensor_points,
+                settings.gauss_newton_steps,
+                settings.damping,
+            );
+        }
+        let mut num = vec![0.0; sensors];
+        let mut den = vec![0.0; sensors];
+        for ((y, s), summary) in points.iter().zip(&summaries) {
+            if summary.w > 0.0 {
+                let x = poses[*s].transform_point(&(*y).into()).coords - origin;
+                num[*s] += summary.anisotropic_sq(&x);
+                den[*s] += summary.w;
+            }
+        }
+        for s in 0..sensors {
+            rms[s] = if den[s] > 0.0 { (num[s] / den[s]).sqrt() } else { 0.0 };
+        }
+        let (num_all, den_all): (f64, f64) = (num.iter().sum(), den.iter().sum());
+        // CADCalib `m_step`: sigma2 = sum r d^T Lambda d / (3 sum r + 1e-12). Without any
+        // support there is nothing to estimate it from: it stays.
+        if den_all > 0.0 {
+            sigma2 = (num_all / (3.0 * den_all + 1e-12)).max(settings.variance_floor);
+        }
+
+        let mut max_change = (sigma2.sqrt() - sigma).abs();
+        for s in 0..sensors {
+            let rotation = previous[s].rotation.angle_to(&poses[s].rotation);
+            let c = centroids[s].into();
+            let shift = (poses[s].transform_point(&c) - previous[s].transform_point(&c)).norm();
+            max_change = max_change.max(rotation).max(shift);
+        }
+        let record = CadIteration { iteration, sigma: sigma2.sqrt(), max_change };
+        history.push(record);
+        converged = max_change < settings.tolerance;
+        if progress(&record) == Control::Stop {
+            cancelled = true;
+            break;
+        }
+        if converged {
+            break;
+        }
+    }
+
+    Ok(CadRegistration {
+        poses,
+        sigma: sigma2.sqrt(),
+        iterations: history.len(),
+        converged,
+        cancelled,
+        history,
+        support,
+        rms,
+    })
+}
+
+fn validate(
+    views: &[&[[f32; 3]]],
+    sensor_of_view: &[usize],
+    sensors: usize,
+    model: &CadModel,
+    settings: &CadSettings,
+) -> Result<(), CadError> {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if settings.max_iterations == 0 {
+        return Err(CadError::InvalidSetting("max_iterations"));
+    }
+    if !(settings.tolerance.is_finite() && settings.tolerance >= 0.0) {
+        return Err(CadError::InvalidSetting("tolerance"));
+    }
+    if !(settings.outlier_weight.is_finite() && (0.0..1.0).contains(&settings.outlier_weight)) {
+        return Err(CadError::InvalidSetting("outlier_weight"));
+    }
+    if !(settings.a_max.is_finite() && settings.a_max >= 0.0) {
+        return Err(CadError::InvalidSetting("a_max"));
+    }
+    if settings.initial_sigma.is_some_and(|s| !positive(s)) {
+        return Err(CadError::InvalidSetting("initial_sigma"));
+    }
+    if !positive(settings.variance_floor) {
+        return Err(CadError::InvalidSetting("variance_floor"));
+    }
+    if !(settings.damping.is_finite() && settings.damping >= 0.0) {
+        return Err(CadError::InvalidSetting("damping"));
+    }
+    if !positive(settings.radius_sigmas) {
+        return Err(CadError::InvalidSetting("radius_sigmas"));
+    }
+    if model.is_empty() {
+        return Err(CadError::NoCentres);
+    }
+    if model.normals.len() != model.len() || model.anisotropy.len() != model.len() {
+        return Err(CadError::InvalidSetting("model"));
+    }
+    let finite = |v: &Vector3<f64>| v.iter().all(|c| c.is_finite());
+    if !model.centres.iter().all(finite)
+        || !model.normals.iter().all(finite)
+        || !model.anisotropy.iter().all(|a| a.is_finite() && *a >= 0.0)
+    {
+        return Err(CadError::InvalidSetting("model"));
+    }
+    if sensors == 0 {
+        return Err(CadError::InvalidSetting("sensors"));
+    }
+    if sensor_of_view.len() != views.len() || sensor_of_view.iter().any(|&s| s >= sensors) {
+        return Err(CadError::InvalidSetting("sensor_of_view"));
+    }
+    for (view, points) in views.iter().enumerate() {
+        if let Some(index) = points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+            return Err(CadError::NonFinitePoint { view, index });
+        }
+    }
+    let mut has_points = vec![false; sensors];
+    for (points, &s) in views.iter().zip(sensor_of_view) {
+        has_points[s] |= !points.is_empty();
+    }
+    if let Some(sensor) = has_points.iter().position(|h| !h) {
+        return Err(CadError::NoPoints { sensor });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;
