@@ -13,8 +13,8 @@ pub mod se3;
 // Decoding.
 pub mod io;
 // Engines and the target.
-pub mod icp;
 pub mod cad;
+pub mod icp;
 pub mod jrmpc;
 pub mod target;
 // The pipeline.

@@ -340,7 +340,9 @@ impl ReasonKind {
         let Some(size) = target.size() else { return false };
         // A rigid mesh keeps its size; most of the target must lie on it instead.
         let off_the_mesh = matches!(target, Target::Mesh(_)) && fit.inlier_share < MESH_INLIERS;
-        (fit.size - size).abs() > TARGET_SIZE_OFF * size || fit.rms > TARGET_RMS * size || off_the_mesh
+        (fit.size - size).abs() > TARGET_SIZE_OFF * size
+            || fit.rms > TARGET_RMS * size
+            || off_the_mesh
     }
 }
 

@@ -195,12 +195,15 @@ impl Views {
                 let copies = self.placements.len();
                 (0..copies)
                     .flat_map(|c| {
-                        let k = settings.components / copies + usize::from(c < settings.components % copies);
+                        let k = settings.components / copies
+                            + usize::from(c < settings.components % copies);
                         let pose = self.placements[c].pose;
-                        m.mesh.sample(k, settings.seed.wrapping_add(c as u64)).into_iter().map(move |p| {
-                            let q = pose * nalgebra::Point3::from(p);
-                            [q.x, q.y, q.z]
-                        })
+                        m.mesh.sample(k, settings.seed.wrapping_add(c as u64)).into_iter().map(
+                            move |p| {
+                                let q = pose * nalgebra::Point3::from(p);
+                                [q.x, q.y, q.z]
+                            },
+                        )
                     })
                     .collect()
             }
@@ -451,12 +454,19 @@ fn place_targets(
     let size = target.size().unwrap_or(0.0);
     let roi_size = (0..3).map(|i| roi.max[i] - roi.min[i]).fold(0.0, f64::max);
     if size > roi_size {
-        return Err(CalibError::TargetLargerThanRoi { target: m.name.clone(), size, roi: roi_size });
+        return Err(CalibError::TargetLargerThanRoi {
+            target: m.name.clone(),
+            size,
+            roi: roi_size,
+        });
     }
     let settings = PlaceSettings::default();
     let Some(model) = ModelCloud::new(&m.mesh, &settings) else { return Ok(Vec::new()) };
-    let points: Vec<[f32; 3]> =
-        views.iter().filter(|v| v.sensor == r).flat_map(|v| v.cloud.points.iter().copied()).collect();
+    let points: Vec<[f32; 3]> = views
+        .iter()
+        .filter(|v| v.sensor == r)
+        .flat_map(|v| v.cloud.points.iter().copied())
+        .collect();
     let level = Plane { normal: nalgebra::Vector3::z(), offset: 0.0 };
     Ok(crate::target::place(&model, &points, ground.unwrap_or(&level), &settings))
 }

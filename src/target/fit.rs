@@ -140,13 +140,15 @@ pub fn fit_shape(target: &Target, means: &[Vector3<f64>], priors: &[f64]) -> Opt
             let size = target.size().unwrap_or(0.0);
             let settings = PlaceSettings { tolerance: 0.1 * size, ..PlaceSettings::default() };
             let model = ModelCloud::new(&m.mesh, &settings)?;
-            let data: Vec<[f32; 3]> = points.iter().map(|(p, _)| p.map(|c| c as f32).into()).collect();
+            let data: Vec<[f32; 3]> =
+                points.iter().map(|(p, _)| p.map(|c| c as f32).into()).collect();
             let low = points.iter().map(|(p, _)| p.z).fold(f64::INFINITY, f64::min);
             let base = Vector3::new(centroid.x, centroid.y, low);
             let fit = model.best_fit(&data, &base, &Vector3::z(), &settings)?;
             let b = m.mesh.bounds();
             let extents: [f64; 3] = std::array::from_fn(|i| b.max[i] - b.min[i]);
-            let middle = Vector3::from(std::array::from_fn::<f64, 3, _>(|i| 0.5 * (b.min[i] + b.max[i])));
+            let middle =
+                Vector3::from(std::array::from_fn::<f64, 3, _>(|i| 0.5 * (b.min[i] + b.max[i])));
             Some(ShapeFit {
                 shape: target.kind(),
                 rms: fit.rms,

@@ -85,8 +85,11 @@ impl ModelCloud {
             return None;
         }
         let points: Vec<[f32; 3]> = samples.iter().map(|(p, _)| p.map(|c| c as f32)).collect();
-        let normal_of: HashMap<[u32; 3], Vector3<f64>> =
-            points.iter().zip(&samples).map(|(p, (_, n))| (p.map(f32::to_bits), (*n).into())).collect();
+        let normal_of: HashMap<[u32; 3], Vector3<f64>> = points
+            .iter()
+            .zip(&samples)
+            .map(|(p, (_, n))| (p.map(f32::to_bits), (*n).into()))
+            .collect();
         let icp = icp_settings(settings);
         let mut cloud = TargetCloud::new(&points, Metric::PointToPlane, &icp).ok()?;
         // The faces' own normals: a thin slab's two sides would blur a neighbourhood's PCA.
@@ -97,7 +100,12 @@ impl ModelCloud {
     }
 
     /// Fits the model to `points` (vehicle frame) from `start` (`T_vehicle_model`).
-    fn fit(&self, points: &[[f32; 3]], start: &Pose, settings: &PlaceSettings) -> Option<Placement> {
+    fn fit(
+        &self,
+        points: &[[f32; 3]],
+        start: &Pose,
+        settings: &PlaceSettings,
+    ) -> Option<Placement> {
         let icp = icp_settings(settings);
         let aligned = self.cloud.align(points, &start.inverse(), &icp).ok()?;
         let model_from_data = aligned.target_from_source;
@@ -109,7 +117,8 @@ impl ModelCloud {
             let q = model_from_data * Point3::new(p[0] as f64, p[1] as f64, p[2] as f64);
             let Some(n) = tree.nearest([q.x, q.y, q.z]) else { continue };
             let s = model[n.index];
-            let d = (q.coords - Vector3::new(s[0] as f64, s[1] as f64, s[2] as f64)).dot(&normals[n.index]);
+            let d = (q.coords - Vector3::new(s[0] as f64, s[1] as f64, s[2] as f64))
+                .dot(&normals[n.index]);
             // The normal's distance only counts near the surface, not across a gap.
             if n.sq_distance.sqrt() <= 3.0 * settings.tolerance && d.abs() <= settings.tolerance {
                 inliers += 1;
@@ -278,7 +287,10 @@ mod tests {
         for t in &truth {
             let best = found
                 .iter()
-                .map(|p| (p.pose.inverse() * t).translation.vector.norm() + (p.pose.inverse() * t).rotation.angle())
+                .map(|p| {
+                    (p.pose.inverse() * t).translation.vector.norm()
+                        + (p.pose.inverse() * t).rotation.angle()
+                })
                 .fold(f64::INFINITY, f64::min);
             assert!(best < 0.05, "chair at {t:?}: {found:?}");
         }

@@ -150,7 +150,8 @@ impl Preset {
         let mut preset = Self::paper();
         let d = PI / 180.0;
         for (sensor, side) in preset.sensors.iter_mut().zip([1.0, -1.0]) {
-            sensor.mount = pose_from_xyz_rpy([1.0, 0.7 * side, 1.9], [0.0, 5.0 * d, 45.0 * d * side]);
+            sensor.mount =
+                pose_from_xyz_rpy([1.0, 0.7 * side, 1.9], [0.0, 5.0 * d, 45.0 * d * side]);
         }
         let wall = |x, y, yaw: f64, length, height| {
             OrientedBox::new([x, y, height / 2.0], yaw.to_radians(), [length, 0.5, height])

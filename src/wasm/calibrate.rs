@@ -28,9 +28,15 @@ struct ScanInput {
 #[derive(Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase")]
 enum TargetInput {
-    Cube { edge: f64 },
-    Box { size: [f64; 3] },
-    Sphere { diameter: f64 },
+    Cube {
+        edge: f64,
+    },
+    Box {
+        size: [f64; 3],
+    },
+    Sphere {
+        diameter: f64,
+    },
     /// A CAD model: its file in `targetMesh` (bytes cannot travel inside a tagged enum).
     Mesh,
     None,

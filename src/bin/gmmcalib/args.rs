@@ -405,6 +405,20 @@ fn non_negative(flag: &str, value: &str) -> Result<f64, String> {
     }
 }
 
+/// A target in its short form (`Target`'s), or `mesh:PATH` with PATH (relative to `dir`) read
+/// here: the library parses the bytes.
+pub fn target(value: &str, dir: &std::path::Path) -> Result<gmmcalib::target::Target, String> {
+    match gmmcalib::io::config::mesh_path(value) {
+        Some(path) => {
+            let path = dir.join(path);
+            let label = path.display().to_string();
+            let bytes = std::fs::read(&path).map_err(|e| format!("{label}: {e}"))?;
+            gmmcalib::target::Target::from_mesh_file(&bytes, &label).map_err(|e| e.to_string())
+        }
+        None => value.parse(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -476,19 +490,5 @@ mod tests {
         };
         assert_eq!((s.preset.as_str(), s.seeds, s.starts), ("paper-roof", 3, 5));
         assert_eq!((s.max_yaw_deg, s.planes, s.bev, s.notes), (Some(8.0), false, true, true));
-    }
-}
-
-/// A target in its short form (`Target`'s), or `mesh:PATH` with PATH (relative to `dir`) read
-/// here: the library parses the bytes.
-pub fn target(value: &str, dir: &std::path::Path) -> Result<gmmcalib::target::Target, String> {
-    match gmmcalib::io::config::mesh_path(value) {
-        Some(path) => {
-            let path = dir.join(path);
-            let label = path.display().to_string();
-            let bytes = std::fs::read(&path).map_err(|e| format!("{label}: {e}"))?;
-            gmmcalib::target::Target::from_mesh_file(&bytes, &label).map_err(|e| e.to_string())
-        }
-        None => value.parse(),
     }
 }

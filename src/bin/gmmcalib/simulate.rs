@@ -11,8 +11,8 @@ use std::fs;
 use std::path::Path;
 
 use gmmcalib::io::{write_obj, write_pcd_binary, write_pcd_binary_organized};
-use gmmcalib::target::Target;
 use gmmcalib::se3::{Pose, to_row_major};
+use gmmcalib::target::Target;
 use serde::Serialize;
 
 use crate::args::{SimulateArgs, TwinArgs};
