@@ -74,13 +74,7 @@ pub(super) struct Mixture {
 impl Mixture {
     /// `gamma`: GMMBase's `gamma` (0.1), giving the priors `pk = 1 / (K (gamma + 1))`;
     /// `w`: the outlier ratio; `sigma2`: the initial variance the outlier weight is fixed at.
-    pub fn new(
-        model: &CadModel,
-        gamma: f64,
-        w: f64,
-        sigma2: f64,
-        bounding_volume: f64,
-    ) -> Self {
+    pub fn new(model: &CadModel, gamma: f64, w: f64, sigma2: f64, bounding_volume: f64) -> Self {
         let k = model.len();
         let origin = model.centres.iter().sum::<Vector3<f64>>() / k as f64;
         // CADCalib `_compute_f_matrix_factor`: f_Y = pk sqrt(1 + a_k);
@@ -88,10 +82,8 @@ impl Mixture {
         // F_k = (1 - w0) / (w0 + 1e-12) f_Y. Fixed at the initial sigma, as there.
         let pk = 1.0 / (k as f64 * (gamma + 1.0));
         let sum_fy_vol: f64 = model.anisotropy.iter().map(|a| pk * (1.0 + a)).sum();
-        let w0 = bounding_volume
-            * w
-            * sum_fy_vol
-            * (2.0 * std::f64::consts::PI * sigma2).powf(-1.5);
+        let w0 =
+            bounding_volume * w * sum_fy_vol * (2.0 * std::f64::consts::PI * sigma2).powf(-1.5);
         let w0 = w0 / (1.0 - w + w0);
         let f_x = (1.0 - w0) / (w0 + TINY);
         let centres = (0..k)
@@ -157,7 +149,8 @@ impl Grid {
             }
         };
         let cell_of = |c: &Centre| {
-            let idx = [0, 1, 2].map(|i| (((c.c[i] - min[i]) / cell).floor() as usize).min(dims[i] - 1));
+            let idx =
+                [0, 1, 2].map(|i| (((c.c[i] - min[i]) / cell).floor() as usize).min(dims[i] - 1));
             idx[0] + dims[0] * (idx[1] + dims[1] * idx[2])
         };
         // Counting sort by cell.

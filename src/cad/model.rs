@@ -49,8 +49,10 @@ impl CadModel {
     pub fn from_samples(samples: &[([f64; 3], [f64; 3])], a_max: f64) -> Self {
         let centres: Vec<Vector3<f64>> = samples.iter().map(|(p, _)| Vector3::from(*p)).collect();
         // CADCalib: `normals /= norm(normals) + 1e-12`.
-        let normals =
-            samples.iter().map(|(_, n)| Vector3::from(*n) / (Vector3::from(*n).norm() + TINY)).collect();
+        let normals = samples
+            .iter()
+            .map(|(_, n)| Vector3::from(*n) / (Vector3::from(*n).norm() + TINY))
+            .collect();
         let curvature = surface_variation(&centres);
         let anisotropy = anisotropy_from_curvature(&curvature, a_max);
         Self { centres, normals, anisotropy }
@@ -101,9 +103,7 @@ fn anisotropy_from_curvature(curvature: &[f64], a_max: f64) -> Vec<f64> {
     else {
         return Vec::new();
     };
-    curv.iter()
-        .map(|c| a_max * (1.0 - ((c - p10) / (p90 - p10 + TINY)).clamp(0.0, 1.0)))
-        .collect()
+    curv.iter().map(|c| a_max * (1.0 - ((c - p10) / (p90 - p10 + TINY)).clamp(0.0, 1.0))).collect()
 }
 
 /// numpy's default (linear) percentile `q` (0..=100) of ascending `sorted`; `None` when empty.

@@ -75,8 +75,13 @@ fn model() -> CadModel {
 
 /// The per-sensor errors: 3 deg about differing axes and 5 cm along differing directions.
 fn errors(sensors: usize) -> Vec<Pose> {
-    let axes = [Vector3::new(1.0, 0.3, 0.2), Vector3::new(-0.2, 1.0, 0.4), Vector3::new(0.3, -0.5, 1.0)];
-    let shifts = [Vector3::new(0.03, -0.04, 0.0), Vector3::new(-0.02, 0.0, 0.046), Vector3::new(0.0, 0.035, -0.036)];
+    let axes =
+        [Vector3::new(1.0, 0.3, 0.2), Vector3::new(-0.2, 1.0, 0.4), Vector3::new(0.3, -0.5, 1.0)];
+    let shifts = [
+        Vector3::new(0.03, -0.04, 0.0),
+        Vector3::new(-0.02, 0.0, 0.046),
+        Vector3::new(0.0, 0.035, -0.036),
+    ];
     (0..sensors)
         .map(|s| {
             let shift = shifts[s % 3].normalize() * 0.05;
@@ -90,7 +95,12 @@ fn errors(sensors: usize) -> Vec<Pose> {
 /// `views_per_sensor` views of 2000 surface points per sensor, 5 mm noise, moved by the
 /// sensor's error; with `outliers`, 25 % more points uniform in the scene's box grown by
 /// 0.3 m (20 % of the total).
-fn views(errors: &[Pose], views_per_sensor: usize, outliers: bool, seed: u64) -> (Vec<Vec<[f32; 3]>>, Vec<usize>) {
+fn views(
+    errors: &[Pose],
+    views_per_sensor: usize,
+    outliers: bool,
+    seed: u64,
+) -> (Vec<Vec<[f32; 3]>>, Vec<usize>) {
     let faces = scene();
     let mut rng = Pcg64::seed_from_u64(seed);
     let noise = Normal::new(0.0, 0.005).expect("sigma");
@@ -103,7 +113,11 @@ fn views(errors: &[Pose], views_per_sensor: usize, outliers: bool, seed: u64) ->
                 .into_iter()
                 .map(|(p, _)| {
                     Vector3::from(p)
-                        + Vector3::new(noise.sample(&mut rng), noise.sample(&mut rng), noise.sample(&mut rng))
+                        + Vector3::new(
+                            noise.sample(&mut rng),
+                            noise.sample(&mut rng),
+                            noise.sample(&mut rng),
+                        )
                 })
                 .collect();
             if outliers {
@@ -139,11 +153,13 @@ fn recovers(sensors: usize, outliers: bool) -> CadRegistration {
     let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
     let settings = CadSettings::default();
     let start = Instant::now();
-    let result = register(&refs, &sensor_of_view, sensors, &model, &settings, |_| Control::Continue)
-        .expect("registers");
+    let result =
+        register(&refs, &sensor_of_view, sensors, &model, &settings, |_| Control::Continue)
+            .expect("registers");
     eprintln!(
         "{:?}\nsensors {sensors}, outliers {outliers}: {} iterations, converged {}, sigma {:.4} m, {:.3} s",
-        result.history.iter().map(|h| (h.sigma * 1e3).round()).collect::<Vec<_>>(), result.iterations,
+        result.history.iter().map(|h| (h.sigma * 1e3).round()).collect::<Vec<_>>(),
+        result.iterations,
         result.converged,
         result.sigma,
         start.elapsed().as_secs_f64()
@@ -202,7 +218,13 @@ fn flat_faces_are_anisotropic_and_edges_are_not() {
     }
     assert!(flat.len() > 50 && edge.len() > 20, "{} flat, {} edge", flat.len(), edge.len());
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-    eprintln!("flat: mean a {:.2} (n {}), edge: mean a {:.2} (n {})", mean(&flat), flat.len(), mean(&edge), edge.len());
+    eprintln!(
+        "flat: mean a {:.2} (n {}), edge: mean a {:.2} (n {})",
+        mean(&flat),
+        flat.len(),
+        mean(&edge),
+        edge.len()
+    );
     assert!(flat.iter().all(|a| *a > 0.95 * a_max), "a flat centre has a < 0.95 a_max");
     assert!(mean(&edge) < 0.15 * a_max, "edge mean {}", mean(&edge));
     assert!(edge.iter().all(|a| *a < 0.5 * a_max), "an edge centre has a >= 0.5 a_max");
@@ -322,7 +344,11 @@ fn zz_per_iteration_time() {
     let mut last = Instant::now();
     let mut times = Vec::new();
     register(&refs, &sensor_of_view, 3, &model, &CadSettings::default(), |it| {
-        times.push((it.iteration, (it.sigma * 1e3).round(), (last.elapsed().as_secs_f64() * 1e3).round()));
+        times.push((
+            it.iteration,
+            (it.sigma * 1e3).round(),
+            (last.elapsed().as_secs_f64() * 1e3).round(),
+        ));
         last = Instant::now();
         Control::Continue
     })

@@ -30,6 +30,10 @@ pub enum CalibError {
     FramesFailed {
         sensor: String,
     },
+    /// `cad` without a target: it registers onto the target's model.
+    NoTargetModel,
+    /// `cad`: the target's model was found standing nowhere in the reference's points.
+    TargetNotFound(String),
     /// The CAD model (its file's name) is larger across (m) than the region of interest.
     TargetLargerThanRoi {
         target: String,
@@ -66,13 +70,23 @@ impl fmt::Display for CalibError {
             Self::NoPointsInRoi(s) => write!(f, "sensor '{s}' has no usable points in the ROI"),
             Self::InvalidSetting(what) => write!(f, "invalid setting: {what}"),
             Self::UnknownMethod(m) => {
-                write!(f, "unknown method '{m}' (expected gmm, jrmpc, p2p, p2l or gicp)")
+                write!(f, "unknown method '{m}' (expected gmm, jrmpc, cad, p2p, p2l or gicp)")
             }
             Self::Registration(e) => write!(f, "registration failed: {e}"),
             Self::StageFailed(message) => write!(f, "the calculation failed: {message}"),
             Self::FramesFailed { sensor } => {
                 write!(f, "no frame of sensor '{sensor}' could be registered: every frame failed")
             }
+            Self::NoTargetModel => write!(
+                f,
+                "the cad method registers onto the target's model: give a target (cube, box, \
+                 sphere or a CAD model), not none"
+            ),
+            Self::TargetNotFound(target) => write!(
+                f,
+                "the target ({target}) was found standing nowhere in the reference's points in \
+                 the region of interest: check the target's shape and size, and the ROI"
+            ),
             Self::TargetLargerThanRoi { target, size, roi } => write!(
                 f,
                 "target {target}: the model is {size:.2} m across, larger than the region of \

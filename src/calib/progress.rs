@@ -11,14 +11,17 @@ pub enum Stage {
     /// The frame pairs' ICP (`gmm`'s refinement, the ICP methods): `iteration` pairs done of
     /// `max_iterations`; `mean_sigma` and `max_change` are 0.
     FramePairs,
+    /// `cad`'s EM onto the target's model: as [`Stage::Jrmpc`].
+    Cad,
 }
 
 impl Stage {
-    /// `"jrmpc"` or `"framePairs"`, as JS sees it.
+    /// `"jrmpc"`, `"framePairs"` or `"cad"`, as JS sees it.
     pub fn name(&self) -> &'static str {
         match self {
             Stage::Jrmpc => "jrmpc",
             Stage::FramePairs => "framePairs",
+            Stage::Cad => "cad",
         }
     }
 }

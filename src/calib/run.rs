@@ -24,6 +24,8 @@ pub enum Phase {
     Em,
     /// The frame pairs' ICP: register every pair of [`Run::frame_pairs`].
     FramePairs,
+    /// `cad`'s registration onto the target's model: [`Run::register_cad`], in one call.
+    Cad,
     /// Every method has its outcome.
     Done,
 }
@@ -46,6 +48,8 @@ enum State {
     Em(Em, Option<CentredViews>),
     /// The frame pairs, registered as far as they are; JRMPC's result for the GMM methods.
     Pairs(Option<Registration>, FramePairs),
+    /// `cad`'s registration, once run.
+    Cad(Option<Result<Registration, CalibError>>),
 }
 
 impl<'r> Run<'r> {
@@ -68,6 +72,7 @@ impl<'r> Run<'r> {
         match &self.current {
             Some((_, _, State::Em(..))) => Phase::Em,
             Some((_, _, State::Pairs(..))) => Phase::FramePairs,
+            Some((_, _, State::Cad(..))) => Phase::Cad,
             None => Phase::Done,
         }
     }
@@ -139,6 +144,25 @@ impl<'r> Run<'r> {
         Some(then(&pairs.progress(&corrections)))
     }
 
+    /// Runs `cad`'s registration here, in [`Phase::Cad`]; `progress` sees each iteration (the
+    /// corrections as the caller sees them) and may stop it.
+    pub fn register_cad(&mut self, progress: &mut impl FnMut(&Progress) -> Control) {
+        let Some((_, views, State::Cad(outcome))) = &mut self.current else { return };
+        let max_iterations = views.settings.cad.max_iterations;
+        let reg = views.register_cad(|it| {
+            let corrections = vec![Pose::identity(); views.sensors().len()];
+            progress(&Progress {
+                stage: Stage::Cad,
+                iteration: it.iteration,
+                max_iterations,
+                mean_sigma: it.sigma,
+                max_change: it.max_change,
+                corrections: &corrections,
+            })
+        });
+        *outcome = Some(reg);
+    }
+
     /// What the progress callback sees after EM's latest iteration.
     pub fn em_progress<R>(&self, then: impl FnOnce(&Progress) -> R) -> Option<R> {
         let Some((_, views, State::Em(em, _))) = &self.current else { return None };
@@ -171,6 +195,11 @@ impl<'r> Run<'r> {
             State::Pairs(registration, pairs) => {
                 self.done(index, finish(views, registration, Some(pairs)))
             }
+            State::Cad(outcome) => {
+                let outcome = outcome
+                    .unwrap_or_else(|| Err(CalibError::StageFailed("cad did not run".into())));
+                self.done(index, outcome.and_then(|reg| finish(views, Some(reg), None)))
+            }
         }
     }
 
@@ -180,7 +209,7 @@ impl<'r> Run<'r> {
         match &mut self.current {
             Some((_, _, State::Em(em, _))) => em.cancel(),
             Some((_, _, State::Pairs(_, pairs))) => pairs.stop(),
-            None => {}
+            Some((_, _, State::Cad(_))) | None => {}
         }
     }
 
@@ -219,6 +248,17 @@ impl<'r> Run<'r> {
                     let count = self.frame_pairs().map_or(0, |p| p.pairs().len());
                     self.register_pairs(0..count, threads, progress);
                 }
+                Phase::Cad => {
+                    let mut cancel = false;
+                    self.register_cad(&mut |p: &Progress| {
+                        let control = progress(p);
+                        cancel |= control == Control::Stop;
+                        control
+                    });
+                    if cancel {
+                        self.cancel();
+                    }
+                }
                 Phase::Done => return,
             }
             self.advance();
@@ -250,6 +290,9 @@ impl<'r> Run<'r> {
         let Some(&method) = self.methods.get(index) else { return };
         let settings = Settings { method, ..self.settings.clone() };
         let started = Views::new(&self.rig, &settings).and_then(|views| {
+            if views.stages().cad.is_some() {
+                return Ok((views, Some(State::Cad(None))));
+            }
             if views.stages().jrmpc {
                 let (em, points) = views.start_jrmpc()?;
                 return Ok((views, Some(State::Em(em, Some(points)))));

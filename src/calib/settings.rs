@@ -10,6 +10,7 @@ use super::global::GlobalSettings;
 use super::level::GroundSettings;
 use super::pairs::PairSettings;
 use super::planes::PlaneSettings;
+use crate::cad::CadSettings;
 use crate::icp::{self, IcpSettings};
 use crate::jrmpc;
 use crate::target::Target;
@@ -22,24 +23,29 @@ pub enum Method {
     Gmm,
     /// Plain JRMPC, as GMMCalib computes it.
     Jrmpc,
+    /// GMMCalib's CADCalib: every sensor registered onto fixed components on the target's
+    /// model (a CAD mesh, or the cube's, box's or sphere's surface), placed from the data.
+    Cad,
     /// An ICP baseline from the nominal pre-alignment.
     Icp(icp::Metric),
 }
 
 impl Method {
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 6] = [
         Method::Gmm,
         Method::Jrmpc,
+        Method::Cad,
         Method::Icp(icp::Metric::PointToPoint),
         Method::Icp(icp::Metric::PointToPlane),
         Method::Icp(icp::Metric::Gicp),
     ];
 
-    /// `gmm`, `jrmpc`, `p2p`, `p2l` or `gicp`.
+    /// `gmm`, `jrmpc`, `cad`, `p2p`, `p2l` or `gicp`.
     pub fn name(&self) -> &'static str {
         match self {
             Method::Gmm => "gmm",
             Method::Jrmpc => "jrmpc",
+            Method::Cad => "cad",
             Method::Icp(m) => m.name(),
         }
     }
@@ -136,6 +142,8 @@ pub struct Settings {
     /// tilts, metres off; docs/method.md, "Global alignment"); `None`: for `gmm` only.
     pub align_globally: Option<bool>,
     pub global: GlobalSettings,
+    /// For `cad`'s registration onto the target's model.
+    pub cad: CadSettings,
 }
 
 impl Default for Settings {
@@ -156,6 +164,7 @@ impl Default for Settings {
             bev: Some(BevSettings::default()),
             align_globally: None,
             global: GlobalSettings::default(),
+            cad: CadSettings::default(),
         }
     }
 }
@@ -184,6 +193,8 @@ pub struct Stages {
     pub bev: Option<BevSettings>,
     /// Register every view jointly to one mixture; its reconstruction is fitted to the target.
     pub jrmpc: bool,
+    /// Register every sensor onto fixed components on the placed target model (`cad`).
+    pub cad: Option<CadSettings>,
     /// Register each frame pair by ICP: from JRMPC's corrections (`gmm`) or the nominal.
     pub pairs: Option<PairSettings>,
     /// The frame pairs' reference points near its ground take the ground's normal (`gmm`).
@@ -195,11 +206,12 @@ pub struct Stages {
 impl Stages {
     pub fn of(settings: &Settings) -> Self {
         let method = settings.method;
-        let level = settings.level_ground.unwrap_or(method == Method::Gmm);
+        // `cad` places its model on the reference's ground, as `gmm` levels onto it.
+        let level = settings.level_ground.unwrap_or(matches!(method, Method::Gmm | Method::Cad));
         let pairs = match method {
             Method::Gmm => Some(settings.refine.clone()),
             Method::Icp(metric) => Some(PairSettings::from_nominal(metric, &settings.icp)),
-            Method::Jrmpc => None,
+            Method::Jrmpc | Method::Cad => None,
         };
         let global = settings.align_globally.unwrap_or(method == Method::Gmm);
         Self {
@@ -213,8 +225,9 @@ impl Stages {
             jrmpc: match method {
                 Method::Gmm => settings.target != Target::None,
                 Method::Jrmpc => true,
-                Method::Icp(_) => false,
+                Method::Cad | Method::Icp(_) => false,
             },
+            cad: (method == Method::Cad).then(|| settings.cad.clone()),
             pairs,
             ground_normals: method == Method::Gmm,
             planes: settings.planes.clone().filter(|_| method == Method::Gmm),

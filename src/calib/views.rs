@@ -133,7 +133,8 @@ impl Views {
             Some(l) => l.ground,
             None => sensor_ground(rig, &roi, &sensors, &starts, r, settings).1.map(|(g, _)| g),
         };
-        let placements = place_targets(&settings.target, &views, r, ground.as_ref(), &roi)?;
+        let placements =
+            place_targets(&settings.target, &stages, &views, r, ground.as_ref(), &roi)?;
         let same_scans = same_scans(rig);
         Ok(Self {
             settings: settings.clone(),
@@ -224,6 +225,115 @@ impl Views {
     pub fn start_jrmpc(&self) -> Result<(Em, jrmpc::CentredViews), CalibError> {
         let input = self.jrmpc_input();
         Ok(Em::start(&input.clouds, &input.means, &input.settings)?)
+    }
+
+    /// `cad`'s registration: every sensor onto fixed components sampled on each placed copy of
+    /// the target's model (about 1.75 components per point of the median view, as CADCalib
+    /// sizes them), each view cut to the points near a placed copy and off the ground. As a
+    /// [`Registration`] (each view posed as its sensor, the mixture the fixed components) so
+    /// the rest of the pipeline takes it as it takes JRMPC's.
+    pub fn register_cad(
+        &self,
+        mut progress: impl FnMut(&crate::cad::CadIteration) -> crate::jrmpc::Control,
+    ) -> Result<Registration, CalibError> {
+        let settings = self.stages.cad.clone().unwrap_or_default();
+        let mesh = self.settings.target.model().ok_or(CalibError::NoTargetModel)?;
+        if self.placements.is_empty() {
+            let name = match &self.settings.target {
+                Target::Mesh(m) => m.name.clone(),
+                other => other.kind().to_string(),
+            };
+            return Err(CalibError::TargetNotFound(name));
+        }
+        let near = self.near_placements(&mesh);
+        let mut sizes: Vec<usize> = near.iter().map(Vec::len).collect();
+        sizes.sort_unstable();
+        let per_copy = (1.75 * sizes[sizes.len() / 2] as f64 / self.placements.len() as f64)
+            .ceil()
+            .max(50.0) as usize;
+        let samples: Vec<([f64; 3], [f64; 3])> = self
+            .placements
+            .iter()
+            .enumerate()
+            .flat_map(|(c, placed)| {
+                let seed = self.settings.seed.wrapping_add(c as u64);
+                mesh.sample_with_normals(per_copy, seed).into_iter().map(move |(p, n)| {
+                    let q = placed.pose * nalgebra::Point3::from(p);
+                    let m = placed.pose.rotation * nalgebra::Vector3::from(n);
+                    ([q.x, q.y, q.z], [m.x, m.y, m.z])
+                })
+            })
+            .collect();
+        let model = crate::cad::CadModel::from_samples(&samples, settings.a_max);
+        let clouds: Vec<&[[f32; 3]]> = near.iter().map(Vec::as_slice).collect();
+        let sensor_of_view: Vec<usize> = self.views.iter().map(|v| v.sensor).collect();
+        let reg = crate::cad::register(
+            &clouds,
+            &sensor_of_view,
+            self.sensors.len(),
+            &model,
+            &settings,
+            &mut progress,
+        )
+        .map_err(|e| match e {
+            crate::cad::CadError::NoPoints { sensor } => {
+                CalibError::NoPointsInRoi(self.sensors[sensor].clone())
+            }
+            other => CalibError::StageFailed(format!("cad: {other}")),
+        })?;
+        let k = model.centres.len();
+        Ok(Registration {
+            poses: self.views.iter().map(|v| reg.poses[v.sensor]).collect(),
+            mixture: crate::jrmpc::Mixture {
+                means: model.centres.clone(),
+                variances: vec![reg.sigma * reg.sigma; k],
+                priors: vec![1.0 / k as f64; k],
+            },
+            iterations: reg.iterations,
+            converged: reg.converged,
+            cancelled: reg.cancelled,
+            unsupported: Vec::new(),
+            history: reg
+                .history
+                .iter()
+                .map(|h| crate::jrmpc::IterationStats {
+                    mean_sigma: h.sigma,
+                    max_change: h.max_change,
+                    terms: 0,
+                })
+                .collect(),
+        })
+    }
+
+    /// Each view's points within a tenth of the model's size (at least 10 cm) of a placed
+    /// copy's bounding box, and off the ground: what `cad` registers.
+    fn near_placements(&self, mesh: &crate::io::mesh::Mesh) -> Vec<Vec<[f32; 3]>> {
+        let b = mesh.bounds();
+        let size = (0..3).map(|i| b.max[i] - b.min[i]).fold(0.0, f64::max);
+        let margin = (0.1 * size).max(0.1);
+        let ground_band = PlaceSettings::default().ground_band;
+        let inverse: Vec<Pose> = self.placements.iter().map(|p| p.pose.inverse()).collect();
+        self.views
+            .iter()
+            .map(|v| {
+                v.cloud
+                    .points
+                    .iter()
+                    .filter(|p| {
+                        let x = nalgebra::Point3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+                        let off_ground =
+                            self.ground.is_none_or(|g| g.distance(&x.coords) > ground_band);
+                        off_ground
+                            && inverse.iter().any(|t| {
+                                let q = t * x;
+                                (0..3)
+                                    .all(|i| q[i] >= b.min[i] - margin && q[i] <= b.max[i] + margin)
+                            })
+                    })
+                    .copied()
+                    .collect()
+            })
+            .collect()
     }
 
     /// The running correction per sensor from JRMPC's views' poses: the mean over frames of
@@ -440,28 +550,32 @@ fn same_scans(rig: &Rig) -> Vec<(String, String)> {
     found
 }
 
-/// Where a CAD-model target stands in the reference's views (vehicle frame), on its ground
-/// (or, without one, on the vehicle's z = 0 plane); empty for the other targets. A model larger
-/// than the region of interest cannot be in it.
+/// Where the target's model stands in the reference's views (vehicle frame), on its ground
+/// (or, without one, on the vehicle's z = 0 plane): for a CAD-model target, and for `cad` with
+/// any target; empty otherwise. A model larger than the region of interest cannot be in it.
 fn place_targets(
     target: &Target,
+    stages: &Stages,
     views: &[View],
     r: usize,
     ground: Option<&Plane>,
     roi: &Aabb,
 ) -> Result<Vec<Placement>, CalibError> {
-    let Target::Mesh(m) = target else { return Ok(Vec::new()) };
+    if !(matches!(target, Target::Mesh(_)) || stages.cad.is_some()) {
+        return Ok(Vec::new());
+    }
+    let Some(mesh) = target.model() else { return Err(CalibError::NoTargetModel) };
     let size = target.size().unwrap_or(0.0);
     let roi_size = (0..3).map(|i| roi.max[i] - roi.min[i]).fold(0.0, f64::max);
     if size > roi_size {
-        return Err(CalibError::TargetLargerThanRoi {
-            target: m.name.clone(),
-            size,
-            roi: roi_size,
-        });
+        let name = match target {
+            Target::Mesh(m) => m.name.clone(),
+            other => other.kind().to_string(),
+        };
+        return Err(CalibError::TargetLargerThanRoi { target: name, size, roi: roi_size });
     }
     let settings = PlaceSettings::default();
-    let Some(model) = ModelCloud::new(&m.mesh, &settings) else { return Ok(Vec::new()) };
+    let Some(model) = ModelCloud::new(&mesh, &settings) else { return Ok(Vec::new()) };
     let points: Vec<[f32; 3]> = views
         .iter()
         .filter(|v| v.sensor == r)

@@ -12,6 +12,7 @@ impl Method {
         match self {
             Method::Gmm => "GMM + GICP refinement + plane adjustment",
             Method::Jrmpc => "plain JRMPC (the paper's method)",
+            Method::Cad => "CADCalib: every sensor onto the placed target model",
             Method::Icp(crate::icp::Metric::PointToPoint) => "ICP point-to-point",
             Method::Icp(crate::icp::Metric::PointToPlane) => "ICP point-to-plane",
             Method::Icp(crate::icp::Metric::Gicp) => "GICP",

@@ -123,6 +123,19 @@ impl Target {
         }
     }
 
+    /// The target's surface as a triangle mesh standing at the origin (base centre at 0, z up),
+    /// as placement and `cad` use it: the CAD model itself, or the cube's, box's or sphere's
+    /// surface; `None` without a target.
+    pub fn model(&self) -> Option<Arc<Mesh>> {
+        match self {
+            Target::Mesh(m) => Some(m.mesh.clone()),
+            Target::Cube { edge } => Some(Arc::new(box_mesh([*edge; 3]))),
+            Target::Box { size } => Some(Arc::new(box_mesh(*size))),
+            Target::Sphere { diameter } => Some(Arc::new(sphere_mesh(0.5 * diameter))),
+            Target::None => None,
+        }
+    }
+
     /// `k` points on the surface centred on `centre`; `seed` drives the samplers. Empty
     /// without a target.
     pub fn surface(&self, k: usize, centre: [f64; 3], seed: u64) -> Vec<[f64; 3]> {
@@ -144,6 +157,53 @@ impl Target {
     }
 }
 
+/// A box of edges `[w, d, h]` (x, y, z) standing on z = 0, centred on the z axis; faces wound
+/// counter-clockwise seen from outside.
+fn box_mesh([w, d, h]: [f64; 3]) -> Mesh {
+    let vertices = (0..8)
+        .map(|i| {
+            let pick = |bit: usize, a: f64, b: f64| if i & bit == 0 { a } else { b };
+            [pick(1, -w / 2.0, w / 2.0), pick(2, -d / 2.0, d / 2.0), pick(4, 0.0, h)]
+        })
+        .collect();
+    let quads =
+        [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let triangles = quads.iter().flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]]).collect();
+    Mesh { vertices, triangles }
+}
+
+/// A sphere of `radius` resting on z = 0: a 24 x 12 latitude-longitude mesh.
+fn sphere_mesh(radius: f64) -> Mesh {
+    const RINGS: u32 = 12;
+    const SEGMENTS: u32 = 24;
+    let mut vertices = vec![[0.0, 0.0, 0.0], [0.0, 0.0, 2.0 * radius]];
+    for ring in 1..RINGS {
+        let polar = std::f64::consts::PI * ring as f64 / RINGS as f64;
+        for segment in 0..SEGMENTS {
+            let azimuth = std::f64::consts::TAU * segment as f64 / SEGMENTS as f64;
+            let (s, c) = polar.sin_cos();
+            vertices.push([
+                radius * s * azimuth.cos(),
+                radius * s * azimuth.sin(),
+                radius * (1.0 - c),
+            ]);
+        }
+    }
+    let at = |ring: u32, segment: u32| 2 + (ring - 1) * SEGMENTS + segment % SEGMENTS;
+    let mut triangles = Vec::new();
+    for segment in 0..SEGMENTS {
+        triangles.push([0, at(1, segment + 1), at(1, segment)]);
+        triangles.push([1, at(RINGS - 1, segment), at(RINGS - 1, segment + 1)]);
+        for ring in 1..RINGS - 1 {
+            let (a, b) = (at(ring, segment), at(ring, segment + 1));
+            let (c, d) = (at(ring + 1, segment), at(ring + 1, segment + 1));
+            triangles.push([a, b, d]);
+            triangles.push([a, d, c]);
+        }
+    }
+    Mesh { vertices, triangles }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -157,5 +217,24 @@ mod tests {
         assert!("cube:-1".parse::<Target>().unwrap_err().contains("positive"));
         assert!("chair".parse::<Target>().unwrap_err().contains("unknown target 'chair'"));
         assert!("box:1,2".parse::<Target>().is_err());
+    }
+
+    #[test]
+    fn models_have_the_targets_area_and_stand_on_the_ground() {
+        let cube = Target::Cube { edge: 0.5 }.model().unwrap();
+        assert!((cube.area() - 1.5).abs() < 1e-12);
+        let sphere = Target::Sphere { diameter: 1.0 }.model().unwrap();
+        assert!((sphere.area() - std::f64::consts::PI).abs() < 0.05, "{}", sphere.area());
+        for mesh in [cube, sphere, Target::Box { size: [1.0, 0.5, 2.0] }.model().unwrap()] {
+            let b = mesh.bounds();
+            assert!(b.min[2].abs() < 1e-12 && (b.min[0] + b.max[0]).abs() < 1e-12, "{b:?}");
+            // Outward normals: a sample's normal points away from the middle.
+            let middle = [0.0, 0.0, 0.5 * b.max[2]];
+            for (p, n) in mesh.sample_with_normals(50, 1) {
+                let out: f64 = (0..3).map(|i| (p[i] - middle[i]) * n[i]).sum();
+                assert!(out > 0.0, "{p:?} {n:?}");
+            }
+        }
+        assert!(Target::None.model().is_none());
     }
 }

@@ -37,12 +37,13 @@ impl CalibrationSession {
         Ok(Self { run: Some(run), sensors, compared: methods.len() > 1 })
     }
 
-    /// `"em"`, `"framePairs"` or `"done"`: what the current method needs next.
+    /// `"em"`, `"framePairs"`, `"cad"` or `"done"`: what the current method needs next.
     pub fn phase(&self) -> String {
         let phase = self.run.as_ref().map_or(Phase::Done, Run::phase);
         match phase {
             Phase::Em => "em",
             Phase::FramePairs => "framePairs",
+            Phase::Cad => "cad",
             Phase::Done => "done",
         }
         .into()
@@ -161,6 +162,20 @@ impl CalibrationSession {
         let method = run.method().map(|(_, m)| m).ok_or_else(finished)?;
         let mut sink = ProgressSink::new(on_progress, self.sensors.clone());
         run.register_pairs(pairs.iter().map(|&p| p as usize), 1, &mut |p| sink.send(method, p));
+        sink.error()
+    }
+
+    /// Runs `cad`'s registration onto the target's model here (phase `"cad"`); `onProgress`
+    /// sees each iteration, as with `calibrate`, and may stop it by returning `false`.
+    #[wasm_bindgen(js_name = registerCad)]
+    pub fn register_cad(&mut self, on_progress: Option<Function>) -> Result<(), JsError> {
+        let run = self.run.as_mut().ok_or_else(finished)?;
+        if run.phase() != Phase::Cad {
+            return Err(JsError::new("the current method is not in its cad phase"));
+        }
+        let method = run.method().map(|(_, m)| m).ok_or_else(finished)?;
+        let mut sink = ProgressSink::new(on_progress, self.sensors.clone());
+        run.register_cad(&mut |p| sink.send(method, p));
         sink.error()
     }
 

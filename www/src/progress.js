@@ -1,6 +1,7 @@
 // What the page says of a calibration: while it runs, the progress bar's share and the status
-// line from the worker's progress messages; then the status line for the results. A calibration reports two stages: JRMPC's iterations
-// (`gmm`, `jrmpc`), then the frame pairs registered (`gmm`'s refinement, the ICP methods).
+// line from the worker's progress messages; then the status line for the results. A calibration
+// reports its stages: JRMPC's iterations (`gmm`, `jrmpc`) or `cad`'s, then the frame pairs
+// registered (`gmm`'s refinement, the ICP methods).
 
 // Share of a method's bar for JRMPC when it also registers frame pairs: `gmm` spends about a
 // fifth of its time on them (browser bench, both scales).
@@ -18,6 +19,7 @@ export function describeProgress(stages, p, seconds) {
     return { fraction: jrmpcShare + (1 - jrmpcShare) * done, text: `frame pair ${p.iteration}/${p.maxIterations}${eta}` };
   }
   const sigma = `σ ${(p.meanSigma * 100).toFixed(2)} cm`;
+  if (p.stage === 'cad') return { fraction: done, text: `CAD iteration ${p.iteration}/${p.maxIterations}, ${sigma}${eta}` };
   const then = jrmpcShare < 1 ? ', then the frame pairs' : '';
   return { fraction: jrmpcShare * done, text: `JRMPC iteration ${p.iteration}/${p.maxIterations}, ${sigma}${eta}${then}` };
 }

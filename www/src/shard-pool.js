@@ -171,6 +171,7 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
     for (let phase = session.phase(); phase !== 'done'; phase = session.phase()) {
       try {
         if (phase === 'em') await shareEm(wasm, session, remotes, heed);
+        else if (phase === 'cad') session.registerCad(heed); // one call: fast, not shared
         else await shareFramePairs(session, remotes, heed);
         session.advance();
       } catch (error) {

@@ -241,6 +241,7 @@ mod cli {
         let what = match p.stage {
             Stage::Jrmpc => "JRMPC iteration",
             Stage::FramePairs => "frame pair",
+            Stage::Cad => "CAD iteration",
         };
         // Clear the line first: a frame pair's line is shorter than an iteration's.
         let name = method.name();
