@@ -70,6 +70,44 @@ mod native {
             super::icp::run();
         }
         global_stage();
+        targets();
+    }
+
+    /// Targets of any shape (issue 20): `gmm` and `cad` at the sample scale (the cube twin of
+    /// the first job) and on the chair twin with its CAD model; `gmm` without a target on
+    /// OpenCalib's road scene from its guess.
+    fn targets() {
+        use gmmcalib::twin::{Miscalibration, Model, Preset, Twin};
+        let sample = jrmpc::rig(&JOBS[0]);
+        let chairs = Model::RayCast(Preset::paper_chair());
+        let chair_twin = Twin::new(&chairs, 3, 1, &Miscalibration::default());
+        let cases = [
+            ("sample scale (cube)", sample, gmmcalib::target::Target::default()),
+            ("chair twin, 3 frames (CAD model)", chair_twin.rig(), chairs.target()),
+        ];
+        for (name, rig, target) in &cases {
+            for method in [calib::Method::Gmm, calib::Method::Cad] {
+                let settings =
+                    calib::Settings { method, target: target.clone(), ..Default::default() };
+                let (result, wall, cpu) =
+                    timed(|| calib::calibrate(rig, &settings, |_| Control::Continue));
+                let iterations = result.as_ref().map_or(0, |r| r.iterations);
+                println!(
+                    "{} {name}: {wall:.2} s [{cpu:.2} s CPU], {iterations} iterations",
+                    method.name()
+                );
+            }
+        }
+        let scene = super::global::scene();
+        let rig = super::global::rig(&scene);
+        let settings =
+            calib::Settings { target: gmmcalib::target::Target::None, ..Default::default() };
+        let (result, wall, cpu) =
+            timed(|| calib::calibrate(&rig, &settings, |_| Control::Continue));
+        let verdict = result.map_or("error".into(), |r| format!("{:?}", r.verdict.level));
+        println!(
+            "gmm OpenCalib 0001, target none: {wall:.2} s [{cpu:.2} s CPU], verdict {verdict}"
+        );
     }
 
     /// The global stage on OpenCalib's road scene, per aligned sensor.

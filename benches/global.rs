@@ -43,3 +43,25 @@ pub fn run(scene: &Scene) -> usize {
         global::align(&scene.scans, &scene.nominals, 0, &GlobalSettings::default(), &seeds);
     aligned.iter().filter(|a| a.overlay.is_some()).count()
 }
+
+/// The scene as a rig (one frame, the guess as the nominals, no ROI), for the calibration.
+#[allow(dead_code)] // native only
+pub fn rig(scene: &Scene) -> gmmcalib::calib::Rig {
+    let names = ["top", "left", "right"];
+    gmmcalib::calib::Rig {
+        scans: scene
+            .scans
+            .iter()
+            .zip(names)
+            .map(|(points, name)| gmmcalib::calib::Scan {
+                sensor: name.into(),
+                frame: "1".into(),
+                points: points.clone(),
+                source: None,
+            })
+            .collect(),
+        nominal: names.iter().map(|n| n.to_string()).zip(scene.nominals.clone()).collect(),
+        roi: None,
+        reference: Some("top".into()),
+    }
+}

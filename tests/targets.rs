@@ -91,3 +91,30 @@ fn the_errors_a_user_meets_are_named() {
         Ok(r) => assert!(r.reconstruction.placements.is_empty(), "a sphere placed on a cube"),
     }
 }
+
+#[test]
+fn a_flat_open_lot_without_a_target_says_what_it_cannot_fix() {
+    // The street twin with its walls, poles and cars taken away: ground alone fixes roll,
+    // pitch and height, and leaves yaw and the shift along it free.
+    let mut lot = Preset::street();
+    lot.scene.boxes.clear();
+    let (_, twin) = twin(lot, 4);
+    let settings = Settings { target: "none".parse().unwrap(), ..Settings::default() };
+    let result = calibrate(&twin, &settings).expect("a lot calibrates what it can");
+    let sensor = &result.verdict.sensors[1];
+    assert_eq!(sensor.level, calib::Level::Failed, "{sensor:?}");
+    let free: Vec<calib::Axis> = sensor
+        .reasons
+        .iter()
+        .find_map(|r| match &r.kind {
+            calib::ReasonKind::Observability { free, .. } => Some(free.clone()),
+            _ => None,
+        })
+        .expect("an observability reason");
+    for axis in [calib::Axis::Yaw, calib::Axis::X, calib::Axis::Y] {
+        assert!(free.contains(&axis), "{axis:?} free on a flat lot: {free:?}");
+    }
+    for axis in [calib::Axis::Roll, calib::Axis::Pitch, calib::Axis::Z] {
+        assert!(!free.contains(&axis), "{axis:?} fixed by the ground: {free:?}");
+    }
+}
