@@ -6,6 +6,7 @@
 
 mod calibrate;
 mod config;
+mod exports;
 mod files;
 mod recording;
 mod session;
@@ -21,7 +22,8 @@ use crate::se3::{Pose, xyz_rpy};
 
 pub use calibrate::{calibrate, methods};
 pub use config::{parse_config, parse_open_calib};
-pub use files::parse_cloud;
+pub use exports::ros_exports;
+pub use files::{parse_cloud, parse_mesh};
 pub use recording::RecordingFile;
 pub use session::{CalibrationSession, JrmpcShard, align_pairs};
 pub use simulate::simulate_rig;

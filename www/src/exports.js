@@ -4,7 +4,6 @@
 import { xyzOf, rpyOf } from './transforms.js';
 
 const num = (x) => String(+x.toPrecision(10));
-const list = (v) => v.map(num).join(' ');
 
 // The result as JSON, typed arrays as plain arrays.
 export const resultJson = (result) =>
@@ -21,29 +20,6 @@ export function gmmcalibYaml(result, roi) {
   return `${lines.join('\n')}\n`;
 }
 
-// `child(name)`: the frame a sensor's points are in (a recording's frame id; else its name).
-export function urdf(result, parent, child = (name) => name) {
-  return result.sensors
-    .map((s) => [
-      `<joint name="${parent}_to_${child(s.name)}" type="fixed">`,
-      `  <parent link="${parent}"/>`,
-      `  <child link="${child(s.name)}"/>`,
-      `  <origin xyz="${list(xyzOf(s.extrinsic))}" rpy="${list(rpyOf(s.extrinsic))}"/>`,
-      '</joint>',
-    ].join('\n'))
-    .join('\n');
-}
-
-export function ros2(result, parent, child = (name) => name) {
-  return result.sensors
-    .map((s) => {
-      const [[x, y, z], [roll, pitch, yaw]] = [xyzOf(s.extrinsic), rpyOf(s.extrinsic)];
-      return `ros2 run tf2_ros static_transform_publisher --x ${num(x)} --y ${num(y)} --z ${num(z)} ` +
-        `--roll ${num(roll)} --pitch ${num(pitch)} --yaw ${num(yaw)} --frame-id ${parent} --child-frame-id ${child(s.name)}`;
-    })
-    .join('\n');
-}
-
 // The reconstructed target as ASCII PLY: components holding data, with sigma and prior.
 export function targetPly({ means, sigmas, priors }) {
   const used = [];
@@ -55,16 +31,21 @@ export function targetPly({ means, sigmas, priors }) {
   return `${[...header, ...body].join('\n')}\n`;
 }
 
-// {key, title, direction, file, text} for each export of `result`. `frameIds`: sensor -> the
-// frame its points are in, for a recording's sensors (named by topic).
-export function exportsOf(result, { roi, parent = 'vehicle', frameIds = {} }) {
+// Every export of `result`. The ROS forms come from the library's writers (`ros`: the
+// worker's `exports` request, given [{parent, child, pose}]), as the CLI's --export prints them.
+export async function exportsOf(result, { roi, parent = 'vehicle', frameIds = {} }, ros) {
   const child = (name) => frameIds[name] ?? name;
-  const direction = `parent ${parent}, child each sensor: maps sensor points into ${parent} (T_${parent}_sensor)`;
+  const texts = await ros(result.sensors.map((s) => ({ parent, child: child(s.name), pose: Array.from(s.extrinsic) })));
+  const direction = `T_${parent}_sensor: maps each sensor's points into ${parent} (parent ${parent}, child the sensor)`;
   const out = [
     { key: 'json', title: 'JSON (everything)', direction: 'as the CLI\'s --json; matrices row-major T_vehicle_sensor / C_ref_s / T_ref_s', file: 'gmmcalib-result.json', text: resultJson(result) },
     { key: 'yaml', title: 'GMMCalib YAML', direction: `transform_<sensor>: sensor -> ${parent}`, file: 'config-calibrated.yaml', text: gmmcalibYaml(result, roi) },
-    { key: 'urdf', title: 'URDF origins', direction, file: 'extrinsics.urdf.xml', text: urdf(result, parent, child) },
-    { key: 'ros2', title: 'ROS 2 static_transform_publisher', direction: `--frame-id ${parent} (parent), --child-frame-id the sensor`, file: 'static_transforms.sh', text: ros2(result, parent, child) },
+    { key: 'urdf', title: 'URDF origins', direction, file: 'extrinsics.urdf.xml', text: texts.urdf },
+    { key: 'ros2', title: 'ROS 2 static_transform_publisher', direction: `--frame-id ${parent} (parent), --child-frame-id the sensor`, file: 'static_transforms.sh', text: texts.ros2 },
+    { key: 'ros1', title: 'ROS 1 static_transform_publisher', direction: `positional x y z yaw pitch roll (yaw first), then ${parent} (parent) and the sensor`, file: 'static_transforms_ros1.sh', text: texts.ros1 },
+    { key: 'tfYaml', title: '/tf_static YAML', direction: `header.frame_id ${parent}, child_frame_id the sensor`, file: 'tf_static.yaml', text: texts.tfYaml },
+    { key: 'autoware', title: 'Autoware sensor_kit_calibration.yaml', direction, file: 'sensor_kit_calibration.yaml', text: texts.autoware },
+    { key: 'kitti', title: 'KITTI Tr (3x4)', direction, file: 'calib_tr.txt', text: texts.kitti },
   ];
   if (result.reconstruction.priors.length) {
     out.push({ key: 'ply', title: 'Reconstructed target (PLY)', direction: 'points in the vehicle frame (where the reference sees the target)', file: 'target.ply', text: targetPly(result.reconstruction) });

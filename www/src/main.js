@@ -258,7 +258,10 @@ async function showResults(results, failures, json) {
   await nextTask();
   if (state.results !== results) return;
   drawConvergence($('convergence'), results[0].history);
-  renderExports($('exports'), exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, ...state.exportFrames }));
+  const ros = (extrinsics) => client.request('exports', { extrinsics });
+  const items = await exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, ...state.exportFrames }, ros);
+  if (state.results !== results) return;
+  renderExports($('exports'), items);
   await nextTask();
   if (state.results !== results) return;
   $('result-json').textContent = resultJson(json);

@@ -2,7 +2,7 @@
 // link reproduces the same demo run. Only values that differ from the defaults are written.
 
 export const DEFAULTS = Object.freeze({
-  method: 'gmm', // gmm | jrmpc | p2p | p2l | gicp | all
+  method: 'gmm', // gmm | jrmpc | cad | p2p | p2l | gicp | all
   components: 400,
   iterations: 100,
   target: 'cube:0.5', // the target: cube:EDGE | box:W,D,H | sphere:DIAMETER | none (m)

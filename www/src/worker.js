@@ -5,7 +5,7 @@ import init, * as wasm from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
 import { calibrateSharded } from './shard-pool.js';
 
-const { calibrate, methods, parseCloud, parseConfig, parseMesh, parseOpenCalib, simulateRig, RecordingFile } = wasm;
+const { calibrate, methods, parseCloud, parseConfig, parseMesh, parseOpenCalib, rosExports, simulateRig, RecordingFile } = wasm;
 
 // Open recordings by id. A recording is read where it lies: FileReaderSync on slices of the
 // File, so a multi-gigabyte file is never in memory; only its index and the chosen chunks are.
@@ -24,6 +24,7 @@ const handlers = {
   parse: ({ bytes, name }) => parseCloud(new Uint8Array(bytes), name),
   config: ({ text, name }) => parseConfig(text, name),
   mesh: ({ bytes, name }) => parseMesh(new Uint8Array(bytes), name),
+  exports: ({ extrinsics }) => rosExports(extrinsics),
   opencalib: ({ paths, pathsName, guess, guessName }) => parseOpenCalib(paths, pathsName, guess ?? null, guessName ?? null),
   methods: () => methods(),
   openRecording: ({ file }, id) => {

@@ -4,9 +4,9 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { assign, natural, pair } from '../src/files.js';
 import { readFileSync } from 'node:fs';
-import { initSync, parseConfig } from '../pkg/gmmcalib.js';
+import { initSync, parseConfig, rosExports } from '../pkg/gmmcalib.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
-import { gmmcalibYaml, resultJson, ros2, targetPly, urdf } from '../src/exports.js';
+import { exportsOf, gmmcalibYaml, resultJson, targetPly } from '../src/exports.js';
 import { DEFAULTS, readHash } from '../src/url.js';
 import { describeDone, describeProgress } from '../src/progress.js';
 
@@ -101,7 +101,7 @@ test('pose maths: rpy and quaternion of a matrix, inverse', () => {
   assert.ok(close(quaternionOf(matrixFromXyzRpy([0, 0, 0], [Math.PI, 0, 0])), [1, 0, 0, 0]));
 });
 
-test('exports: YAML round trip, URDF and ROS 2 lines, PLY, JSON with plain arrays', () => {
+test('exports: YAML round trip, the ROS forms from the library, PLY, JSON with plain arrays', async () => {
   const extrinsic = matrixFromXyzRpy([2.3, -0.6, 1.6], [-0.35, 0.01, -0.02]);
   const result = {
     sensors: [{ name: 'a', extrinsic: matrixFromXyzRpy([0, 0, 1], [0, 0, 0]) }, { name: 'b', extrinsic }],
@@ -112,8 +112,13 @@ test('exports: YAML round trip, URDF and ROS 2 lines, PLY, JSON with plain array
   const b = back.nominal.b;
   assert.ok(close(matrixFromXyzRpy(b.xyz, b.rpy), extrinsic, 1e-9));
   assert.deepEqual(back.roi, roi);
-  assert.match(urdf(result, 'base_link'), /<parent link="base_link"\/>\n {2}<child link="b"\/>\n {2}<origin xyz="2\.3 -0\.6 1\.6" rpy="-0\.35 0\.01 -0\.02"\/>/);
-  assert.match(ros2(result, 'base_link').split('\n')[1], /^ros2 run tf2_ros static_transform_publisher --x 2\.3 --y -0\.6 --z 1\.6 --roll -0\.35 --pitch 0\.01 --yaw -0\.02 --frame-id base_link --child-frame-id b$/);
+  const items = await exportsOf(result, { roi, parent: 'base_link', frameIds: { b: 'b_frame' } }, async (e) => rosExports(e));
+  const text = (key) => items.find((i) => i.key === key).text;
+  assert.deepEqual(items.map((i) => i.key), ['json', 'yaml', 'urdf', 'ros2', 'ros1', 'tfYaml', 'autoware', 'kitti', 'ply']);
+  const joint = text('urdf').match(/<parent link="base_link"\/>\n {2}<child link="b_frame"\/>\n {2}<origin xyz="([^"]+)" rpy="([^"]+)"\/>/);
+  assert.ok(joint && close(joint[1].split(' ').map(Number), [2.3, -0.6, 1.6], 1e-12) && close(joint[2].split(' ').map(Number), [-0.35, 0.01, -0.02], 1e-12), text('urdf'));
+  assert.match(text('ros2'), /^ros2 run tf2_ros static_transform_publisher --x 2\.3 --y -0\.6 --z 1\.6 --qx \S+ --qy \S+ --qz \S+ --qw \S+ --frame-id base_link --child-frame-id b_frame$/m);
+  assert.match(text('ros1'), /static_transform_publisher 2\.3 -0\.6 1\.6 \S+ \S+ \S+ base_link b_frame$/m);
   const ply = targetPly(result.reconstruction);
   assert.match(ply, /element vertex 1\n/);
   assert.match(ply, /end_header\n1 2 3 0\.1000000015 0\.5\n$/);

@@ -95,7 +95,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   const all = () => ({ ...input(), method: 'all', iterations: 10 });
   const compared = await calibrateSharded(wasm, all(), 2, () => true, inProcess);
   const expected = wasm.calibrate(all());
-  assert.deepEqual(compared.map((r) => r.method), ['gmm', 'jrmpc', 'p2p', 'p2l', 'gicp']);
+  assert.deepEqual(compared.map((r) => r.method), ['gmm', 'jrmpc', 'cad', 'p2p', 'p2l', 'gicp']);
   for (const [a, b] of compared.map((r, i) => [r, expected[i]])) assert.deepEqual(a.sensors, b.sensors, a.method);
 
   const session = new wasm.CalibrationSession(input());
