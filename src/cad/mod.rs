@@ -3,34 +3,41 @@
 //! CAD mesh already placed in the vehicle frame, so the calibration is anchored to the known
 //! geometry rather than to a mixture that floats with the data (as in [`crate::jrmpc`]).
 //!
-//! Following CADCalib:
+//! Following CADCalib (the `cad_calib.py` of commit df14b9c, whose anisotropy is the
+//! percentile rule below; commit 77c1ba5 maps the curvature through a sigmoid instead):
 //! - centre `k` has the precision `(I + a_k n_k n_k^T) / sigma^2`, one global `sigma^2`, its
 //!   anisotropy `a_k` from the surface's curvature ([`CadModel::from_samples`]): flat faces act
 //!   point-to-plane, edges point-to-point;
 //! - the priors `1 / (K (gamma + 1))` with GMMBase's `gamma = 0.1`, the centre weights
-//!   `F_k` and the uniform outlier class (`outlier_weight`, the bounding volume of all points
-//!   and centres), whose constant is fixed at the initial sigma; the initial `sigma^2` is the
-//!   squared diagonal of that bounding box;
-//! - each sensor has one rigid transform shared by all its views; the M-step takes damped
-//!   Gauss-Newton steps (2, damping 1e-6) on `sum_ik r_ik (T p_i - c_k)^T Lambda_k (T p_i - c_k)`
-//!   with the responsibilities fixed, then re-estimates `sigma^2 = sum r d^T Lambda d / (3 sum r)`
-//!   with `Lambda_k = I + a_k n_k n_k^T`. The centres never move.
+//!   `F_k = f_X pk sqrt(1 + a_k)` and the uniform outlier class (ratio `outlier_weight`, over
+//!   the bounding volume of all points and centres), whose constant `f_X` is fixed at the
+//!   initial sigma; the initial `sigma^2` is the squared diagonal of that bounding box;
+//! - each sensor has one rigid transform shared by all its views, starting at the identity
+//!   (the views are pre-aligned); the M-step takes damped Gauss-Newton steps (2, damping 1e-6)
+//!   on `sum_ik r_ik (T p_i - c_k)^T Lambda_k (T p_i - c_k)` with the responsibilities fixed,
+//!   then re-estimates `sigma^2 = sum r d^T Lambda d / (3 sum r)` with
+//!   `Lambda_k = I + a_k n_k n_k^T`. The centres never move.
 //!
 //! Where it differs, and why:
 //! - the E-step is sparse: only centres within `radius_sigmas * sigma` of a point are
-//!   evaluated (a hash grid of the centres), and of those only terms within that Mahalanobis
-//!   distance; every Gaussian's broadest axis is `sigma`, so the bound is exact for the terms
-//!   kept. CADCalib evaluates every point against every centre (points x K per iteration);
+//!   evaluated (a grid of the centres), and of those only terms within that Mahalanobis
+//!   distance; every Gaussian's broadest axis is `sigma`, so the isotropic bound misses no
+//!   term that is kept. CADCalib evaluates every point against every centre (points x K per
+//!   iteration). While sigma is large (the first iterations from the bounding box's diagonal)
+//!   the ball still holds every centre, and those iterations take most of a run's time;
+//! - the terms' exps are evaluated in f32 (about 1e-7 relative), their sums in f64;
 //! - it stops once no parameter (a sensor's rotation in rad, its translation at its points'
 //!   centroid in m, or sigma in m) changes by more than `tolerance` in an iteration, with
 //!   `max_iterations` as a cap; CADCalib runs a fixed 100;
 //! - any number of sensors, each view assigned explicitly (CADCalib: two sensors, views split
 //!   in halves);
-//! - the Gauss-Newton increment is taken about the centres' centroid in the vehicle frame
-//!   (left-multiplied) rather than in the sensor frame (right-multiplied): the same fixed point,
-//!   a better conditioned system; and the per-point responsibilities are reduced to a few sums,
-//!   so the two steps cost O(points), not O(points x K);
-//! - sigma^2 is floored (`variance_floor`), so it cannot collapse on noiseless data.
+//! - the Gauss-Newton increment is a rotation about the centres' centroid and a shift in the
+//!   vehicle frame (left-multiplied), not CADCalib's increment in the sensor frame
+//!   (right-multiplied): the same stationary point, a better conditioned system; and each
+//!   point's responsibilities are reduced to a few sums, so the two steps cost O(points),
+//!   not O(points x K);
+//! - sigma^2 is floored (`variance_floor`), so it cannot collapse on noiseless data, and
+//!   stays as it is when no point has any support (CADCalib would set it to 0).
 
 mod em;
 mod model;
@@ -43,7 +50,7 @@ pub use model::CadModel;
 
 use crate::jrmpc::Control;
 use crate::se3::Pose;
-use em::{Grid, Mixture, Summary};
+use em::{Grid, Mixture, Scratch, Summary};
 
 /// GMMBase's `gamma` (`gmm_base.py`, `_initialize_common_parameters`): the priors are
 /// `1 / (K (gamma + 1))`.
@@ -117,6 +124,7 @@ pub struct CadRegistration {
     pub converged: bool,
     /// The progress callback asked to stop.
     pub cancelled: bool,
+    /// One entry per iteration run.
     pub history: Vec<CadIteration>,
     /// Per sensor: its points with any centre within reach at the last E-step.
     pub support: Vec<usize>,
@@ -128,16 +136,16 @@ pub struct CadRegistration {
 /// Why a registration could not start.
 #[derive(Clone, Debug, PartialEq)]
 pub enum CadError {
+    /// The model has no centre.
     NoCentres,
     /// No view of this sensor has a point.
-    NoPoints {
-        sensor: usize,
-    },
-    NonFinitePoint {
-        view: usize,
-        index: usize,
-    },
-    /// The named setting or input is out of range (or the model's arrays disagree).
+    NoPoints { sensor: usize },
+    /// Point `index` of view `view` has a coordinate that is not finite.
+    NonFinitePoint { view: usize, index: usize },
+    /// The named setting or input is out of range: a field of [`CadSettings`], `"model"`
+    /// (arrays of different lengths, a value that is not finite, a negative anisotropy),
+    /// `"sensors"` (0), `"sensor_of_view"` (a length or a sensor out of range) or `"views"`
+    /// (more than `u32::MAX` points).
     InvalidSetting(&'static str),
 }
 
@@ -172,26 +180,24 @@ pub fn register(
 ) -> Result<CadRegistration, CadError> {
     validate(views, sensor_of_view, sensors, model, settings)?;
 
-    // Raw points (f64) in view order, with their sensor.
-    let points: Vec<(Vector3<f64>, usize)> = views
+    // Raw points (f64), grouped by sensor: sensor s owns points[ranges[s]].
+    let mut points: Vec<Vector3<f64>> = Vec::new();
+    let mut ranges = Vec::with_capacity(sensors);
+    for s in 0..sensors {
+        let start = points.len();
+        for (view, _) in views.iter().zip(sensor_of_view).filter(|(_, of)| **of == s) {
+            points.extend(view.iter().map(|p| Vector3::from(p.map(f64::from))));
+        }
+        ranges.push(start..points.len());
+    }
+    let centroids: Vec<Vector3<f64>> = ranges
         .iter()
-        .zip(sensor_of_view)
-        .flat_map(|(view, &s)| view.iter().map(move |p| (Vector3::from(p.map(f64::from)), s)))
+        .map(|r| points[r.clone()].iter().sum::<Vector3<f64>>() / r.len() as f64)
         .collect();
-    let mut counts = vec![0usize; sensors];
-    let mut centroids = vec![Vector3::zeros(); sensors];
-    for (p, s) in &points {
-        counts[*s] += 1;
-        centroids[*s] += p;
-    }
-    for (c, &n) in centroids.iter_mut().zip(&counts) {
-        *c /= n as f64;
-    }
 
     // CADCalib `_initialize_distribution_parameters` and `_initialize_bounding_volume`: the
     // box of all (identity-transformed) points and all centres; sigma^2 = its squared diagonal.
-    let (volume, diagonal2) =
-        em::bounding_box(points.iter().map(|(p, _)| *p).chain(model.centres.iter().copied()));
+    let (volume, diagonal2) = em::bounding_box(points.iter().chain(&model.centres).copied());
     let mut sigma2 = match settings.initial_sigma {
         Some(s) => s * s,
         None => diagonal2,
@@ -201,67 +207,63 @@ pub fn register(
     let origin = mixture.origin;
 
     let mut poses = vec![Pose::identity(); sensors];
+    let mut xs = vec![Vector3::zeros(); points.len()];
     let mut summaries = vec![Summary::default(); points.len()];
+    let mut scratch = Scratch::default();
     let mut support = vec![0usize; sensors];
     let mut rms = vec![0.0; sensors];
     let mut history = Vec::new();
     let (mut converged, mut cancelled) = (false, false);
 
     for iteration in 1..=settings.max_iterations {
-        // E-step.
+        // E-step over every point of every view, at the current poses.
         let sigma = sigma2.sqrt();
-        let grid = Grid::new(&mixture, settings.radius_sigmas * sigma);
-        let half_inv_sigma2 = 0.5 / sigma2;
-        let outlier = mixture.outlier_term(sigma2);
-        support.iter_mut().for_each(|s| *s = 0);
-        for ((y, s), summary) in points.iter().zip(summaries.iter_mut()) {
-            let x = poses[*s].transform_point(&(*y).into()).coords - origin;
-            let (sum, supported) = grid.e_step(&x, half_inv_sigma2, outlier);
-            *summary = sum;
-            support[*s] += usize::from(supported);
+        for (pose, range) in poses.iter().zip(&ranges) {
+            for (x, y) in xs[range.clone()].iter_mut().zip(&points[range.clone()]) {
+                *x = pose.transform_point(&(*y).into()).coords - origin;
+            }
         }
+        let grid = Grid::new(&mixture, settings.radius_sigmas * sigma);
+        let outlier = mixture.outlier_term(sigma2);
+        grid.e_step(&xs, 0.5 / sigma2, outlier, &mut scratch, &mut summaries);
 
-        // M-step: each sensor's pose, then sigma^2.
+        // M-step: each sensor's pose, then sigma^2 (CADCalib `m_step`).
         let previous = poses.clone();
-        for (s, pose) in poses.iter_mut().enumerate() {
-            let sensor_points = points
-                .iter()
-                .zip(&summaries)
-                .filter(move |((_, of), _)| *of == s)
-                .map(|((y, _), summary)| (*y, *summary));
+        let (mut num_all, mut den_all) = (0.0, 0.0);
+        for (s, range) in ranges.iter().enumerate() {
+            let (points, summaries) = (&points[range.clone()], &summaries[range.clone()]);
             em::gauss_newton(
-                pose,
+                &mut poses[s],
                 &origin,
-                sensor_points,
+                points,
+                summaries,
                 settings.gauss_newton_steps,
                 settings.damping,
             );
-        }
-        let mut num = vec![0.0; sensors];
-        let mut den = vec![0.0; sensors];
-        for ((y, s), summary) in points.iter().zip(&summaries) {
-            if summary.w > 0.0 {
-                let x = poses[*s].transform_point(&(*y).into()).coords - origin;
-                num[*s] += summary.anisotropic_sq(&x);
-                den[*s] += summary.w;
+            let (mut num, mut den) = (0.0, 0.0);
+            for (y, summary) in points.iter().zip(summaries) {
+                if summary.w > 0.0 {
+                    let x = poses[s].transform_point(&(*y).into()).coords - origin;
+                    num += summary.anisotropic_sq(&x);
+                    den += summary.w;
+                }
             }
+            support[s] = summaries.iter().filter(|summary| summary.w > 0.0).count();
+            rms[s] = if den > 0.0 { (num / den).sqrt() } else { 0.0 };
+            num_all += num;
+            den_all += den;
         }
-        for s in 0..sensors {
-            rms[s] = if den[s] > 0.0 { (num[s] / den[s]).sqrt() } else { 0.0 };
-        }
-        let (num_all, den_all): (f64, f64) = (num.iter().sum(), den.iter().sum());
-        // CADCalib `m_step`: sigma2 = sum r d^T Lambda d / (3 sum r + 1e-12). Without any
-        // support there is nothing to estimate it from: it stays.
+        // sigma^2 = sum r d^T Lambda d / (3 sum r + 1e-12); without any support there is
+        // nothing to estimate it from, and it stays.
         if den_all > 0.0 {
             sigma2 = (num_all / (3.0 * den_all + 1e-12)).max(settings.variance_floor);
         }
 
         let mut max_change = (sigma2.sqrt() - sigma).abs();
-        for s in 0..sensors {
-            let rotation = previous[s].rotation.angle_to(&poses[s].rotation);
-            let c = centroids[s].into();
-            let shift = (poses[s].transform_point(&c) - previous[s].transform_point(&c)).norm();
-            max_change = max_change.max(rotation).max(shift);
+        for ((now, before), centroid) in poses.iter().zip(&previous).zip(&centroids) {
+            let c = (*centroid).into();
+            let shift = (now.transform_point(&c) - before.transform_point(&c)).norm();
+            max_change = max_change.max(before.rotation.angle_to(&now.rotation)).max(shift);
         }
         let record = CadIteration { iteration, sigma: sigma2.sqrt(), max_change };
         history.push(record);
@@ -337,6 +339,10 @@ fn validate(
     }
     if sensor_of_view.len() != views.len() || sensor_of_view.iter().any(|&s| s >= sensors) {
         return Err(CadError::InvalidSetting("sensor_of_view"));
+    }
+    // The E-step indexes points with u32.
+    if views.iter().map(|v| v.len()).sum::<usize>() > u32::MAX as usize {
+        return Err(CadError::InvalidSetting("views"));
     }
     for (view, points) in views.iter().enumerate() {
         if let Some(index) = points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {

@@ -40,12 +40,14 @@ impl CadModel {
     ///
     /// Following CADCalib: each sample's curvature is the surface variation
     /// `lambda_min / (lambda_0 + lambda_1 + lambda_2 + 1e-12)` of the second moment of its 12
-    /// nearest samples about itself; `c = log1p(curvature)` is normalised between its 10th and
-    /// 90th percentiles (numpy's linear interpolation) and clamped to [0, 1]; `a_k = a_max (1 -
-    /// c_k)`. Flat faces get `a_max`, edges and corners (above the 90th percentile) 0. The
-    /// samples play both roles CADCalib splits: they are the centres and the surface the
-    /// neighbours are drawn from. Normals are normalised (a zero normal stays zero: that centre
-    /// is isotropic).
+    /// nearest samples (itself included) about itself; `c = log1p(curvature)` is normalised
+    /// between its 10th and 90th percentiles (numpy's linear interpolation) and clamped to
+    /// [0, 1]; `a_k = a_max (1 - c_k)`. Face middles get `a_max`, edges and corners (above the
+    /// 90th percentile) 0. The samples play both parts CADCalib gives two sets (the centres,
+    /// and 50 000 surface samples the neighbours come from): a sample's neighbourhood spans
+    /// about two sample spacings, so a few centres near an edge whose neighbours all lie on
+    /// one face stay flat. Normals are normalised (a zero normal stays zero: that centre is
+    /// isotropic).
     pub fn from_samples(samples: &[([f64; 3], [f64; 3])], a_max: f64) -> Self {
         let centres: Vec<Vector3<f64>> = samples.iter().map(|(p, _)| Vector3::from(*p)).collect();
         // CADCalib: `normals /= norm(normals) + 1e-12`.

@@ -148,7 +148,7 @@ impl<'r> Run<'r> {
     /// corrections as the caller sees them) and may stop it.
     pub fn register_cad(&mut self, progress: &mut impl FnMut(&Progress) -> Control) {
         let Some((_, views, State::Cad(outcome))) = &mut self.current else { return };
-        let max_iterations = views.settings.cad.max_iterations;
+        let max_iterations = views.stages().cad.as_ref().map_or(0, |c| c.max_iterations);
         let reg = views.register_cad(|it| {
             let corrections = vec![Pose::identity(); views.sensors().len()];
             progress(&Progress {

@@ -227,7 +227,11 @@ impl Stages {
                 Method::Jrmpc => true,
                 Method::Cad | Method::Icp(_) => false,
             },
-            cad: (method == Method::Cad).then(|| settings.cad.clone()),
+            // One knob for the most EM iterations, JRMPC's or cad's.
+            cad: (method == Method::Cad).then(|| CadSettings {
+                max_iterations: settings.jrmpc.max_iterations,
+                ..settings.cad.clone()
+            }),
             pairs,
             ground_normals: method == Method::Gmm,
             planes: settings.planes.clone().filter(|_| method == Method::Gmm),

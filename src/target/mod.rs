@@ -25,7 +25,7 @@ pub enum Target {
     /// A sphere of this diameter.
     Sphere { diameter: f64 },
     /// A CAD model (OBJ, PLY or STL), upright as its file gives it (z up); where it stands is
-    /// found from the data ([`place`]).
+    /// found from the data ([`place()`]).
     Mesh(MeshTarget),
     /// No target: the scene is the target (its ground, walls, poles, cars).
     None,

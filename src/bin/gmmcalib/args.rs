@@ -24,7 +24,7 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
                           [--method gmm] [--target cube:0.5|...|mesh:PATH|none] [--components K]
                           [--iterations N] [--tolerance T]
                           [--bev on|off] [--planes on|off] [--level on|off] [--global on|off] [--noise M]
-                          [--columns N] [--threads T] [--notes]
+                          [--columns N] [--threads T] [--notes] [--poses]
 
   calibrate: prints the verdict first (good, check or failed, with the reasons); exit status
   0 when it calibrated, 2 when it calibrated but the verdict is failed (every method's, with
@@ -164,6 +164,9 @@ pub struct StudyArgs {
     pub threads: Option<usize>,
     /// Print each trial's notes (plane adjustment, refinement guards, bird's-eye overlap).
     pub notes: bool,
+    /// Print each trial's error per sensor in full (rotation about the vehicle axes in mdeg,
+    /// position in mm), to compare two runs trial by trial.
+    pub poses: bool,
 }
 
 impl Default for StudyArgs {
@@ -189,6 +192,7 @@ impl Default for StudyArgs {
             columns: None,
             threads: None,
             notes: false,
+            poses: false,
         }
     }
 }
@@ -232,8 +236,8 @@ fn flags(args: impl Iterator<Item = String>) -> Result<Option<Vec<(String, Strin
         if !arg.starts_with("--") {
             return Err(format!("unknown argument '{arg}' (see gmmcalib --help)"));
         }
-        // The one flag without a value.
-        if arg == "--notes" {
+        // The flags without a value.
+        if arg == "--notes" || arg == "--poses" {
             out.push((arg, "on".into()));
             continue;
         }
@@ -361,6 +365,7 @@ fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
             "--columns" => out.columns = Some(positive(&flag, &value)?),
             "--threads" => out.threads = Some(positive(&flag, &value)?),
             "--notes" => out.notes = true,
+            "--poses" => out.poses = true,
             _ => return Err(unknown(&flag)),
         }
     }

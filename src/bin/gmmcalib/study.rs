@@ -78,7 +78,7 @@ pub fn run(a: &StudyArgs) -> Result<(), String> {
     }
     let (jobs, trials): (Vec<_>, Vec<_>) = done.into_iter().unzip();
     if !trials.is_empty() {
-        report(&jobs, &trials);
+        report(&jobs, &trials, a.poses);
     }
     println!("calibrations that ended in an error: {failed} of {}", jobs.len() + failed);
     Ok(())
@@ -158,7 +158,7 @@ fn trial(
 }
 
 /// Prints the study's figures.
-fn report(jobs: &[(u64, u64)], trials: &[Trial]) {
+fn report(jobs: &[(u64, u64)], trials: &[Trial], poses: bool) {
     let errors: Vec<&SensorError> = trials.iter().flat_map(|t| &t.errors).collect();
     for line in precision_check(&errors) {
         println!("{line}");
@@ -204,6 +204,16 @@ fn report(jobs: &[(u64, u64)], trials: &[Trial]) {
             .map(|(a, m)| format!("{a:.4} deg {:.2} mm", m * 1e3))
             .collect();
         println!("seed {seed} start {start}: {} | verdict {}", cells.join(" | "), t.verdict.name());
+        if poses {
+            for e in &t.errors {
+                let r = e.rotation.map(|a| a.to_degrees() * 1e3);
+                let p = e.position * 1e3;
+                println!(
+                    "seed {seed} start {start} pose: rotation {:.5} {:.5} {:.5} mdeg, position {:.5} {:.5} {:.5} mm",
+                    r.x, r.y, r.z, p.x, p.y, p.z
+                );
+            }
+        }
     }
     let all: Vec<(f64, f64)> = errors.iter().map(|e| e.deg_m()).collect();
     let columns = |errors: &[(f64, f64)]| -> (Vec<f64>, Vec<f64>) {
