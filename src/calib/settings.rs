@@ -144,6 +144,13 @@ pub struct Settings {
     pub global: GlobalSettings,
     /// For `cad`'s registration onto the target's model.
     pub cad: CadSettings,
+    /// JRMPC's convergence test inside `gmm` (rad or m per iteration; see
+    /// [`jrmpc::EmSettings::tolerance`]). There JRMPC finds the basin and the refinement and
+    /// plane adjustment set the accuracy: stopping at 1e-4 (about 65 iterations instead of
+    /// 100) leaves every twin study's final calibration the same to 1e-8 deg / 1e-5 mm per
+    /// trial (docs/benchmarks.md). Plain `jrmpc` keeps `jrmpc.tolerance` (1e-8: the
+    /// reference's 100 iterations). 0 runs every iteration.
+    pub gmm_em_tolerance: f64,
 }
 
 impl Default for Settings {
@@ -165,6 +172,7 @@ impl Default for Settings {
             align_globally: None,
             global: GlobalSettings::default(),
             cad: CadSettings::default(),
+            gmm_em_tolerance: 1e-4,
         }
     }
 }
@@ -195,6 +203,8 @@ pub struct Stages {
     pub jrmpc: bool,
     /// Register every sensor onto fixed components on the placed target model (`cad`).
     pub cad: Option<CadSettings>,
+    /// JRMPC's convergence test: `gmm_em_tolerance` for `gmm`, else `jrmpc.tolerance`.
+    pub em_tolerance: f64,
     /// Register each frame pair by ICP: from JRMPC's corrections (`gmm`) or the nominal.
     pub pairs: Option<PairSettings>,
     /// The frame pairs' reference points near its ground take the ground's normal (`gmm`).
@@ -226,6 +236,10 @@ impl Stages {
                 Method::Gmm => settings.target != Target::None,
                 Method::Jrmpc => true,
                 Method::Cad | Method::Icp(_) => false,
+            },
+            em_tolerance: match method {
+                Method::Gmm => settings.gmm_em_tolerance,
+                _ => settings.jrmpc.tolerance,
             },
             // One knob for the most EM iterations, JRMPC's or cad's.
             cad: (method == Method::Cad).then(|| CadSettings {

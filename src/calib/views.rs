@@ -216,6 +216,7 @@ impl Views {
                 InitialSigma::BoundingBox => None,
                 InitialSigma::Fixed(sigma) => Some(sigma),
             },
+            tolerance: self.stages.em_tolerance,
             ..settings.jrmpc.clone()
         };
         JrmpcInput { clouds, means, settings: jrmpc_settings }

@@ -232,7 +232,9 @@ pub(super) fn rig_and_settings(
     }
     settings.components = input.components.unwrap_or(settings.components);
     settings.jrmpc.max_iterations = input.iterations.unwrap_or(settings.jrmpc.max_iterations);
-    settings.jrmpc.tolerance = input.tolerance.unwrap_or(settings.jrmpc.tolerance);
+    if let Some(tolerance) = input.tolerance {
+        (settings.jrmpc.tolerance, settings.gmm_em_tolerance) = (tolerance, tolerance);
+    }
     settings.seed = input.seed.unwrap_or(settings.seed);
     settings.align_globally = input.align_globally;
     if let Some(sigma) = input.initial_sigma {

@@ -97,7 +97,7 @@ fn settings(a: &StudyArgs) -> Result<Settings, String> {
         settings.jrmpc.max_iterations = n;
     }
     if let Some(t) = a.tolerance {
-        settings.jrmpc.tolerance = t;
+        (settings.jrmpc.tolerance, settings.gmm_em_tolerance) = (t, t);
     }
     if !a.bev {
         settings.bev = None;
