@@ -139,30 +139,6 @@ impl Mixture {
 /// default radius the exponents stay below 8.
 const MAX_EXPONENT: f32 = 80.0;
 
-/// `exp(-x)` in f32 for `0 <= x <= MAX_EXPONENT`, to about 1 ulp: Cephes' `expf` (`2^n e^r`,
-/// `n` rounded by the 1.5 * 2^23 trick, `ln 2` split in two parts, `e^r = 1 + r + r^2 P(r)`
-/// with its degree-5 `P`). Branch-free, so the kernel's loop vectorises (libm's exp is a call
-/// per term, f64 lanes hold half as many); the same construction as the JRMPC kernel's.
-#[inline(always)]
-fn exp_neg_f32(x: f32) -> f32 {
-    const MAGIC: f32 = 12_582_912.0; // 1.5 * 2^23
-    const LN2_HI: f32 = 0.693_359_4;
-    const LN2_LO: f32 = -2.121_944_4e-4;
-    const P: [f32; 6] =
-        [1.987_569_1e-4, 1.398_2e-3, 8.333_452e-3, 4.166_579_6e-2, 1.666_666_5e-1, 0.5];
-    let y = -x;
-    let t = y * std::f32::consts::LOG2_E + MAGIC;
-    let n = t - MAGIC;
-    let r = y - n * LN2_HI - n * LN2_LO;
-    let mut p = P[0];
-    for c in &P[1..] {
-        p = p * r + c;
-    }
-    let e_r = p * (r * r) + r + 1.0;
-    let n = t.to_bits() as i32 - 0x4B40_0000;
-    e_r * f32::from_bits(((n + 127) << 23) as u32)
-}
-
 /// Cells per search radius: a point's block spans `2 SUBDIVIDE + 1` cells per axis, so finer
 /// cells fit the block closer to the ball (`(2.5 r)^3` here against `(3 r)^3` with cells of
 /// `r`) but leave fewer points per cell to share gathering it.
@@ -361,7 +337,8 @@ impl Grid {
         }
         for t in terms.iter_mut() {
             let e = *t;
-            let v = exp_neg_f32(e.min(MAX_EXPONENT));
+            // The JRMPC kernel's exp (tested there), on the same range.
+            let v = crate::jrmpc::exp_neg_f32(e.min(MAX_EXPONENT));
             *t = if e <= MAX_EXPONENT { v } else { 0.0 };
         }
         // The sums, zero terms included (cheaper than skipping them), in two sets of partial
@@ -577,18 +554,5 @@ mod tests {
             }
             assert!(supported > 100 && supported < points.len() || radius > 5.0, "{supported}");
         }
-    }
-
-    #[test]
-    fn exp_neg_f32_is_accurate_to_f32() {
-        let mut worst = 0.0f64;
-        let mut x = 0.0f32;
-        while x <= MAX_EXPONENT {
-            let (got, want) = (f64::from(exp_neg_f32(x)), (-f64::from(x)).exp());
-            worst = worst.max(((got - want) / want).abs());
-            x += 0.000_37;
-        }
-        assert!(worst < 2e-7, "relative error {worst}");
-        assert_eq!(exp_neg_f32(0.0), 1.0);
     }
 }

@@ -19,6 +19,7 @@ use std::fmt;
 use nalgebra::{Matrix3, Vector3};
 
 pub use em::Em;
+pub use kernel::exp_neg_f32;
 pub use model::Mixture;
 
 use crate::se3::Pose;

@@ -68,31 +68,16 @@ pub fn fit_targets(
 }
 
 /// Single-linkage groups of `indices` (into `means`): two components share a group when a
-/// chain of steps no longer than `gap` joins them.
+/// chain of steps no longer than `gap` joins them (the placement's grouping, on these means).
 fn groups(indices: &[usize], means: &[Vector3<f64>], gap: f64) -> Vec<Vec<usize>> {
-    let mut group_of = vec![usize::MAX; indices.len()];
-    let mut groups = Vec::new();
-    for seed in 0..indices.len() {
-        if group_of[seed] != usize::MAX {
-            continue;
-        }
-        let id = groups.len();
-        group_of[seed] = id;
-        let mut members = vec![seed];
-        let mut next = 0;
-        while next < members.len() {
-            let a = means[indices[members[next]]];
-            next += 1;
-            for b in 0..indices.len() {
-                if group_of[b] == usize::MAX && (means[indices[b]] - a).norm() <= gap {
-                    group_of[b] = id;
-                    members.push(b);
-                }
-            }
-        }
-        groups.push(members.into_iter().map(|i| indices[i]).collect());
-    }
-    groups
+    let points: Vec<[f32; 3]> = indices
+        .iter()
+        .map(|&k| [means[k].x as f32, means[k].y as f32, means[k].z as f32])
+        .collect();
+    super::place::groups(&points, gap)
+        .into_iter()
+        .map(|group| group.into_iter().map(|i| indices[i]).collect())
+        .collect()
 }
 
 /// Fits the target's shape to `means` weighted by `priors`. `None` when fewer than four

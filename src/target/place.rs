@@ -214,7 +214,7 @@ pub fn place(
 
 /// Single-linkage groups of `points` joined by steps no longer than `gap`, on a hash grid of
 /// cell `gap` (each point looks at its own and the 26 neighbouring cells).
-fn groups(points: &[[f32; 3]], gap: f64) -> Vec<Vec<usize>> {
+pub(super) fn groups(points: &[[f32; 3]], gap: f64) -> Vec<Vec<usize>> {
     let key = |p: &[f32; 3]| p.map(|c| (c as f64 / gap).floor() as i64);
     let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
     for (i, p) in points.iter().enumerate() {
