@@ -264,7 +264,7 @@ fn methods_and_the_config_reader_come_from_the_library() {
     let names = js("return rig.map((m) => `${m.name}:${m.jrmpc}:${m.pairs}`).join(' ');", &list);
     assert_eq!(
         names.as_string().unwrap(),
-        "gmm:true:true jrmpc:true:false p2p:false:true p2l:false:true gicp:false:true"
+        "gmm:true:true jrmpc:true:false cad:false:false p2p:false:true p2l:false:true gicp:false:true"
     );
     let config = parse_config(
         "transform_a: [0.1, 0.2, 0.3, 1, 2, 3]\nmin_bound: [-1, -2, -3]\nmax_bound: [1, 2, 3]\n\
@@ -291,5 +291,5 @@ fn calibrate_compares_every_method() {
     let result = calibrate(rig, None).map_err(JsValue::from).expect("compare all");
     let names =
         js("return rig.map((r) => r.error ? `${r.method}!` : r.method).join(' ');", &result);
-    assert_eq!(names.as_string().unwrap(), "gmm jrmpc p2p p2l gicp");
+    assert_eq!(names.as_string().unwrap(), "gmm jrmpc cad p2p p2l gicp");
 }
