@@ -240,11 +240,7 @@ impl Views {
         let settings = self.stages.cad.clone().unwrap_or_default();
         let mesh = self.settings.target.model().ok_or(CalibError::NoTargetModel)?;
         if self.placements.is_empty() {
-            let name = match &self.settings.target {
-                Target::Mesh(m) => m.name.clone(),
-                other => other.kind().to_string(),
-            };
-            return Err(CalibError::TargetNotFound(name));
+            return Err(CalibError::TargetNotFound(self.settings.target.label()));
         }
         let near = self.near_placements(&mesh);
         let mut sizes: Vec<usize> = near.iter().map(Vec::len).collect();
@@ -569,11 +565,8 @@ fn place_targets(
     let size = target.size().unwrap_or(0.0);
     let roi_size = (0..3).map(|i| roi.max[i] - roi.min[i]).fold(0.0, f64::max);
     if size > roi_size {
-        let name = match target {
-            Target::Mesh(m) => m.name.clone(),
-            other => other.kind().to_string(),
-        };
-        return Err(CalibError::TargetLargerThanRoi { target: name, size, roi: roi_size });
+        let target = target.label();
+        return Err(CalibError::TargetLargerThanRoi { target, size, roi: roi_size });
     }
     let settings = PlaceSettings::default();
     let Some(model) = ModelCloud::new(&mesh, &settings) else { return Ok(Vec::new()) };

@@ -108,6 +108,14 @@ impl Target {
         }
     }
 
+    /// What messages call the target: a CAD model's file name, else its kind.
+    pub fn label(&self) -> String {
+        match self {
+            Target::Mesh(m) => m.name.clone(),
+            other => other.kind().to_string(),
+        }
+    }
+
     /// The target's overall size (m): cube edge, a box's largest edge, sphere diameter, a
     /// mesh's largest extent; `None` without a target.
     pub fn size(&self) -> Option<f64> {
