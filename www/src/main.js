@@ -16,14 +16,31 @@ import { describeDone } from './progress.js';
 import { clearState, createState, nominalPoses, pointBounds, rebuildRig, shownPoses, sortScans } from './state.js';
 import { runCalibration } from './run.js';
 import { describeInstants, isRecording, renderRecording } from './recording.js';
+import { foldSetup, initInset, initLayout } from './layout.js';
+import { initViewTools } from './viewtools.js';
+import { calibrateBlocker, describeRig, describeScans } from './summary.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
-const mainViewer = new Viewer($('view'), { onError: showError });
+const mainViewer = new Viewer($('view'), { onError: showError, onScale: (scale) => tools.renderScale(scale) });
 const display = new Display(mainViewer);
 const targetViewer = new Viewer($('target-view'), { grid: false, onError: showError });
 const state = createState();
 let nextScanId = 1;
+initLayout({ main: $('main'), side: $('side'), resizer: $('resizer'), toggle: $('side-toggle') });
+const inset = initInset($('inset'), $('inset-close'));
+const tools = initViewTools({
+  viewer: mainViewer,
+  state,
+  el: {
+    view: $('view'), pointSize: $('point-size'), looks: document.querySelectorAll('[data-look]'), focus: $('focus'),
+    legend: $('legend'), measure: $('measure'), save: $('save-png'), readout: $('readout'),
+    scale: $('scale'), scaleTitle: $('scale-title'), scaleLo: $('scale-lo'), scaleHi: $('scale-hi'),
+  },
+  focusBounds,
+  onChange: () => redraw(),
+  onError: showError,
+});
 
 function showError(error) {
   $('error').hidden = !error;
@@ -36,27 +53,38 @@ const nextTask = () => new Promise((resolve) => setTimeout(resolve));
 
 const redraw = (poses = shownPoses(state), options) => display.update(state, poses, options);
 
-function renderLegend() {
-  $('legend').replaceChildren(...state.rig.sensors.map((s, i) => {
-    const span = document.createElement('span');
-    span.textContent = `● ${s}`;
-    span.style.color = `#${sensorColour(i).toString(16).padStart(6, '0')}`;
-    return span;
-  }));
-}
-
 // --- loading ----------------------------------------------------------------------------------
 
 function forgetResults() {
   state.results = null;
+  setStale(null);
+  inset.show(false);
+  $('convergence-box').hidden = true;
+  tools.setTargets([]);
   state.show = 'before';
   document.querySelector('input[name=show][value=before]').checked = true;
   $('show-after').disabled = true;
   $('result-json').textContent = '';
   $('results').innerHTML = '<p class="hint">No result yet.</p>';
-  $('exports').replaceChildren();
+  $('exports').innerHTML = '<p class="hint">After a run.</p>';
   targetViewer.clear();
-  drawConvergence($('convergence'), { meanSigma: [], maxChange: [] });
+}
+
+// A result that no longer matches the scans, rig or settings stays readable, marked out of date
+// (`what` changed); null: current again.
+function setStale(what) {
+  state.stale = what;
+  $('stale').hidden = !what;
+  $('stale').textContent = what ? `Out of date: the ${what} changed after this run. Calibrate again for a current result.` : '';
+  $('results').classList.toggle('out-of-date', Boolean(what));
+}
+
+function changed(what) {
+  if (state.results && !state.running) {
+    setStale(what);
+    setStatus(`The ${what} changed: the result below is out of date. Calibrate again.`);
+  }
+  renderPanels();
 }
 
 function rigFrom(config) {
@@ -76,21 +104,30 @@ function showLoaded(config) {
 function renderPanels() {
   renderFiles($('files'), { scans: state.scans, bad: state.bad, sensors: state.rig.sensors }, reassign);
   if (state.rig.sensors.length) renderRig($('rig'), state.rig, rigChanged);
-  renderLegend();
-  $('calibrate').disabled = state.running || state.rig.sensors.length < 2;
+  tools.renderLegend();
+  $('load-summary').textContent = describeScans(state);
+  $('rig-summary').textContent = describeRig(state);
+  updateCalibrate();
+}
+
+// Calibrate is enabled when a run can start; when not, the line beside it says why.
+function updateCalibrate() {
+  const why = state.running ? '' : calibrateBlocker(state);
+  $('calibrate').disabled = state.running || Boolean(why);
+  $('calibrate-why').textContent = why;
 }
 
 function reassign(scan, sensor, frame = scan.frame) {
+  const what = sensor !== scan.sensor ? 'sensors' : 'frames';
   Object.assign(scan, { sensor, frame });
   sortScans(state);
   rigFrom();
-  forgetResults();
-  renderPanels();
+  changed(what);
   redraw();
 }
 
 function rigChanged(what) {
-  if (what !== 'reference') forgetResults();
+  changed({ reference: 'reference sensor', roi: 'ROI', nominal: 'nominal extrinsics' }[what] ?? 'rig');
   redraw();
 }
 
@@ -172,6 +209,9 @@ function clearAll() {
   forgetResults();
   $('rig').innerHTML = '<p class="hint">Load scans first.</p>';
   $('recording').replaceChildren();
+  $('progress').value = 0;
+  state.hidden.clear();
+  tools.clearPicks();
   renderPanels();
 }
 
@@ -212,7 +252,7 @@ function setRunning(running) {
   state.running = running;
   $('cancel').disabled = !running;
   $('demo').disabled = running;
-  $('calibrate').disabled = running || state.rig.sensors.length < 2;
+  updateCalibrate();
 }
 
 async function calibrate() {
@@ -253,10 +293,12 @@ async function showResults(results, failures, json) {
   $('show-after').checked = true;
   redraw();
   renderResults($('results'), results, state.truth, failures);
-  // The verdict is the answer: bring it into view.
-  document.querySelector('[data-testid=verdict]')?.scrollIntoView({ block: 'start' });
+  // The verdict is the answer: the setup panels fold to their one-line summaries so it and the
+  // extrinsics are in view.
+  foldSetup([$('load-panel'), $('rig-panel')], $('side'));
   await nextTask();
   if (state.results !== results) return;
+  $('convergence-box').hidden = results[0].history.meanSigma.length < 2;
   drawConvergence($('convergence'), results[0].history);
   const ros = (extrinsics) => client.request('exports', { extrinsics });
   const items = await exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, ...state.exportFrames }, ros);
@@ -272,6 +314,18 @@ async function showResults(results, failures, json) {
     targetViewer.setTarget('target', gmm.reconstruction);
     targetViewer.lookAt(bounds);
   }
+  inset.show(Boolean(bounds));
+  tools.setTargets(results[0].reconstruction.fits);
+}
+
+// The box to frame for a focus choice: 'all' (every point shown, placed), 'roi', 'target:i'.
+function focusBounds(key) {
+  if (key === 'all') return pointBounds(state, shownPoses(state), state.hidden);
+  if (key === 'roi') return state.rig.roi ?? state.results?.[0]?.roi ?? pointBounds(state, shownPoses(state), state.hidden);
+  const fit = state.results?.[0]?.reconstruction.fits[Number(key.split(':')[1])];
+  if (!fit) return null;
+  const half = Math.max(...fit.extents) / 2 + 0.3;
+  return { min: fit.centre.map((c) => c - half), max: fit.centre.map((c) => c + half) };
 }
 
 // --- controls ---------------------------------------------------------------------------------
@@ -300,6 +354,7 @@ for (const key of SETTING_INPUTS) {
     }
     state.settings[key] = value;
     writeHash(state.settings);
+    changed('settings');
   });
 }
 
@@ -324,6 +379,7 @@ function targetChanged() {
   else if (kind !== previousKind) state.settings.target = kind === 'box' ? 'box:0.5,0.5,0.5' : `${kind}:0.5`;
   syncSettingsInputs();
   writeHash(state.settings);
+  changed('target');
 }
 $('target-kind').addEventListener('change', targetChanged);
 $('mesh-input').addEventListener('change', async (e) => {
@@ -379,6 +435,7 @@ for (const radio of document.querySelectorAll('input[name=show]')) {
 }
 $('colour').addEventListener('change', () => {
   state.colour = $('colour').value;
+  tools.renderLegend();
   redraw();
 });
 $('all-frames').addEventListener('change', () => {
@@ -407,5 +464,5 @@ async function loadMethods() {
 }
 
 syncSettingsInputs();
-drawConvergence($('convergence'), { meanSigma: [], maxChange: [] });
+updateCalibrate();
 loadMethods().then(() => state.settings.demo && loadDemo(), showError);

@@ -11,13 +11,21 @@
 // are drawn once either stops. Clouds are shuffled once when they arrive, so the first n points
 // of each are an even sample and a smaller frame is just a draw range.
 //
+// Colours are computed here too (colouring.js), from the points and poses this worker holds:
+// a change of colouring is one message, not a new upload, and 1M points are coloured off the
+// main thread.
+//
 // Messages from viewer.js, {type, ...}: init {canvas, grid}, size {width, height, pixelRatio},
-// camera {position, quaternion, aspect}, cloud {id, positions, colors, size}, axes {id, length},
-// box {id, min, max, color}, target {id, target}, pose {id, matrix}, visible {id, visible},
-// remove {id}, clear, preview {on}, interacting {on}. After each frame: {type: 'frame', points}
-// (the points it drew).
+// camera {position, quaternion, aspect}, cloud {id, positions, intensity, sensor, color},
+// colouring {mode, reference}, pointSize {size}, axes {id, length}, box {id, min, max, color},
+// target {id, target}, pose {id, matrix}, visible {id, visible}, remove {id}, clear,
+// preview {on}, interacting {on}, marks {points}, pick {x, y, radius, id}, snapshot {id}.
+// Replies: after each frame {type: 'frame', points, ms}; {type: 'scale', mode, range, missing}
+// once colours are made; {type: 'picked', id, hit} and {type: 'snapshot', id, blob}.
 import * as THREE from 'three';
 import { targetObject } from './target.js';
+import { DISTANCE_RANGE, NearestGrid, fillRamp, fillSolid, heightOf, robustRange } from './colouring.js';
+import { nearestOnScreen } from './pick.js';
 
 const scene = new THREE.Scene();
 scene.background = new THREE.Color(0x15181d);
@@ -27,6 +35,10 @@ const ORBIT_POINTS = 100_000;
 const RUN_POINTS = 30_000;
 const objects = new Map(); // id -> Object3D
 const budget = { preview: false, interacting: false };
+const colouring = { mode: 'sensor', reference: '', size: 2 };
+const RANGE_SAMPLE = 20_000; // points per cloud for a robust range (each cloud is shuffled)
+const RECOLOUR_AFTER_MS = 200; // height and distance follow the poses once they settle
+let recolourTimer = null;
 let renderer = null;
 let pending = false;
 const nextFrame = self.requestAnimationFrame?.bind(self) ?? ((draw) => setTimeout(draw, 16));
@@ -60,19 +72,18 @@ function drawRanges() {
   return drawn;
 }
 
-// Fisher-Yates with a fixed seed, the same permutation on positions and colours (xyz, rgb).
-function shuffle(positions, colors) {
+// Fisher-Yates with a fixed seed, the same permutation on positions (xyz) and intensity.
+function shuffle(positions, intensity) {
   let seed = 0x9e3779b9;
   for (let i = positions.length / 3 - 1; i > 0; i--) {
     seed = (Math.imul(seed, 1664525) + 1013904223) >>> 0;
     const j = Math.floor((seed / 2 ** 32) * (i + 1));
-    for (const a of colors ? [positions, colors] : [positions]) {
-      for (let k = 0; k < 3; k++) {
-        const t = a[3 * i + k];
-        a[3 * i + k] = a[3 * j + k];
-        a[3 * j + k] = t;
-      }
+    for (let k = 0; k < 3; k++) {
+      const t = positions[3 * i + k];
+      positions[3 * i + k] = positions[3 * j + k];
+      positions[3 * j + k] = t;
     }
+    if (intensity) [intensity[i], intensity[j]] = [intensity[j], intensity[i]];
   }
 }
 
@@ -94,17 +105,102 @@ function remove(id) {
   objects.delete(id);
 }
 
-// Points (flat xyz, in the object's own frame; ours, reordered here); `colors` flat rgb 0..1 or one
-// hex colour.
-function cloud({ id, positions, colors, size = 2 }) {
-  const perPoint = typeof colors !== 'number';
-  shuffle(positions, perPoint ? colors : null);
+// Points (flat xyz, in the object's own frame; ours, reordered here), their intensity (or
+// null), their sensor and its colour (hex).
+function cloud({ id, positions, intensity, sensor, color }) {
+  shuffle(positions, intensity);
+  const count = positions.length / 3;
   const geometry = new THREE.BufferGeometry();
   geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
-  if (perPoint) geometry.setAttribute('color', new THREE.BufferAttribute(colors, 3));
-  geometry.userData.count = positions.length / 3;
-  const material = new THREE.PointsMaterial({ size, sizeAttenuation: false, vertexColors: perPoint, color: perPoint ? 0xffffff : colors });
+  geometry.setAttribute('color', new THREE.BufferAttribute(new Float32Array(3 * count), 3));
+  geometry.userData = { count, intensity, sensor, color };
+  const material = new THREE.PointsMaterial({ size: colouring.size, sizeAttenuation: false, vertexColors: true });
   put(id, new THREE.Points(geometry, material));
+  scheduleRecolour(0);
+}
+
+const clouds = () => [...objects.values()].filter((o) => o.isPoints && o.geometry.userData.sensor !== undefined);
+
+// Colours every cloud by the current mode and reports the scale: {mode, range, missing} where
+// `missing` lists the sensors without intensity.
+function recolour() {
+  recolourTimer = null;
+  const all = clouds();
+  scene.updateMatrixWorld();
+  const { mode } = colouring;
+  const missing = [...new Set(all.filter((o) => !o.geometry.userData.intensity).map((o) => o.geometry.userData.sensor))];
+  let range = null;
+  let value = null; // object -> (i -> number), or null for the sensor's colour
+  if (mode === 'height') {
+    value = (o) => heightOf(o.geometry.attributes.position.array, o.matrixWorld.elements);
+    range = robustRange(all.filter((o) => o.visible).flatMap((o) => sample(o, value(o))));
+  } else if (mode === 'intensity') {
+    value = (o) => o.geometry.userData.intensity && ((i) => o.geometry.userData.intensity[i]);
+    range = robustRange(all.filter((o) => o.visible && o.geometry.userData.intensity).flatMap((o) => sample(o, value(o))));
+  } else if (mode === 'distance') {
+    const grid = new NearestGrid();
+    const v = new THREE.Vector3();
+    for (const o of all.filter((o) => o.visible && o.geometry.userData.sensor === colouring.reference)) {
+      const p = o.geometry.attributes.position.array;
+      for (let i = 0; i < o.geometry.userData.count; i++) {
+        v.fromArray(p, 3 * i).applyMatrix4(o.matrixWorld);
+        grid.add(v.x, v.y, v.z);
+      }
+    }
+    value = (o) => o.geometry.userData.sensor !== colouring.reference && ((i) => grid.distance(...v.fromArray(o.geometry.attributes.position.array, 3 * i).applyMatrix4(o.matrixWorld).toArray()));
+    range = DISTANCE_RANGE;
+  }
+  for (const o of all) {
+    const { count, color } = o.geometry.userData;
+    const out = o.geometry.attributes.color.array;
+    const f = value?.(o);
+    if (f && range) fillRamp(out, count, f, range);
+    else fillSolid(out, count, mode === 'sensor' ? color : 0x5c636e); // grey: nothing to colour by
+    o.geometry.attributes.color.needsUpdate = true;
+  }
+  self.postMessage({ type: 'scale', mode, range, missing });
+  render();
+}
+
+function sample(o, f) {
+  const n = Math.min(o.geometry.userData.count, RANGE_SAMPLE);
+  return Array.from({ length: n }, (_, i) => f(i));
+}
+
+function scheduleRecolour(ms) {
+  clearTimeout(recolourTimer);
+  recolourTimer = setTimeout(recolour, ms);
+}
+
+// The point nearest the pixel (NDC x, y; `radius` NDC per axis) among the points drawn:
+// {id, sensor, point (vehicle frame)} or null.
+function pick({ x, y, radius }) {
+  scene.updateMatrixWorld();
+  const viewProjection = new THREE.Matrix4().multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
+  let best = null;
+  for (const [id, o] of objects) {
+    if (!o.isPoints || !o.visible || o.geometry.userData.sensor === undefined) continue;
+    const m = new THREE.Matrix4().multiplyMatrices(viewProjection, o.matrixWorld);
+    const positions = o.geometry.attributes.position.array;
+    const hit = nearestOnScreen(positions, o.geometry.drawRange.count === Infinity ? o.geometry.userData.count : Math.min(o.geometry.drawRange.count, o.geometry.userData.count), m.elements, x, y, radius);
+    if (hit && (!best || hit.depth < best.depth)) {
+      const point = new THREE.Vector3().fromArray(positions, 3 * hit.index).applyMatrix4(o.matrixWorld);
+      best = { depth: hit.depth, id, sensor: o.geometry.userData.sensor, point: point.toArray() };
+    }
+  }
+  return best && { id: best.id, sensor: best.sensor, point: best.point };
+}
+
+// Picked points (vehicle frame) as large dots, joined by a line when there are two.
+function marks({ points }) {
+  remove('marks');
+  if (!points.length) return;
+  const group = new THREE.Group();
+  const geometry = new THREE.BufferGeometry().setAttribute('position', new THREE.Float32BufferAttribute(points.flat(), 3));
+  group.add(new THREE.Points(geometry, new THREE.PointsMaterial({ size: 9, sizeAttenuation: false, color: 0xffffff, depthTest: false })));
+  if (points.length === 2) group.add(new THREE.Line(geometry.clone(), new THREE.LineBasicMaterial({ color: 0xffffff, depthTest: false })));
+  group.renderOrder = 1;
+  put('marks', group);
 }
 
 const handlers = {
@@ -128,6 +224,26 @@ const handlers = {
     camera.updateProjectionMatrix();
   },
   cloud,
+  colouring({ mode, reference }) {
+    Object.assign(colouring, { mode, reference });
+    scheduleRecolour(0);
+  },
+  pointSize({ size }) {
+    colouring.size = size;
+    for (const o of clouds()) o.material.size = size;
+  },
+  marks,
+  pick: ({ id, ...at }) => self.postMessage({ type: 'picked', id, hit: pick(at) }),
+  // The view as PNG: drawn now, in full, and read before the frame is handed over.
+  async snapshot({ id }) {
+    const [preview, interacting] = [budget.preview, budget.interacting];
+    Object.assign(budget, { preview: false, interacting: false });
+    drawRanges();
+    renderer.render(scene, camera);
+    Object.assign(budget, { preview, interacting });
+    const blob = await renderer.domElement.convertToBlob({ type: 'image/png' });
+    self.postMessage({ type: 'snapshot', id, blob });
+  },
   // The axes of a frame (x red, y green, z blue), `length` m.
   axes: ({ id, length }) => put(id, new THREE.AxesHelper(length)),
   // An axis-aligned box as lines.
@@ -140,12 +256,15 @@ const handlers = {
     object.matrixAutoUpdate = false; // placed by its pose from now on
     object.matrix.set(...matrix);
     object.matrixWorldNeedsUpdate = true;
+    if (object.isPoints && (colouring.mode === 'height' || colouring.mode === 'distance')) scheduleRecolour(RECOLOUR_AFTER_MS);
   },
   preview: ({ on }) => (budget.preview = on),
   interacting: ({ on }) => (budget.interacting = on),
   visible({ id, visible }) {
     const object = objects.get(id);
-    if (object) object.visible = visible;
+    if (!object || object.visible === visible) return;
+    object.visible = visible;
+    if (object.isPoints && colouring.mode !== 'sensor') scheduleRecolour(RECOLOUR_AFTER_MS);
   },
   remove: ({ id }) => remove(id),
   clear: () => [...objects.keys()].forEach(remove),

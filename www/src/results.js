@@ -1,21 +1,16 @@
 // The results panel: the verdict first (good, check or failed, with its evidence one click
-// away); per sensor its verdict, the correction and calibrated extrinsic (4x4, xyz, rpy in deg
-// and rad, quaternion), the spread over frames, gmm's precision and, for a demo, the error
-// against the truth; the target's plausibility; a convergence plot; with several methods, one
-// comparison table with each method's verdict and the methods it agrees with.
+// away), then the answer (answer.js: per sensor the corrected extrinsic and the
+// sensor-to-sensor transform, with their directions, precision and spread); everything else
+// folds below: the 4x4 matrices and corrections, the target's plausibility, the ground
+// levelling, the notes. With several methods, one comparison table with each method's verdict
+// and the methods it agrees with. The convergence plot is drawn here too.
 import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from './transforms.js';
+import { answerHtml, errorVsTruth, esc, wireCopy } from './answer.js';
+
+export { errorVsTruth };
 
 const IDENTITY = matrixFromXyzRpy([0, 0, 0], [0, 0, 0]);
 const f = (v, d) => v.map((x) => x.toFixed(d)).join(', ');
-const esc = (s) => String(s).replace(/[&<>"]/g, (c) => `&#${c.charCodeAt(0)};`);
-
-// Error of a sensor's calibrated extrinsic against the truth: deg and mm.
-export function errorVsTruth(sensor, truth) {
-  const t = truth?.[sensor.name];
-  if (!t) return null;
-  const { angle, distance } = poseDifference(sensor.extrinsic, matrixFromXyzRpy(t.xyz, t.rpy));
-  return { deg: degrees(angle), mm: distance * 1000 };
-}
 
 function matrixHtml(m) {
   const rows = [0, 1, 2, 3].map((r) => `<tr>${[0, 1, 2, 3].map((c) => `<td>${m[r * 4 + c].toFixed(6)}</td>`).join('')}</tr>`);
@@ -60,24 +55,11 @@ function verdictHtml(r) {
   </div>`;
 }
 
-function sensorVerdictHtml(r, name) {
-  const s = r.verdict.sensors[name];
-  if (!s) return '';
-  const shown = weighty(s.reasons);
-  return `<p class="sensor-verdict ${s.level}" data-testid="sensor-verdict" data-sensor="${esc(name)}" data-level="${s.level}">verdict: ${s.level}${shown.length ? ` — ${shown.map((x) => esc(x.text)).join('; ')}` : ''}</p>`;
-}
-
-function sensorHtml(s, reference, truth, r) {
-  const error = errorVsTruth(s, truth);
-  const spread = `spread over ${s.spread.frames} frames: xyz ${f(s.spread.xyz.map((v) => v * 1000), 1)} mm, rpy ${f(s.spread.rpy.map(degrees), 3)} deg`;
-  // gmm's plane adjustment: the spread its points allow (one sigma), null for other methods.
-  const precision = s.precision
-    ? `<p class="precision">precision (1 sigma): position ${f(s.precision.position.map((v) => v * 1000), 1)} mm, rotation about x, y, z ${f(s.precision.rotation.map(degrees), 4)} deg</p>`
-    : '';
-  const errorText = error ? `<p class="truth" data-sensor="${esc(s.name)}">error vs truth: <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></p>` : '';
-  return `<section class="sensor"><h3>${esc(s.name)}${s.name === reference ? ' (reference)' : ''}</h3>
-    ${sensorVerdictHtml(r, s.name)}${errorText}${precision}<p>${spread}</p>
-    <div class="poses">${poseHtml(`correction C_${esc(reference)}_${esc(s.name)}`, s.correction)}${poseHtml(`extrinsic T_vehicle_${esc(s.name)}`, s.extrinsic)}</div></section>`;
+// A sensor's full detail: the correction and the extrinsic as 4x4, xyz, rpy (deg and rad) and
+// quaternion.
+function sensorDetailHtml(s, reference) {
+  return `<section class="sensor"><h4>${esc(s.name)}${s.name === reference ? ' (reference)' : ''}</h4>
+    <div class="poses">${poseHtml(`correction C_${esc(reference)}_${esc(s.name)}: maps ${esc(s.name)}'s nominally placed points onto ${esc(reference)}'s`, s.correction)}${poseHtml(`extrinsic T_vehicle_${esc(s.name)}: maps ${esc(s.name)}'s points into vehicle`, s.extrinsic)}</div></section>`;
 }
 
 function notesHtml(title, notes) {
@@ -96,7 +78,7 @@ function levellingHtml(levelling = []) {
       : '';
     return `<li>${esc(l.sensor)}: ground from ${l.inliers} points, moved by ${tilt.toFixed(3)} deg in all${bev}</li>`;
   };
-  return `<p>ground levelling:</p><ul>${levelling.map(row).join('')}</ul>`;
+  return `<p title="Before registration, each sensor's ground plane is found and levelled, then a bird's-eye search turns and shifts it onto the reference's; 'moved by' is the whole rotation of those two steps">ground levelling (before registration; "moved by": the whole rotation of levelling and bird's-eye search):</p><ul>${levelling.map(row).join('')}</ul>`;
 }
 
 // Which other methods agree with `r` (the library's comparison, a reason of its verdict).
@@ -129,13 +111,18 @@ export function renderResults(container, results, truth, failures = []) {
   const targetText = fit + placed;
   container.innerHTML = `
     ${verdictHtml(r)}
-    ${results.length + failures.length > 1 ? `<h3>All methods</h3>${comparisonHtml(results, truth, failures)}<h3>Details: ${r.method}</h3>` : ''}
-    <p>method ${r.method}, reference ${esc(r.reference)}${r.iterations ? `, ${r.iterations} EM iterations${r.converged ? ', converged' : ''}` : ''}${r.cancelled ? ', cancelled' : ''}; ${targetText}</p>
+    ${results.length + failures.length > 1 ? `<h3>All methods</h3><div class="table-wrap">${comparisonHtml(results, truth, failures)}</div><h3>Details: ${r.method}</h3>` : ''}
     ${(r.levelling ?? []).filter((l) => l.warning).map((l) => `<p class="error" data-testid="warning">${esc(l.sensor)}: ${esc(l.warning)}</p>`).join('')}
-    ${r.sensors.map((s) => sensorHtml(s, r.reference, truth, r)).join('')}
-    ${levellingHtml(r.levelling)}
-    ${notesHtml('views left out', r.skipped)}${notesHtml('refinement rejected, kept the JRMPC correction', r.keptJrmpc)}
-    ${notesHtml('joint plane adjustment (every frame)', r.planeAdjustment ?? [])}`;
+    ${answerHtml(r, truth)}
+    <details class="more"><summary>More: 4×4 matrices and corrections, target fit, ground levelling, notes</summary>
+      <p>reference ${esc(r.reference)}; ${targetText}</p>
+      ${r.sensors.map((s) => sensorDetailHtml(s, r.reference)).join('')}
+      ${levellingHtml(r.levelling)}
+      ${notesHtml('views left out', r.skipped)}${notesHtml('refinement rejected, kept the JRMPC correction', r.keptJrmpc)}
+      ${notesHtml('joint plane adjustment (every frame)', r.planeAdjustment ?? [])}
+      <p class="hint">Notes read <i>sensor/frame: what happened</i>; frame <i>all</i> is a note on every frame of that sensor.</p>
+    </details>`;
+  wireCopy(container);
 }
 
 // Convergence: mean sigma (m, left axis, log) and max transform change (right axis, log).

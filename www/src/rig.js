@@ -16,6 +16,13 @@ function numberInput(value, step, onInput, label) {
   return input;
 }
 
+function unit(text) {
+  const th = document.createElement('th');
+  th.className = 'unit';
+  th.textContent = text;
+  return th;
+}
+
 function cell(...children) {
   const td = document.createElement('td');
   td.append(...children);
@@ -25,22 +32,28 @@ function cell(...children) {
 export function renderRig(container, rig, onChange) {
   const table = document.createElement('table');
   table.className = 'rig';
-  table.innerHTML = '<tr><th>ref</th><th>sensor</th><th>x</th><th>y</th><th>z (m)</th><th>roll</th><th>pitch</th><th>yaw (deg)</th></tr>';
+  table.innerHTML = '<tr><th title="The reference sensor keeps its nominal; the others are calibrated to it">ref</th><th title="Sensor name (from the files; rename in the file table)">sensor</th><th></th>' +
+    '<th title="Nominal T_vehicle_sensor: where the sensor sits in the vehicle frame (m), and its roll, pitch, yaw about the fixed x, y, z axes (deg)">x / roll</th><th>y / pitch</th><th>z / yaw</th></tr>';
   for (const name of rig.sensors) {
     const pose = (rig.nominal[name] ??= { xyz: [0, 0, 0], rpy: [0, 0, 0] });
-    const tr = document.createElement('tr');
     const radio = Object.assign(document.createElement('input'), { type: 'radio', name: 'reference', checked: rig.reference === name });
     radio.setAttribute('aria-label', `reference ${name}`);
     radio.addEventListener('change', () => {
       rig.reference = name;
       onChange('reference');
     });
-    tr.append(cell(radio), cell(name));
-    for (let k = 0; k < 3; k++) tr.append(cell(numberInput(pose.xyz[k], 0.01, (v) => { pose.xyz[k] = v; onChange('nominal'); }, `${name} ${'xyz'[k]}`)));
+    const nameCell = cell(name);
+    nameCell.className = 'name';
+    nameCell.title = name;
+    const xyz = document.createElement('tr');
+    xyz.append(cell(radio), nameCell, unit('xyz (m)'));
+    for (let k = 0; k < 3; k++) xyz.append(cell(numberInput(pose.xyz[k], 0.01, (v) => { pose.xyz[k] = v; onChange('nominal'); }, `${name} ${'xyz'[k]}`)));
+    const rpy = document.createElement('tr');
+    rpy.append(cell(), cell(), unit('rpy (deg)'));
     for (let k = 0; k < 3; k++) {
-      tr.append(cell(numberInput(degrees(pose.rpy[k]), 0.1, (v) => { pose.rpy[k] = radians(v); onChange('nominal'); }, `${name} ${['roll', 'pitch', 'yaw'][k]}`)));
+      rpy.append(cell(numberInput(degrees(pose.rpy[k]), 0.1, (v) => { pose.rpy[k] = radians(v); onChange('nominal'); }, `${name} ${['roll', 'pitch', 'yaw'][k]}`)));
     }
-    table.append(tr);
+    table.append(xyz, rpy);
   }
   const auto = Object.assign(document.createElement('input'), { type: 'checkbox', checked: !rig.roi });
   auto.setAttribute('data-testid', 'roi-auto');
@@ -51,6 +64,7 @@ export function renderRig(container, rig, onChange) {
   });
   const label = document.createElement('label');
   label.append(auto, ' ROI auto: where the sensors\' clouds overlap');
+  label.title = 'Region of interest: only points inside it (vehicle frame) are registered; auto crops to where the sensors\' clouds overlap';
   const parts = [table, label];
   if (rig.roi) {
     const roi = document.createElement('table');

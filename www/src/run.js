@@ -2,7 +2,7 @@
 // worker (which shares it over its pool), progress as bar and status, the outcome split into
 // results and failures. Comparing every method is one request (`method: 'all'`): the library
 // runs them in turn and keeps a failed method's error.
-import { describeProgress } from './progress.js';
+import { StageClock, describeProgress } from './progress.js';
 import { methodInfo } from './state.js';
 
 const nextTask = () => new Promise((resolve) => setTimeout(resolve));
@@ -66,18 +66,16 @@ export async function runCalibration(client, state, onProgress) {
   const compared = state.settings.method === 'all';
   const names = compared ? state.methods.map((m) => m.name) : [state.settings.method];
   const { input, transfer } = await calibrateInput(state);
-  // A stage starts at the method's start or at the previous stage's last message.
-  let stage = { key: null, started: performance.now() };
-  let last = stage.started;
+  // Each stage (a method's EM, its frame pairs) has its own clock for the time left.
+  let stage = { key: null, clock: null };
   const outcome = await client.request('calibrate', { input, workers: workerCount(state.settings.workers) }, {
     transfer,
     onProgress: (p) => {
-      const now = performance.now();
       const key = `${p.method}/${p.stage}`;
-      if (key !== stage.key) stage = { key, started: stage.key ? last : stage.started };
-      last = now;
+      if (key !== stage.key) stage = { key, clock: new StageClock() };
+      const left = stage.clock.left(p, performance.now() / 1000);
       const index = Math.max(0, names.indexOf(p.method));
-      const { fraction, text } = describeProgress(methodInfo(state, p.method), p, (now - stage.started) / 1000);
+      const { fraction, text } = describeProgress(methodInfo(state, p.method), p, left);
       const label = compared ? `${p.method} (${index + 1}/${names.length}): ` : '';
       onProgress({ fraction: (index + fraction) / names.length, text: label + text, progress: p });
     },

@@ -13,12 +13,25 @@ export class Viewer {
   #camera = new PerspectiveCamera(50, 1, 0.05, 500);
   #controls;
   #frames = 0;
+  #replies = new Map(); // request id -> resolve, for pick and snapshot
+  #nextId = 1;
+  #onScale;
 
-  // `onError(error)`: the renderer failed (no WebGL, a crashed worker).
-  constructor(canvas, { grid = true, onError = (error) => console.error(error) } = {}) {
+  // `onError(error)`: the renderer failed (no WebGL, a crashed worker). `onScale({mode, range,
+  // missing})`: the colours were made (range [lo, hi] of the ramp, or null; the sensors
+  // without intensity).
+  constructor(canvas, { grid = true, onError = (error) => console.error(error), onScale = () => {} } = {}) {
     this.#canvas = canvas;
+    this.#onScale = onScale;
     this.#worker = new Worker(new URL('./render-worker.js', import.meta.url), { type: 'module' });
-    this.#worker.onmessage = ({ data }) => this.#drawn(data);
+    this.#worker.onmessage = ({ data }) => {
+      if (data.type === 'frame') this.#drawn(data);
+      else if (data.type === 'scale') this.#onScale(data);
+      else {
+        this.#replies.get(data.id)?.(data);
+        this.#replies.delete(data.id);
+      }
+    };
     this.#worker.onerror = (event) => {
       event.preventDefault();
       onError(new Error(`the 3D view failed: ${event.message || 'unknown error'}`));
@@ -28,6 +41,7 @@ export class Viewer {
     this.#camera.up.set(0, 0, 1); // vehicle frame: z up
     this.#camera.position.set(-8, -6, 8);
     this.#controls = new OrbitControls(this.#camera, canvas);
+    this.#controls.zoomToCursor = true; // the wheel zooms towards what is under the pointer
     this.#controls.addEventListener('change', () => this.render());
     // While the user orbits, the worker draws a sample; the full clouds once they stop (a pause
     // between wheel steps keeps the sample).
@@ -69,10 +83,48 @@ export class Viewer {
     this.#post({ type: 'camera', position: position.toArray(), quaternion: quaternion.toArray(), aspect });
   }
 
-  // Points (flat xyz, in the object's own frame; copied, the caller keeps them); `colors` flat
-  // rgb 0..1 (handed over: the caller must not use them again) or one hex colour.
-  setCloud(id, positions, colors, size = 2) {
-    this.#post({ type: 'cloud', id, positions, colors, size }, typeof colors === 'number' ? [] : [colors.buffer]);
+  // Points (flat xyz, in the object's own frame; copied, the caller keeps them), their
+  // intensity (or null; copied), their sensor's name and colour (hex).
+  setCloud(id, positions, { intensity = null, sensor = '', color = 0xffffff } = {}) {
+    this.#post({ type: 'cloud', id, positions, intensity, sensor, color });
+  }
+
+  // Colour by 'sensor', 'height', 'intensity' or 'distance' (to `reference`'s points).
+  setColouring(mode, reference = '') {
+    this.#post({ type: 'colouring', mode, reference });
+  }
+
+  setPointSize(size) {
+    this.#post({ type: 'pointSize', size });
+  }
+
+  // Marked points (vehicle frame, [[x, y, z], ...]), a line between two.
+  setMarks(points) {
+    this.#post({ type: 'marks', points });
+  }
+
+  #ask(message) {
+    const id = this.#nextId++;
+    return new Promise((resolve) => {
+      this.#replies.set(id, resolve);
+      this.#post({ ...message, id });
+    });
+  }
+
+  // The point drawn nearest the canvas pixel (clientX, clientY), within `reach` CSS pixels:
+  // {id, sensor, point} or null.
+  async pick(clientX, clientY, reach = 6) {
+    const r = this.#canvas.getBoundingClientRect();
+    const x = ((clientX - r.left) / r.width) * 2 - 1;
+    const y = 1 - ((clientY - r.top) / r.height) * 2;
+    const { hit } = await this.#ask({ type: 'pick', x, y, radius: [(2 * reach) / r.width, (2 * reach) / r.height] });
+    return hit;
+  }
+
+  // The view, drawn in full, as a PNG blob.
+  async snapshot() {
+    const { blob } = await this.#ask({ type: 'snapshot' });
+    return blob;
   }
 
   // The axes of a frame (x red, y green, z blue), `length` m.
@@ -113,13 +165,22 @@ export class Viewer {
     this.#post({ type: 'clear' });
   }
 
-  // Looks at a box {min, max} from behind (-x), a little to the right and above.
-  lookAt({ min, max }) {
+  // Looks at a box {min, max}: from behind (-x), a little to the right and above, or from
+  // `direction` ('top', 'side': from -y, 'front': from behind, along +x).
+  lookAt({ min, max }, direction = 'default') {
     const centre = new Vector3(...min).add(new Vector3(...max)).multiplyScalar(0.5);
     const size = Math.max(max[0] - min[0], max[1] - min[1], max[2] - min[2], 0.5);
+    const from = { default: [-1.3, -0.5, 0.7], top: [-0.001, 0, 1.6], side: [0, -1.6, 0.001], front: [-1.6, 0, 0.001] }[direction];
     this.#controls.target.copy(centre);
-    this.#camera.position.copy(centre).add(new Vector3(-1.3, -0.5, 0.7).multiplyScalar(size));
+    this.#camera.position.copy(centre).add(new Vector3(...from).multiplyScalar(size));
     this.#controls.update();
     this.render();
+  }
+
+  // Looks from `direction` at what the view looks at now, as far off as now.
+  lookFrom(direction) {
+    const target = this.#controls.target.clone();
+    const half = this.#camera.position.distanceTo(target) / 1.6 / 2;
+    this.lookAt({ min: target.clone().subScalar(half).toArray(), max: target.clone().addScalar(half).toArray() }, direction);
   }
 }

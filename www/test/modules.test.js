@@ -8,7 +8,7 @@ import { initSync, parseConfig, rosExports } from '../pkg/gmmcalib.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
 import { exportsOf, gmmcalibYaml, resultJson, targetPly } from '../src/exports.js';
 import { DEFAULTS, readHash } from '../src/url.js';
-import { describeDone, describeProgress } from '../src/progress.js';
+import { MIN_MEASURED, StageClock, describeDone, describeProgress } from '../src/progress.js';
 
 // The config reader is the library's, through the wasm package.
 initSync({ module: readFileSync(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
@@ -138,12 +138,24 @@ test('progress: JRMPC then the frame pairs fill one bar, each stage with its own
   const em = { stage: 'jrmpc', iteration: 50, maxIterations: 100, meanSigma: 0.0123 };
   const pairs = { stage: 'framePairs', iteration: 3, maxIterations: 4, meanSigma: 0 };
   assert.deepEqual(describeProgress(GMM, em, 5), { fraction: 0.4, text: 'JRMPC iteration 50/100, σ 1.23 cm, about 5.0 s left, then the frame pairs' });
-  assert.deepEqual(describeProgress(GMM, pairs, 3), { fraction: 0.95, text: 'frame pair 3/4, about 1.0 s left' });
+  assert.deepEqual(describeProgress(GMM, pairs, 1), { fraction: 0.95, text: 'frame pair 3/4, about 1.0 s left' });
+  assert.equal(describeProgress(GMM, pairs, null).text, 'frame pair 3/4');
   assert.equal(describeProgress(JRMPC, em, 5).fraction, 0.5);
   assert.doesNotMatch(describeProgress(JRMPC, em, 5).text, /frame pairs/);
   assert.equal(describeProgress(ICP, pairs, 3).fraction, 0.75);
-  assert.equal(describeProgress(GMM, { ...pairs, iteration: 0 }, 0).text, 'frame pair 0/4');
-  assert.equal(describeProgress(GMM, { ...pairs, iteration: 4 }, 4).text, 'frame pair 4/4');
+  assert.equal(describeProgress(GMM, { ...pairs, iteration: 0 }, null).text, 'frame pair 0/4');
+  assert.equal(describeProgress(GMM, { ...pairs, iteration: 4 }, null).text, 'frame pair 4/4');
+});
+
+test('the time left comes from measured iterations, not from the setup before the first', () => {
+  const clock = new StageClock();
+  const p = (iteration) => ({ iteration, maxIterations: 100 });
+  // Iteration 1 arrives 2 s in (setup), then one every 0.02 s: 2.1 s in all.
+  assert.equal(clock.left(p(1), 2.0), null);
+  for (let i = 2; i <= MIN_MEASURED; i++) assert.equal(clock.left(p(i), 2.0 + 0.02 * (i - 1)), null);
+  const left = clock.left(p(MIN_MEASURED + 1), 2.0 + 0.02 * MIN_MEASURED);
+  assert.ok(Math.abs(left - 0.02 * (100 - MIN_MEASURED - 1)) < 1e-9, String(left));
+  assert.equal(clock.left(p(100), 4.0), null, 'nothing left at the end');
 });
 
 test('the status once done: iterations for the GMM methods, frame pairs for ICP, methods for compare all', () => {
