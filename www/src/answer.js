@@ -52,10 +52,11 @@ function sensorVerdict(r, name) {
 }
 
 // The reference: one line (it keeps its nominal).
-function referenceHtml(s) {
+function referenceHtml(s, truth) {
   const rpy = rpyOf(s.extrinsic).map(degrees);
+  const error = errorVsTruth(s, truth);
   return `<p class="reference" data-testid="reference-line"><b>${esc(s.name)}</b> is the reference: it keeps its nominal
-    <code>T_vehicle_${esc(s.name)}</code> (xyz ${f(xyzOf(s.extrinsic), 3)} m, rpy ${f(rpy, 3)} deg).</p>`;
+    <code>T_vehicle_${esc(s.name)}</code> (xyz ${f(xyzOf(s.extrinsic), 3)} m, rpy ${f(rpy, 3)} deg)${error ? `; <span class="truth" data-sensor="${esc(s.name)}">error vs the truth <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></span>` : ''}.</p>`;
 }
 
 function sensorHtml(s, r, truth) {
@@ -76,7 +77,7 @@ function sensorHtml(s, r, truth) {
 // one line.
 export function answerHtml(r, truth) {
   const reference = r.sensors.find((s) => s.name === r.reference);
-  return `${runLine(r)}${r.sensors.filter((s) => s !== reference).map((s) => sensorHtml(s, r, truth)).join('')}${reference ? referenceHtml(reference) : ''}`;
+  return `${runLine(r)}${r.sensors.filter((s) => s !== reference).map((s) => sensorHtml(s, r, truth)).join('')}${reference ? referenceHtml(reference, truth) : ''}`;
 }
 
 // Copy buttons of a container (data-copy): one listener, set once per render.

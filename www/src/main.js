@@ -84,7 +84,8 @@ function changed(what) {
     setStale(what);
     setStatus(`The ${what} changed: the result below is out of date. Calibrate again.`);
   }
-  renderPanels();
+  updateSummaries();
+  updateCalibrate();
 }
 
 function rigFrom(config) {
@@ -105,9 +106,13 @@ function renderPanels() {
   renderFiles($('files'), { scans: state.scans, bad: state.bad, sensors: state.rig.sensors }, reassign);
   if (state.rig.sensors.length) renderRig($('rig'), state.rig, rigChanged);
   tools.renderLegend();
+  updateSummaries();
+  updateCalibrate();
+}
+
+function updateSummaries() {
   $('load-summary').textContent = describeScans(state);
   $('rig-summary').textContent = describeRig(state);
-  updateCalibrate();
 }
 
 // Calibrate is enabled when a run can start; when not, the line beside it says why.
@@ -122,6 +127,7 @@ function reassign(scan, sensor, frame = scan.frame) {
   Object.assign(scan, { sensor, frame });
   sortScans(state);
   rigFrom();
+  renderPanels();
   changed(what);
   redraw();
 }

@@ -32,28 +32,34 @@ function cell(...children) {
 export function renderRig(container, rig, onChange) {
   const table = document.createElement('table');
   table.className = 'rig';
-  table.innerHTML = '<tr><th title="The reference sensor keeps its nominal; the others are calibrated to it">ref</th><th title="Sensor name (from the files; rename in the file table)">sensor</th><th></th>' +
-    '<th title="Nominal T_vehicle_sensor: where the sensor sits in the vehicle frame (m), and its roll, pitch, yaw about the fixed x, y, z axes (deg)">x / roll</th><th>y / pitch</th><th>z / yaw</th></tr>';
+  // Per sensor three rows: the reference radio and the name, then xyz, then rpy: narrow enough
+  // for a laptop's side panel with every value in full.
+  table.innerHTML = '<tr><th title="The reference sensor keeps its nominal; the others are calibrated to it. Nominal T_vehicle_sensor: where the sensor sits in the vehicle frame (m), and its roll, pitch, yaw about the fixed x, y, z axes (deg)">ref / nominal</th>' +
+    '<th>x / roll</th><th>y / pitch</th><th>z / yaw</th></tr>';
   for (const name of rig.sensors) {
     const pose = (rig.nominal[name] ??= { xyz: [0, 0, 0], rpy: [0, 0, 0] });
     const radio = Object.assign(document.createElement('input'), { type: 'radio', name: 'reference', checked: rig.reference === name });
     radio.setAttribute('aria-label', `reference ${name}`);
+    radio.title = `Make ${name} the reference`;
     radio.addEventListener('change', () => {
       rig.reference = name;
       onChange('reference');
     });
-    const nameCell = cell(name);
+    const head = document.createElement('tr');
+    head.className = 'sensor-row';
+    const nameCell = cell(radio, ` ${name}`);
+    nameCell.colSpan = 4;
     nameCell.className = 'name';
-    nameCell.title = name;
+    head.append(nameCell);
     const xyz = document.createElement('tr');
-    xyz.append(cell(radio), nameCell, unit('xyz (m)'));
+    xyz.append(unit('xyz (m)'));
     for (let k = 0; k < 3; k++) xyz.append(cell(numberInput(pose.xyz[k], 0.01, (v) => { pose.xyz[k] = v; onChange('nominal'); }, `${name} ${'xyz'[k]}`)));
     const rpy = document.createElement('tr');
-    rpy.append(cell(), cell(), unit('rpy (deg)'));
+    rpy.append(unit('rpy (deg)'));
     for (let k = 0; k < 3; k++) {
       rpy.append(cell(numberInput(degrees(pose.rpy[k]), 0.1, (v) => { pose.rpy[k] = radians(v); onChange('nominal'); }, `${name} ${['roll', 'pitch', 'yaw'][k]}`)));
     }
-    table.append(xyz, rpy);
+    table.append(head, xyz, rpy);
   }
   const auto = Object.assign(document.createElement('input'), { type: 'checkbox', checked: !rig.roi });
   auto.setAttribute('data-testid', 'roi-auto');
