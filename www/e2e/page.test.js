@@ -160,3 +160,127 @@ test('layout: from 1024 px to a wide screen, a resizable and collapsible side pa
   assert.equal(await page.locator('#side').isVisible(), true);
   assert.deepEqual(problems, []);
 });
+
+// Pixels of the view (page coordinates) showing a point of the sensor coloured `rgb`, found in
+// a screenshot of the view: [[x, y], ...], spread over the view.
+async function pixelsOf(page, rgb) {
+  const box = await page.locator('#view').boundingBox();
+  const png = await page.screenshot({ clip: box });
+  const found = await page.evaluate(async ([data, [r, g, b]]) => {
+    const bitmap = await createImageBitmap(new Blob([Uint8Array.from(atob(data), (c) => c.charCodeAt(0))], { type: 'image/png' }));
+    const canvas = new OffscreenCanvas(bitmap.width, bitmap.height);
+    const ctx = canvas.getContext('2d');
+    ctx.drawImage(bitmap, 0, 0);
+    const { data: px, width, height } = ctx.getImageData(0, 0, bitmap.width, bitmap.height);
+    const out = [];
+    // An isolated point's pixel with its three neighbours to the right and below of its colour.
+    const is = (x, y) => { const i = 4 * (y * width + x); return Math.abs(px[i] - r) + Math.abs(px[i + 1] - g) + Math.abs(px[i + 2] - b) < 40; };
+    for (let y = 10; y < height - 10; y += 3) for (let x = 10; x < width - 10; x += 3) if (is(x, y) && is(x + 1, y) && is(x, y + 1) && is(x + 1, y + 1)) out.push([x, y]);
+    return out;
+  }, [png.toString('base64'), rgb]);
+  return found.map(([x, y]) => [box.x + x + 0.5, box.y + y + 0.5]);
+}
+
+const frames = (page) => page.locator('#view').evaluate((v) => Number(v.dataset.frames));
+
+test('the view: sensors shown, point size, colour scales, preset views, focus, PNG', async () => {
+  const { page, problems } = await demoRun();
+  const first = await loadedPoints(page, '1');
+  await waitForView(page, first);
+  // Hide front_right: only front_left's first frame is drawn.
+  const left = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => tr.querySelectorAll('td')).filter((c) => c[1].firstChild.value === 'front_left' && c[2].firstChild.value === '1').map((c) => Number(c[4].textContent.replaceAll(',', ''))));
+  await page.getByLabel('show front_right').uncheck();
+  await waitForView(page, left[0]);
+  await page.getByLabel('show front_right').check();
+  await waitForView(page, first);
+  // Colour by height: a scale with its range, the sensor dots muted.
+  assert.equal(await page.getByTestId('scale').isHidden(), true);
+  await page.locator('#colour').selectOption('height');
+  await page.getByTestId('scale').waitFor();
+  assert.match(await page.getByTestId('scale').textContent(), /height \(vehicle z, m\), 2nd–98th percentile.*-?\d+\.\d\d.*\d+\.\d\d/);
+  assert.equal(await page.locator('#legend').evaluate((l) => l.classList.contains('muted')), true);
+  // The demo's scans carry no intensity: the scale says so.
+  await page.locator('#colour').selectOption('intensity');
+  await page.waitForFunction(() => document.querySelector('[data-testid=scale]').dataset.mode === 'intensity');
+  assert.match(await page.getByTestId('scale').textContent(), /these scans carry none/);
+  // Distance to the reference's points, after calibration: most of front_right's points on
+  // the reference's surfaces.
+  await page.locator('#colour').selectOption('distance');
+  await page.waitForFunction(() => document.querySelector('[data-testid=scale]').dataset.mode === 'distance');
+  assert.match(await page.getByTestId('scale').textContent(), /distance to the reference's points \(m\).*0\.00.*0\.05 and beyond/);
+  await page.waitForTimeout(300);
+  await page.screenshot({ path: 'e2e/artifacts/page-distance.png' });
+  await page.locator('#colour').selectOption('sensor');
+  await page.waitForFunction(() => document.querySelector('[data-testid=scale]').hidden);
+  // Point size, preset views and focus each draw a new frame.
+  for (const act of [
+    () => page.locator('#point-size').fill('5'),
+    () => page.getByRole('button', { name: 'Top', exact: true }).click(),
+    () => page.getByRole('button', { name: 'Side', exact: true }).click(),
+    () => page.getByRole('button', { name: 'Front', exact: true }).click(),
+    () => page.locator('#focus').selectOption('target:0'),
+    () => page.locator('#focus').selectOption('roi'),
+    () => page.locator('#focus').selectOption('all'),
+  ]) {
+    const n = await frames(page);
+    await act();
+    await page.waitForFunction((k) => Number(document.querySelector('#view').dataset.frames) > k, n);
+  }
+  assert.deepEqual(await page.locator('#focus option').allTextContents(), ['…', 'everything', 'the ROI', 'target 1', 'target 2', 'target 3']);
+  // Save PNG: a download of the whole view, with points in it.
+  await page.getByRole('button', { name: 'Top', exact: true }).click();
+  const [download] = await Promise.all([page.waitForEvent('download'), page.getByRole('button', { name: 'Save PNG' }).click()]);
+  assert.equal(download.suggestedFilename(), 'gmmcalib-view.png');
+  const png = readFileSync(await download.path());
+  assert.equal(png.subarray(1, 4).toString(), 'PNG');
+  const colours = await page.evaluate(async (data) => {
+    const bitmap = await createImageBitmap(new Blob([Uint8Array.from(atob(data), (c) => c.charCodeAt(0))]));
+    const ctx = new OffscreenCanvas(bitmap.width, bitmap.height).getContext('2d');
+    ctx.drawImage(bitmap, 0, 0);
+    const px = ctx.getImageData(0, 0, bitmap.width, bitmap.height).data;
+    let red = 0;
+    for (let i = 0; i < px.length; i += 4) if (px[i] > 200 && px[i + 1] < 140 && px[i + 2] < 140) red++;
+    return { width: bitmap.width, red };
+  }, png.toString('base64'));
+  const view = await page.locator('#view').boundingBox();
+  assert.equal(colours.width, Math.round(view.width));
+  assert.ok(colours.red > 100, `${colours.red} pixels of front_left's red in the PNG`);
+  await page.setViewportSize({ width: 1920, height: 1080 });
+  await page.waitForTimeout(300);
+  await page.screenshot({ path: 'e2e/artifacts/page-top-1920x1080.png' });
+  assert.deepEqual(problems, []);
+});
+
+test('picking a point and measuring between two', async () => {
+  const { page, problems } = await demoRun();
+  await waitForView(page, await loadedPoints(page, '1'));
+  await page.getByRole('button', { name: 'Panel' }).click(); // the whole width for the view
+  await page.getByRole('button', { name: 'Top', exact: true }).click();
+  await page.locator('#point-size').fill('4');
+  await page.waitForTimeout(500);
+  const reds = await pixelsOf(page, [0xff, 0x6b, 0x6b]);
+  assert.ok(reds.length > 10, `${reds.length} red pixels`);
+  // A click on a red point: front_left, its coordinates in the vehicle frame.
+  await page.mouse.click(...reds[0]);
+  await page.getByTestId('readout').waitFor();
+  const one = await page.getByTestId('readout').textContent();
+  assert.match(one, /^front_left \(frame 1\): -?\d+\.\d{3}, -?\d+\.\d{3}, -?\d+\.\d{3} m$/);
+  // Measure: two picks far apart, their distance as the two coordinates give it.
+  await page.getByRole('button', { name: 'Measure' }).click();
+  assert.equal(await page.getByRole('button', { name: 'Measure' }).getAttribute('aria-pressed'), 'true');
+  const [a, b] = [reds[0], reds.reduce((far, p) => (Math.hypot(p[0] - reds[0][0], p[1] - reds[0][1]) > Math.hypot(far[0] - reds[0][0], far[1] - reds[0][1]) ? p : far))];
+  await page.mouse.click(...a);
+  await page.waitForFunction(() => /click the second point/.test(document.querySelector('[data-testid=readout]').textContent));
+  await page.mouse.click(...b);
+  await page.waitForFunction(() => /distance A–B/.test(document.querySelector('[data-testid=readout]').textContent));
+  const text = await page.getByTestId('readout').textContent();
+  const [pa, pb] = [...text.matchAll(/: (-?\d+\.\d+), (-?\d+\.\d+), (-?\d+\.\d+) m/g)].map((m) => m.slice(1).map(Number));
+  const d = Number(text.match(/distance A–B: (\d+\.\d+) m/)[1]);
+  assert.ok(Math.abs(d - Math.hypot(pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2])) < 0.003, text);
+  assert.ok(d > 0.5, text);
+  await page.screenshot({ path: 'e2e/artifacts/page-measure.png' });
+  // Escape ends measuring and clears the marks.
+  await page.keyboard.press('Escape');
+  assert.equal(await page.getByTestId('readout').isHidden(), true);
+  assert.deepEqual(problems, []);
+});

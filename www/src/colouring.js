@@ -30,18 +30,24 @@ export function robustRange(values) {
   return hi > lo ? [lo, hi] : [lo - 0.5, lo + 0.5];
 }
 
-// Fills `out` (rgb, 3 per point) from `value(i)` over [lo, hi], for `count` points.
+// Vertex colours are linear for three.js, which encodes its output as sRGB: a colour meant
+// as sRGB (the CSS scale, the legend's dots) goes in decoded.
+export const linear = (c) => (c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4);
+
+// Fills `out` (linear rgb, 3 per point) from `value(i)` over [lo, hi], for `count` points.
 export function fillRamp(out, count, value, [lo, hi]) {
+  const steps = 256;
+  const table = Float32Array.from({ length: 3 * steps }, (_, k) => linear(ramp(Math.floor(k / 3) / (steps - 1))[k % 3]));
   for (let i = 0; i < count; i++) {
-    const [r, g, b] = ramp((value(i) - lo) / (hi - lo));
-    out[3 * i] = r;
-    out[3 * i + 1] = g;
-    out[3 * i + 2] = b;
+    const k = 3 * Math.round(Math.min(1, Math.max(0, (value(i) - lo) / (hi - lo))) * (steps - 1));
+    out[3 * i] = table[k];
+    out[3 * i + 1] = table[k + 1];
+    out[3 * i + 2] = table[k + 2];
   }
 }
 
 export function fillSolid(out, count, hex) {
-  const [r, g, b] = [(hex >> 16) & 255, (hex >> 8) & 255, hex & 255].map((c) => c / 255);
+  const [r, g, b] = [(hex >> 16) & 255, (hex >> 8) & 255, hex & 255].map((c) => linear(c / 255));
   for (let i = 0; i < count; i++) {
     out[3 * i] = r;
     out[3 * i + 1] = g;
