@@ -19,10 +19,13 @@ pub mod jrmpc;
 pub mod target;
 // The pipeline.
 pub mod calib;
+// Has a sensor moved since a stored calibration?
+pub mod drift;
 // Truth: the digital twin and the paper's metrics.
 pub mod eval;
 pub mod twin;
 // The edge.
+pub mod command;
 pub mod report;
 #[cfg(target_arch = "wasm32")]
 pub mod wasm;

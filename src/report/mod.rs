@@ -2,6 +2,7 @@
 //! --json`, the wasm `calibrate`, the page), the CLI's text, and every sentence made from the
 //! calibration's typed notes. Compute code returns typed data; prose is made here.
 
+mod drift;
 mod json;
 pub mod ros;
 mod sentences;
@@ -13,4 +14,5 @@ pub use json::{
     PrecisionReport, ReasonReport, ReconstructionReport, Report, SensorReport, SensorVerdictReport,
     SpreadReport, Value, VerdictReport,
 };
+pub use drift::{DriftReport, LimitReport, SensorDriftReport, drift_findings, drift_table};
 pub use text::{comparison, summary, verdict};

@@ -3,19 +3,20 @@
 
 use std::path::PathBuf;
 
-pub const USAGE: &str = "\
-usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
-                          [--method gmm|jrmpc|p2p|p2l|gicp|all] [--reference NAME]
-                          [--target cube:EDGE|box:W,D,H|sphere:DIAMETER|mesh:PATH|none]
-                          [--roi XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX] [--global on|off]
-                          [--iterations N] [--components K] [--threads T]
-                          [--json OUT.json]
-       gmmcalib calibrate --bag FILE [--topics /a,/b] [--reference /a] [--base-frame base_link]
-                          [--frames N] [--urdf FILE] [--export ros1|ros2|tf-yaml|urdf|autoware|kitti]
-                          (and the options above)
+use gmmcalib::command::args::{
+    self as shared, CalibrateArgs, CompareArgs, flags, non_negative, on_off, positive, unknown,
+};
+
+/// The native CLI's usage: the shared commands' (`gmmcalib::command::args`), then its own.
+pub fn usage() -> String {
+    format!("{}\n{OWN_USAGE}\n{}\n{OWN_HELP}", shared::USAGE, shared::HELP)
+}
+
+const OWN_USAGE: &str = "\
        gmmcalib inspect FILE
        gmmcalib simulate --out DIR [--preset paper|paper-roof|paper-chair|...] [--frames F]
                           [--seed S] [--max-angle-deg 3] [--max-translation 0.1]
+                          [--move SENSOR:ROLL,PITCH,YAW,X,Y,Z]
        gmmcalib experiment --out DIR [--preset paper|...] [--trials N] [--frames F]
                           [--seed S] [--methods gmm,jrmpc,p2p,p2l,gicp] [--threads T]
                           [--max-angle-deg 3] [--max-translation 0.1]
@@ -25,32 +26,16 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
                           [--iterations N] [--tolerance T]
                           [--bev on|off] [--planes on|off] [--level on|off] [--global on|off] [--noise M]
                           [--columns N] [--threads T] [--notes] [--poses]
+";
 
-  calibrate: prints the verdict first (good, check or failed, with the reasons); exit status
-  0 when it calibrated, 2 when it calibrated but the verdict is failed (every method's, with
-  --method all): do not use that extrinsic; 1 on an error.
-  DIR holds one folder per sensor (sensor_1, sensor_2, ...), each with frames
-  1.pcd, 2.pcd, ... (.pcd, .ply or .bin); frames pair across sensors by file stem. Or
-  OpenCalib's layout: lidar_cloud_path.txt naming each device's file, and its guess
-  initial_extrinsic.txt. Nominals come from CONFIG.yaml (6 numbers [roll, pitch, yaw, x, y,
-  z], 7 [x, y, z, qx, qy, qz, qw] or 16, a 4x4 row-major), else from OpenCalib's guess, else
-  identity for every sensor: the global alignment (on for gmm) finds the rest. Without a ROI
-  the region where the clouds overlap is used. Flags override CONFIG.yaml. --threads: threads
-  sharing JRMPC's E-step and the frame pairs (default: the available cores; the result does
-  not depend on it).
-  --bag: a recording (MCAP, ROS 1 .bag, rosbag2 .db3) instead of --data: sensors are its
-  PointCloud2 topics (default: all), frames are N instants (default 10) spread over it where
-  every topic has a scan within 20 ms of the reference's (the first topic unless --reference).
-  Nominals T_base_frame come from --urdf (joint origins) or /tf_static, resolved for each
-  topic's frame_id to --base-frame (default base_link, else the tree's root). --export prints
-  the corrected extrinsics (parent the base frame, child each frame id) in that form; urdf
-  edits the --urdf file's joint origins in place when one was given.
+const OWN_HELP: &str = "\
   inspect: a recording's topics (count, rate, frame id, type) and its /tf_static tree.
   Presets: paper, paper-roof (3 sensors), os1-128, sampled, paper-chair and paper-board (a
   chair / a board on a stand as the target), street (no target: walls, poles, cars).
   simulate: writes the digital twin in that layout (DIR/config.yaml with miscalibrated nominal
   extrinsics, DIR/data/sensor_N/F.pcd) plus DIR/truth.json; the first sensor is the reference
-  and keeps its true mount.
+  and keeps its true mount. --move turns and shifts a sensor's true mount in its own frame
+  (deg, m), as a sensor knocked out of place: the drift check's test rig.
   experiment: the paper's experiment; every method on the same frames of each trial; writes
   DIR/summary.json, trials.csv, table.md and SVG plots.
   study: accuracy on the twin: seeds 1..=N of the scans, each calibrated from --starts wrong
@@ -63,33 +48,10 @@ pub enum Command {
     Help,
     Inspect(PathBuf),
     Calibrate(CalibrateArgs),
+    Compare(CompareArgs),
     Simulate(SimulateArgs),
     Experiment(ExperimentArgs),
     Study(StudyArgs),
-}
-
-#[derive(Debug, Default)]
-pub struct CalibrateArgs {
-    pub config: Option<PathBuf>,
-    pub data: PathBuf,
-    pub target: Option<String>,
-    pub roi: Option<[f64; 6]>,
-    pub global: Option<bool>,
-    /// A method name or `all`.
-    pub method: Option<String>,
-    pub reference: Option<String>,
-    pub iterations: Option<usize>,
-    pub components: Option<usize>,
-    /// Threads sharing JRMPC's E-step; default: the available cores.
-    pub threads: Option<usize>,
-    pub json: Option<PathBuf>,
-    /// A recording instead of `data`, and what to take from it.
-    pub bag: Option<PathBuf>,
-    pub topics: Option<String>,
-    pub base_frame: Option<String>,
-    pub frames: Option<usize>,
-    pub urdf: Option<PathBuf>,
-    pub export: Option<String>,
 }
 
 /// The twin and its miscalibration, shared by `simulate` and `experiment`.
@@ -102,6 +64,9 @@ pub struct TwinArgs {
     pub max_angle_deg: f64,
     /// Miscalibration bound per translation axis (m).
     pub max_translation: f64,
+    /// Sensors whose true mount is moved: `(sensor_N, [roll, pitch, yaw (deg), x, y, z (m)])`,
+    /// applied in the sensor's own frame.
+    pub moves: Vec<(String, [f64; 6])>,
 }
 
 impl Default for TwinArgs {
@@ -113,6 +78,7 @@ impl Default for TwinArgs {
             seed: 0,
             max_angle_deg: gmmcalib::twin::MAX_MISCALIBRATION_ANGLE.to_degrees(),
             max_translation: gmmcalib::twin::MAX_MISCALIBRATION_TRANSLATION,
+            moves: Vec::new(),
         }
     }
 }
@@ -209,85 +175,28 @@ pub fn parse(args: impl IntoIterator<Item = String>) -> Result<Command, String> 
                 _ => Err("usage: gmmcalib inspect FILE".into()),
             };
         }
-        Some(c @ ("calibrate" | "simulate" | "experiment" | "study")) => c.to_string(),
+        Some(c @ ("calibrate" | "compare")) => {
+            // The commands the Node command shares: parsed by the library.
+            let argv: Vec<String> = std::iter::once(c.to_string()).chain(args).collect();
+            return Ok(match shared::parse(&argv)? {
+                shared::CommandArgs::Calibrate(a) => Command::Calibrate(a),
+                shared::CommandArgs::Compare(a) => Command::Compare(a),
+                shared::CommandArgs::Help => Command::Help,
+            });
+        }
+        Some(c @ ("simulate" | "experiment" | "study")) => c.to_string(),
         Some(other) => {
             return Err(format!(
-                "unknown command '{other}' (expected calibrate, inspect, simulate, experiment or study)"
+                "unknown command '{other}' (expected calibrate, compare, inspect, simulate, experiment or study)"
             ));
         }
     };
     let Some(flags) = flags(args)? else { return Ok(Command::Help) };
     match command.as_str() {
-        "calibrate" => calibrate(flags),
         "simulate" => simulate(flags),
         "study" => study(flags),
         _ => experiment(flags),
     }
-}
-
-/// `(flag, value)` pairs; `None` when help was asked for.
-fn flags(args: impl Iterator<Item = String>) -> Result<Option<Vec<(String, String)>>, String> {
-    let mut args = args.peekable();
-    let mut out = Vec::new();
-    while let Some(arg) = args.next() {
-        if arg == "-h" || arg == "--help" {
-            return Ok(None);
-        }
-        if !arg.starts_with("--") {
-            return Err(format!("unknown argument '{arg}' (see gmmcalib --help)"));
-        }
-        // The flags without a value.
-        if arg == "--notes" || arg == "--poses" {
-            out.push((arg, "on".into()));
-            continue;
-        }
-        let (flag, value) = match arg.split_once('=') {
-            Some((f, v)) => (f.to_string(), v.to_string()),
-            None => {
-                let value = args.next().ok_or_else(|| format!("{arg} needs a value"))?;
-                (arg, value)
-            }
-        };
-        out.push((flag, value));
-    }
-    Ok(Some(out))
-}
-
-fn calibrate(flags: Vec<(String, String)>) -> Result<Command, String> {
-    let mut out = CalibrateArgs::default();
-    let (mut config, mut data) = (None, None);
-    for (flag, value) in flags {
-        match flag.as_str() {
-            "--config" => config = Some(PathBuf::from(value)),
-            "--data" => data = Some(PathBuf::from(value)),
-            "--method" => out.method = Some(value),
-            "--reference" => out.reference = Some(value),
-            "--target" => out.target = Some(value),
-            "--roi" => out.roi = Some(six(&flag, &value)?),
-            "--global" => out.global = Some(on_off(&flag, &value)?),
-            "--iterations" => out.iterations = Some(positive(&flag, &value)?),
-            "--components" => out.components = Some(positive(&flag, &value)?),
-            "--threads" => out.threads = Some(positive(&flag, &value)?),
-            "--json" => out.json = Some(PathBuf::from(value)),
-            "--bag" => out.bag = Some(PathBuf::from(value)),
-            "--topics" => out.topics = Some(value),
-            "--base-frame" => out.base_frame = Some(value),
-            "--frames" => out.frames = Some(positive(&flag, &value)?),
-            "--urdf" => out.urdf = Some(PathBuf::from(value)),
-            "--export" => out.export = Some(value),
-            _ => return Err(unknown(&flag)),
-        }
-    }
-    out.config = config;
-    match (data, &out.bag) {
-        (Some(_), Some(_)) => {
-            return Err("calibrate takes --data DIR or --bag FILE, not both".into());
-        }
-        (Some(d), None) => out.data = d,
-        (None, Some(_)) => {}
-        (None, None) => return Err("calibrate needs --data DIR or --bag FILE".into()),
-    }
-    Ok(Command::Calibrate(out))
 }
 
 /// A flag of [`TwinArgs`]; false when `flag` is not one.
@@ -302,6 +211,17 @@ fn twin_flag(twin: &mut TwinArgs, flag: &str, value: &str) -> Result<bool, Strin
         }
         "--max-angle-deg" => twin.max_angle_deg = non_negative(flag, value)?,
         "--max-translation" => twin.max_translation = non_negative(flag, value)?,
+        "--move" => {
+            let bad =
+                || format!("{flag} expects SENSOR:ROLL,PITCH,YAW,X,Y,Z (deg, m), got '{value}'");
+            let (sensor, numbers) = value.split_once(':').ok_or_else(bad)?;
+            let numbers: Vec<f64> = numbers
+                .split(',')
+                .map(|x| x.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+                .collect::<Option<_>>()
+                .ok_or_else(bad)?;
+            twin.moves.push((sensor.to_string(), numbers.try_into().map_err(|_| bad())?));
+        }
         _ => return Ok(false),
     }
     Ok(true)
@@ -372,44 +292,6 @@ fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
     Ok(Command::Study(out))
 }
 
-/// Six comma-separated finite numbers.
-fn six(flag: &str, value: &str) -> Result<[f64; 6], String> {
-    let numbers: Vec<f64> = value
-        .split(',')
-        .filter_map(|x| x.trim().parse().ok())
-        .filter(|x: &f64| x.is_finite())
-        .collect();
-    numbers.try_into().map_err(|_| {
-        format!("{flag} expects six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX, got '{value}'")
-    })
-}
-
-fn on_off(flag: &str, value: &str) -> Result<bool, String> {
-    match value {
-        "on" => Ok(true),
-        "off" => Ok(false),
-        _ => Err(format!("{flag} expects on or off, got '{value}'")),
-    }
-}
-
-fn unknown(flag: &str) -> String {
-    format!("unknown argument '{flag}' (see gmmcalib --help)")
-}
-
-fn positive(flag: &str, value: &str) -> Result<usize, String> {
-    match value.parse::<usize>() {
-        Ok(n) if n > 0 => Ok(n),
-        _ => Err(format!("{flag} expects a positive integer, got '{value}'")),
-    }
-}
-
-fn non_negative(flag: &str, value: &str) -> Result<f64, String> {
-    match value.parse::<f64>() {
-        Ok(x) if x >= 0.0 && x.is_finite() => Ok(x),
-        _ => Err(format!("{flag} expects a non-negative number, got '{value}'")),
-    }
-}
-
 /// A target in its short form (`Target`'s), or `mesh:PATH` with PATH (relative to `dir`) read
 /// here: the library parses the bytes.
 pub fn target(value: &str, dir: &std::path::Path) -> Result<gmmcalib::target::Target, String> {
@@ -433,17 +315,12 @@ mod tests {
     }
 
     #[test]
-    fn parses_flags_in_both_spellings() {
-        let Ok(Command::Calibrate(a)) =
-            parse(args("calibrate --config c.yaml --data=d --method all --iterations=7"))
-        else {
+    fn shared_commands_go_to_the_library() {
+        let Ok(Command::Calibrate(a)) = parse(args("calibrate --data=d --iterations=7")) else {
             panic!("expected calibrate");
         };
-        assert_eq!(a.config, Some(PathBuf::from("c.yaml")));
-        assert_eq!(a.data, PathBuf::from("d"));
-        assert_eq!(a.method.as_deref(), Some("all"));
-        assert_eq!(a.iterations, Some(7));
-        assert_eq!(a.components, None);
+        assert_eq!((a.data.as_str(), a.iterations), ("d", Some(7)));
+        assert!(matches!(parse(args("compare a.json b.json")), Ok(Command::Compare(_))));
     }
 
     #[test]
@@ -471,12 +348,6 @@ mod tests {
     #[test]
     fn rejects_bad_input() {
         assert!(parse(args("calibrate --config c")).unwrap_err().contains("--data"));
-        assert!(parse(args("calibrate --data d --roi 1,2,3")).unwrap_err().contains("six numbers"));
-        assert!(parse(args("calibrate --config c --data d --iterations 0")).is_err());
-        assert!(
-            parse(args("calibrate --config c --data d --bogus x")).unwrap_err().contains("bogus")
-        );
-        assert!(parse(args("calibrate --config")).unwrap_err().contains("needs a value"));
         assert!(parse(args("frobnicate")).is_err());
         assert!(matches!(parse(args("")), Ok(Command::Help)));
         assert!(parse(args("simulate --frames 2")).unwrap_err().contains("--out"));
@@ -484,6 +355,15 @@ mod tests {
         assert!(parse(args("experiment --out o --max-translation -1")).is_err());
         assert!(parse(args("experiment --out o --trials 0")).is_err());
         assert!(parse(args("study --bev maybe")).unwrap_err().contains("on or off"));
+        assert!(
+            parse(args("simulate --out o --move sensor_2:1,2")).unwrap_err().contains("--move")
+        );
+        let Ok(Command::Simulate(s)) =
+            parse(args("simulate --out o --move sensor_2:0,0,0.5,0,0,0"))
+        else {
+            panic!("expected simulate");
+        };
+        assert_eq!(s.twin.moves, [("sensor_2".to_string(), [0.0, 0.0, 0.5, 0.0, 0.0, 0.0])]);
     }
 
     #[test]

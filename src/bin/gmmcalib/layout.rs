@@ -29,7 +29,21 @@ pub fn model(name: &str) -> Result<Model, String> {
 impl TwinFiles {
     /// The twin of `args` with the scans of `seed` (the twin's seed rule).
     pub fn new(args: &TwinArgs, seed: u64) -> Result<Self, String> {
-        let model = model(&args.preset)?;
+        let mut model = model(&args.preset)?;
+        for (sensor, [roll, pitch, yaw, x, y, z]) in &args.moves {
+            let Model::RayCast(preset) = &mut model else {
+                return Err(format!("--move needs a ray-cast preset, not {}", args.preset));
+            };
+            // Named as `calibrate` names it: sensor_N, 1-based.
+            let n = preset.sensors.len();
+            let spec = sensor
+                .strip_prefix("sensor_")
+                .and_then(|n| n.parse::<usize>().ok())
+                .and_then(|n| preset.sensors.get_mut(n.wrapping_sub(1)))
+                .ok_or_else(|| format!("--move {sensor}: expected sensor_1 .. sensor_{n}"))?;
+            let delta = pose_from_xyz_rpy([*x, *y, *z], [roll, pitch, yaw].map(|a| a.to_radians()));
+            spec.mount *= delta;
+        }
         let bounds = Miscalibration::within(args.max_angle_deg.to_radians(), args.max_translation);
         let mut twin = Twin::new(&model, args.frames, seed, &bounds);
         let nominal_numbers: Vec<_> = twin.nominal.iter().map(|(_, p)| xyz_rpy(p)).collect();

@@ -5,12 +5,11 @@
 //! its guess, `initial_extrinsic.txt`.
 
 use std::cmp::Ordering;
-use std::fs;
-use std::path::{Path, PathBuf};
 
-use gmmcalib::calib::Scan;
-use gmmcalib::io::{opencalib, parse_cloud};
-use gmmcalib::se3::Pose;
+use super::{EntryKind, Host, join, read_text};
+use crate::calib::Scan;
+use crate::io::{opencalib, parse_cloud};
+use crate::se3::Pose;
 
 const EXTENSIONS: [&str; 3] = ["pcd", "ply", "bin"];
 
@@ -21,105 +20,90 @@ pub struct Dataset {
 }
 
 /// Every scan under `dir` and the nominals the layout gives, if any.
-pub fn read_dir(dir: &Path) -> Result<Dataset, String> {
-    let paths = dir.join("lidar_cloud_path.txt");
-    if !paths.is_file() {
-        return Ok(Dataset { scans: read_scans(dir)?, guess: None });
+pub fn read_dir(host: &mut dyn Host, dir: &str) -> Result<Dataset, String> {
+    let paths = join(dir, "lidar_cloud_path.txt");
+    if host.kind(&paths) != EntryKind::File {
+        return Ok(Dataset { scans: read_scans(host, dir)?, guess: None });
     }
-    let text =
-        |path: &Path| fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()));
-    let label = paths.display().to_string();
-    let devices = opencalib::read_paths(&text(&paths)?, &label).map_err(|e| e.to_string())?;
+    let devices =
+        opencalib::read_paths(&read_text(host, &paths)?, &paths).map_err(|e| e.to_string())?;
     let mut scans = Vec::new();
     for device in &devices {
         // The paths are relative to OpenCalib's tree; the files sit beside the list.
         let name = device.path.rsplit('/').next().unwrap_or(&device.path);
-        let file = dir.join(name);
-        let label = file.display().to_string();
-        let bytes = fs::read(&file).map_err(|e| format!("{label}: {e}"))?;
-        let parsed = parse_cloud(&bytes, &label).map_err(|e| e.to_string())?;
-        scans.push(Scan {
-            sensor: device.name.clone(),
-            frame: "1".into(),
-            points: parsed.cloud.points,
-            source: Some(label),
-        });
+        let file = join(dir, name);
+        scans.push(scan(host, device.name.clone(), "1".into(), file)?);
     }
-    let guess = dir.join("initial_extrinsic.txt");
-    let guess = if guess.is_file() {
-        let file = guess.display().to_string();
-        let poses = opencalib::read_guess(&text(&guess)?, &file).map_err(|e| e.to_string())?;
-        Some(opencalib::nominals(&poses, &devices, &file).map_err(|e| e.to_string())?)
+    let guess = join(dir, "initial_extrinsic.txt");
+    let guess = if host.kind(&guess) == EntryKind::File {
+        let poses =
+            opencalib::read_guess(&read_text(host, &guess)?, &guess).map_err(|e| e.to_string())?;
+        Some(opencalib::nominals(&poses, &devices, &guess).map_err(|e| e.to_string())?)
     } else {
         None
     };
     Ok(Dataset { scans, guess })
 }
 
+/// The scan in `file`, labelled (sensor, frame).
+fn scan(host: &mut dyn Host, sensor: String, frame: String, file: String) -> Result<Scan, String> {
+    let bytes = host.read(&file).map_err(|e| format!("{file}: {e}"))?;
+    let parsed = parse_cloud(&bytes, &file).map_err(|e| e.to_string())?;
+    Ok(Scan { sensor, frame, points: parsed.cloud.points, source: Some(file) })
+}
+
 /// Every scan under `dir`, sensor by sensor, frames in natural order.
-fn read_scans(dir: &Path) -> Result<Vec<Scan>, String> {
+fn read_scans(host: &mut dyn Host, dir: &str) -> Result<Vec<Scan>, String> {
     let mut views = Vec::new();
-    for (sensor, folder) in sensor_folders(dir)? {
-        for (frame, file) in frame_files(&folder)? {
-            let label = file.display().to_string();
-            let bytes = fs::read(&file).map_err(|e| format!("{label}: {e}"))?;
-            let parsed = parse_cloud(&bytes, &label).map_err(|e| e.to_string())?;
-            views.push(Scan {
-                sensor: sensor.clone(),
-                frame,
-                points: parsed.cloud.points,
-                source: Some(label),
-            });
+    for (sensor, folder) in sensor_folders(host, dir)? {
+        for (frame, file) in frame_files(host, &folder)? {
+            views.push(scan(host, sensor.clone(), frame, file)?);
         }
     }
     Ok(views)
 }
 
 /// `(name, path)` of the `sensor_*` folders in `dir`, naturally ordered.
-fn sensor_folders(dir: &Path) -> Result<Vec<(String, PathBuf)>, String> {
+fn sensor_folders(host: &mut dyn Host, dir: &str) -> Result<Vec<(String, String)>, String> {
     let mut folders = Vec::new();
-    for (name, path) in entries(dir)? {
-        if path.is_dir() && name.starts_with("sensor_") {
+    for name in host.list(dir).map_err(|e| format!("{dir}: {e}"))? {
+        let path = join(dir, &name);
+        if name.starts_with("sensor_") && host.kind(&path) == EntryKind::Dir {
             folders.push((name, path));
         }
     }
     if folders.is_empty() {
-        return Err(format!("{}: no sensor folders (sensor_1, sensor_2, ...)", dir.display()));
+        return Err(format!("{dir}: no sensor folders (sensor_1, sensor_2, ...)"));
     }
     folders.sort_by(|a, b| natural(&a.0, &b.0));
     Ok(folders)
 }
 
 /// `(stem, path)` of the point-cloud files in `folder`, naturally ordered by stem.
-fn frame_files(folder: &Path) -> Result<Vec<(String, PathBuf)>, String> {
-    let mut files: Vec<(String, PathBuf)> = Vec::new();
-    for (name, path) in entries(folder)? {
+fn frame_files(host: &mut dyn Host, folder: &str) -> Result<Vec<(String, String)>, String> {
+    let mut names = host.list(folder).map_err(|e| format!("{folder}: {e}"))?;
+    // A fixed order, so that which of two files for one frame is named first does not
+    // depend on the file system.
+    names.sort();
+    let mut files: Vec<(String, String)> = Vec::new();
+    for name in names {
         let Some((stem, ext)) = name.rsplit_once('.') else { continue };
-        if !path.is_file() || !EXTENSIONS.contains(&ext.to_ascii_lowercase().as_str()) {
+        let path = join(folder, &name);
+        if !EXTENSIONS.contains(&ext.to_ascii_lowercase().as_str())
+            || host.kind(&path) != EntryKind::File
+        {
             continue;
         }
         if let Some((_, other)) = files.iter().find(|(s, _)| s == stem) {
-            let (a, b) = (other.display(), path.display());
-            return Err(format!("{a} and {b}: two files for frame {stem}"));
+            return Err(format!("{other} and {path}: two files for frame {stem}"));
         }
         files.push((stem.to_string(), path));
     }
     if files.is_empty() {
-        return Err(format!("{}: no point-cloud frames (.pcd, .ply, .bin)", folder.display()));
+        return Err(format!("{folder}: no point-cloud frames (.pcd, .ply, .bin)"));
     }
     files.sort_by(|a, b| natural(&a.0, &b.0));
     Ok(files)
-}
-
-/// `(file name, path)` of every entry in `dir`.
-fn entries(dir: &Path) -> Result<Vec<(String, PathBuf)>, String> {
-    let read = fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let mut out = Vec::new();
-    for entry in read {
-        let entry = entry.map_err(|e| format!("{}: {e}", dir.display()))?;
-        out.push((entry.file_name().to_string_lossy().into_owned(), entry.path()));
-    }
-    Ok(out)
 }
 
 /// Natural order: runs of digits compare as numbers, everything else as text.

@@ -1,0 +1,298 @@
+//! The arguments of `calibrate` and `compare`, `--flag VALUE` or `--flag=VALUE`, and the
+//! checks every command's flags share.
+
+use crate::drift::{DEFAULT_ROTATION_TOLERANCE, DEFAULT_TRANSLATION_TOLERANCE, Tolerance};
+
+pub const USAGE: &str = "\
+usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
+                          [--method gmm|jrmpc|cad|p2p|p2l|gicp|all] [--reference NAME]
+                          [--target cube:EDGE|box:W,D,H|sphere:DIAMETER|mesh:PATH|none]
+                          [--roi XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX] [--global on|off]
+                          [--iterations N] [--components K] [--threads T]
+                          [--json OUT.json]
+       gmmcalib calibrate --bag FILE [--topics /a,/b] [--reference /a] [--base-frame base_link]
+                          [--frames N] [--urdf FILE] [--export ros1|ros2|tf-yaml|urdf|autoware|kitti]
+                          (and the options above)
+       gmmcalib compare STORED NEW [--rotation-deg 0.1] [--translation 0.01] [--sigmas K]
+                          [--json OUT.json]";
+
+/// What `compare` and `calibrate` do, said once for both command lines.
+pub const HELP: &str = "\
+  calibrate: prints the verdict first (good, check or failed, with the reasons); exit status
+  0 when it calibrated, 2 when it calibrated but the verdict is failed (every method's, with
+  --method all): do not use that extrinsic; 1 on an error.
+  DIR holds one folder per sensor (sensor_1, sensor_2, ...), each with frames
+  1.pcd, 2.pcd, ... (.pcd, .ply or .bin); frames pair across sensors by file stem. Or
+  OpenCalib's layout: lidar_cloud_path.txt naming each device's file, and its guess
+  initial_extrinsic.txt. Nominals come from CONFIG.yaml (6 numbers [roll, pitch, yaw, x, y,
+  z], 7 [x, y, z, qx, qy, qz, qw] or 16, a 4x4 row-major), else from OpenCalib's guess, else
+  identity for every sensor: the global alignment (on for gmm) finds the rest. Without a ROI
+  the region where the clouds overlap is used. Flags override CONFIG.yaml. --threads: threads
+  sharing JRMPC's E-step and the frame pairs (default: the available cores; the result does
+  not depend on it).
+  --bag: a recording (MCAP, ROS 1 .bag, rosbag2 .db3) instead of --data: sensors are its
+  PointCloud2 topics (default: all), frames are N instants (default 10) spread over it where
+  every topic has a scan within 20 ms of the reference's (the first topic unless --reference).
+  Nominals T_base_frame come from --urdf (joint origins) or /tf_static, resolved for each
+  topic's frame_id to --base-frame (default base_link, else the tree's root). --export prints
+  the corrected extrinsics (parent the base frame, child each frame id) in that form; urdf
+  edits the --urdf file's joint origins in place when one was given.
+  compare: has a sensor moved? STORED is a calibration kept from before (calibrate's --json,
+  or a URDF or /tf_static YAML it exported), NEW calibrate's --json of a new recording. Each
+  sensor's pose relative to the reference is compared; it has moved when the rotation
+  changed by more than --rotation-deg (default 0.1) or the position by more than
+  --translation (m, default 0.01), or with --sigmas K when a change on any axis is beyond K
+  times the combined one-sigma precision (sensors without a precision keep the fixed limits).
+  Exit status 0 when none moved, 3 when one moved or went missing (named on stderr), 1 on an
+  error.";
+
+/// The shared commands. One is parsed per run, so the size difference does not matter.
+#[derive(Debug)]
+#[allow(clippy::large_enum_variant)]
+pub enum CommandArgs {
+    Help,
+    Calibrate(CalibrateArgs),
+    Compare(CompareArgs),
+}
+
+#[derive(Debug, Default, PartialEq)]
+pub struct CalibrateArgs {
+    pub config: Option<String>,
+    pub data: String,
+    pub target: Option<String>,
+    pub roi: Option<[f64; 6]>,
+    pub global: Option<bool>,
+    /// A method name or `all`.
+    pub method: Option<String>,
+    pub reference: Option<String>,
+    pub iterations: Option<usize>,
+    pub components: Option<usize>,
+    /// Threads sharing JRMPC's E-step; default: the host's.
+    pub threads: Option<usize>,
+    pub json: Option<String>,
+    /// A recording instead of `data`, and what to take from it.
+    pub bag: Option<String>,
+    pub topics: Option<String>,
+    pub base_frame: Option<String>,
+    pub frames: Option<usize>,
+    pub urdf: Option<String>,
+    pub export: Option<String>,
+}
+
+#[derive(Debug, PartialEq)]
+pub struct CompareArgs {
+    pub stored: String,
+    pub new: String,
+    pub tolerance: Tolerance,
+    pub json: Option<String>,
+}
+
+/// Parses `calibrate ...`, `compare ...` or help.
+pub fn parse(argv: &[String]) -> Result<CommandArgs, String> {
+    let mut args = argv.iter().cloned();
+    match args.next().as_deref() {
+        None | Some("-h" | "--help" | "help") => Ok(CommandArgs::Help),
+        Some("calibrate") => Ok(match flags(args)? {
+            Some(f) => CommandArgs::Calibrate(calibrate(f)?),
+            None => CommandArgs::Help,
+        }),
+        Some("compare") => Ok(match compare(args)? {
+            Some(c) => CommandArgs::Compare(c),
+            None => CommandArgs::Help,
+        }),
+        Some(other) => Err(format!("unknown command '{other}' (expected calibrate or compare)")),
+    }
+}
+
+/// `(flag, value)` pairs; `None` when help was asked for. `--notes` and `--poses` take no
+/// value.
+pub fn flags(args: impl Iterator<Item = String>) -> Result<Option<Vec<(String, String)>>, String> {
+    let mut args = args.peekable();
+    let mut out = Vec::new();
+    while let Some(arg) = args.next() {
+        if arg == "-h" || arg == "--help" {
+            return Ok(None);
+        }
+        if !arg.starts_with("--") {
+            return Err(format!("unknown argument '{arg}' (see gmmcalib --help)"));
+        }
+        if arg == "--notes" || arg == "--poses" {
+            out.push((arg, "on".into()));
+            continue;
+        }
+        let (flag, value) = match arg.split_once('=') {
+            Some((f, v)) => (f.to_string(), v.to_string()),
+            None => {
+                let value = args.next().ok_or_else(|| format!("{arg} needs a value"))?;
+                (arg, value)
+            }
+        };
+        out.push((flag, value));
+    }
+    Ok(Some(out))
+}
+
+pub fn calibrate(flags: Vec<(String, String)>) -> Result<CalibrateArgs, String> {
+    let mut out = CalibrateArgs::default();
+    let mut data = None;
+    for (flag, value) in flags {
+        match flag.as_str() {
+            "--config" => out.config = Some(value),
+            "--data" => data = Some(value),
+            "--method" => out.method = Some(value),
+            "--reference" => out.reference = Some(value),
+            "--target" => out.target = Some(value),
+            "--roi" => out.roi = Some(six(&flag, &value)?),
+            "--global" => out.global = Some(on_off(&flag, &value)?),
+            "--iterations" => out.iterations = Some(positive(&flag, &value)?),
+            "--components" => out.components = Some(positive(&flag, &value)?),
+            "--threads" => out.threads = Some(positive(&flag, &value)?),
+            "--json" => out.json = Some(value),
+            "--bag" => out.bag = Some(value),
+            "--topics" => out.topics = Some(value),
+            "--base-frame" => out.base_frame = Some(value),
+            "--frames" => out.frames = Some(positive(&flag, &value)?),
+            "--urdf" => out.urdf = Some(value),
+            "--export" => out.export = Some(value),
+            _ => return Err(unknown(&flag)),
+        }
+    }
+    match (data, &out.bag) {
+        (Some(_), Some(_)) => Err("calibrate takes --data DIR or --bag FILE, not both".into()),
+        (Some(d), None) => {
+            out.data = d;
+            Ok(out)
+        }
+        (None, Some(_)) => Ok(out),
+        (None, None) => Err("calibrate needs --data DIR or --bag FILE".into()),
+    }
+}
+
+/// `compare STORED NEW [flags]`; `None` when help was asked for.
+fn compare(args: impl Iterator<Item = String>) -> Result<Option<CompareArgs>, String> {
+    let (mut files, mut rest) = (Vec::new(), Vec::new());
+    let mut args = args.peekable();
+    while let Some(arg) = args.next() {
+        if arg.starts_with('-') {
+            // A flag and, unless written with '=', its value.
+            let takes_value = !arg.contains('=') && arg != "-h" && arg != "--help";
+            rest.push(arg);
+            if takes_value {
+                rest.extend(args.next());
+            }
+        } else {
+            files.push(arg);
+        }
+    }
+    let Some(flags) = flags(rest.into_iter())? else { return Ok(None) };
+    let [stored, new]: [String; 2] = files.try_into().map_err(|f: Vec<String>| {
+        format!("compare takes two files, STORED and NEW, got {}", f.len())
+    })?;
+    let (mut rotation, mut translation) =
+        (DEFAULT_ROTATION_TOLERANCE, DEFAULT_TRANSLATION_TOLERANCE);
+    let (mut sigmas, mut json) = (None, None);
+    for (flag, value) in flags {
+        match flag.as_str() {
+            "--rotation-deg" => rotation = non_negative(&flag, &value)?.to_radians(),
+            "--translation" => translation = non_negative(&flag, &value)?,
+            "--sigmas" => sigmas = Some(non_negative(&flag, &value)?),
+            "--json" => json = Some(value),
+            _ => return Err(unknown(&flag)),
+        }
+    }
+    let tolerance = match sigmas {
+        Some(sigmas) => Tolerance::Precision { sigmas, rotation, translation },
+        None => Tolerance::Fixed { rotation, translation },
+    };
+    Ok(Some(CompareArgs { stored, new, tolerance, json }))
+}
+
+/// Six comma-separated finite numbers.
+pub fn six(flag: &str, value: &str) -> Result<[f64; 6], String> {
+    let numbers: Vec<f64> = value
+        .split(',')
+        .filter_map(|x| x.trim().parse().ok())
+        .filter(|x: &f64| x.is_finite())
+        .collect();
+    numbers.try_into().map_err(|_| {
+        format!("{flag} expects six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX, got '{value}'")
+    })
+}
+
+pub fn on_off(flag: &str, value: &str) -> Result<bool, String> {
+    match value {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("{flag} expects on or off, got '{value}'")),
+    }
+}
+
+pub fn unknown(flag: &str) -> String {
+    format!("unknown argument '{flag}' (see gmmcalib --help)")
+}
+
+pub fn positive(flag: &str, value: &str) -> Result<usize, String> {
+    match value.parse::<usize>() {
+        Ok(n) if n > 0 => Ok(n),
+        _ => Err(format!("{flag} expects a positive integer, got '{value}'")),
+    }
+}
+
+pub fn non_negative(flag: &str, value: &str) -> Result<f64, String> {
+    match value.parse::<f64>() {
+        Ok(x) if x >= 0.0 && x.is_finite() => Ok(x),
+        _ => Err(format!("{flag} expects a non-negative number, got '{value}'")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(s: &str) -> Vec<String> {
+        s.split_whitespace().map(String::from).collect()
+    }
+
+    #[test]
+    fn parses_flags_in_both_spellings() {
+        let Ok(CommandArgs::Calibrate(a)) =
+            parse(&args("calibrate --config c.yaml --data=d --method all --iterations=7"))
+        else {
+            panic!("expected calibrate");
+        };
+        assert_eq!((a.config.as_deref(), a.data.as_str()), (Some("c.yaml"), "d"));
+        assert_eq!((a.method.as_deref(), a.iterations, a.components), (Some("all"), Some(7), None));
+    }
+
+    #[test]
+    fn parses_compare() {
+        let Ok(CommandArgs::Compare(c)) =
+            parse(&args("compare old.json --sigmas 3 new.json --rotation-deg=0.2"))
+        else {
+            panic!("expected compare");
+        };
+        assert_eq!((c.stored.as_str(), c.new.as_str()), ("old.json", "new.json"));
+        let Tolerance::Precision { sigmas, rotation, translation } = c.tolerance else { panic!() };
+        assert_eq!((sigmas, translation), (3.0, 0.01));
+        assert!((rotation.to_degrees() - 0.2).abs() < 1e-12);
+        let Ok(CommandArgs::Compare(c)) = parse(&args("compare a b")) else { panic!() };
+        assert_eq!(c.tolerance, Tolerance::default());
+    }
+
+    #[test]
+    fn rejects_bad_input() {
+        let err = |s: &str| parse(&args(s)).unwrap_err();
+        assert!(err("calibrate --config c").contains("--data"));
+        assert!(err("calibrate --data d --roi 1,2,3").contains("six numbers"));
+        assert!(err("calibrate --config c --data d --iterations 0").contains("positive"));
+        assert!(err("calibrate --config c --data d --bogus x").contains("bogus"));
+        assert!(err("calibrate --config").contains("needs a value"));
+        assert!(err("frobnicate").contains("unknown command"));
+        assert!(err("compare a").contains("two files"));
+        assert!(err("compare a b c").contains("got 3"));
+        assert!(err("compare a b --sigmas -1").contains("--sigmas"));
+        assert!(err("compare a b --tolerance 1").contains("unknown argument '--tolerance'"));
+        assert!(matches!(parse(&args("")), Ok(CommandArgs::Help)));
+        assert!(matches!(parse(&args("compare --help")), Ok(CommandArgs::Help)));
+    }
+}

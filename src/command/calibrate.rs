@@ -1,0 +1,192 @@
+//! `gmmcalib calibrate`: GMMCalib's data folder (or OpenCalib's, or a recording) and YAML
+//! config in, calibration out (text on stdout, JSON with `--json`).
+
+use super::args::CalibrateArgs;
+use super::recording::{self, BagRequest};
+use super::{Host, dataset, parent, read_text};
+use crate::calib::{self, Level, Method, Progress, Rig, Settings, Stage};
+use crate::io::config::{Config, mesh_path};
+use crate::jrmpc::Control;
+use crate::report::{self, Report};
+use crate::target::Target;
+
+/// The exit status when the calibration ran but its verdict is `failed`: do not use the
+/// extrinsic (1 is an error: nothing was calibrated).
+pub const VERDICT_FAILED: u8 = 2;
+
+/// The exit status for results whose verdicts are `levels`: `VERDICT_FAILED` when every
+/// one failed.
+fn status(levels: impl IntoIterator<Item = Level>) -> u8 {
+    let mut levels = levels.into_iter().peekable();
+    let any = levels.peek().is_some();
+    if any && levels.all(|l| l == Level::Failed) { VERDICT_FAILED } else { 0 }
+}
+
+/// A target in its short form (`Target`'s), or `mesh:PATH` with PATH (relative to `dir`) read
+/// here: the library parses the bytes.
+fn target(host: &mut dyn Host, value: &str, dir: &str) -> Result<Target, String> {
+    match mesh_path(value) {
+        Some(path) => {
+            let path = super::join(dir, path);
+            let bytes = host.read(&path).map_err(|e| format!("{path}: {e}"))?;
+            Target::from_mesh_file(&bytes, &path).map_err(|e| e.to_string())
+        }
+        None => value.parse(),
+    }
+}
+
+pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
+    // 1. The config, if any, with the command line taking precedence.
+    let (config, label) = match &a.config {
+        Some(path) => {
+            let text = read_text(host, path)?;
+            (Some(Config::from_yaml(&text, path).map_err(|e| e.to_string())?), path.clone())
+        }
+        None => (None, String::new()),
+    };
+    let mut settings = Settings::default();
+    if let Some(config) = &config {
+        config.apply(&mut settings);
+    }
+    let methods = match (&a.method, &config) {
+        (Some(m), _) => Method::parse_list(m).map_err(|e| e.to_string())?,
+        (None, Some(c)) => {
+            c.methods(&label).map_err(|e| e.to_string())?.unwrap_or(vec![settings.method])
+        }
+        (None, None) => vec![settings.method],
+    };
+    if let (Some(config), Some(path)) = (&config, a.config.as_deref()) {
+        if let Some(mesh) = &config.target_mesh {
+            let value = format!("mesh:{mesh}");
+            settings.target =
+                target(host, &value, parent(path)).map_err(|e| format!("{label}: {e}"))?;
+        }
+    }
+    if let Some(t) = &a.target {
+        settings.target = target(host, t, "").map_err(|e| format!("--target: {e}"))?;
+    }
+    if let Some(k) = a.components {
+        settings.components = k;
+    }
+    if let Some(n) = a.iterations {
+        settings.jrmpc.max_iterations = n;
+    }
+    settings.align_globally = a.global.or(settings.align_globally);
+    settings.jrmpc.threads = a.threads.unwrap_or_else(|| host.threads());
+
+    // 2. Scans, and the rig they make with the config: nominals from the config, else the
+    // layout's guess, else identity for every sensor. A recording gives scans, nominals and a
+    // reference of its own.
+    let bag = match &a.bag {
+        Some(path) => Some(recording::rig(
+            host,
+            path,
+            &BagRequest {
+                topics: a.topics.as_deref(),
+                reference: a.reference.as_deref(),
+                base_frame: a.base_frame.as_deref().unwrap_or("base_link"),
+                frames: a.frames.unwrap_or(10),
+                urdf: a.urdf.as_deref(),
+            },
+        )?),
+        None => None,
+    };
+    let dataset::Dataset { scans, guess } = match &bag {
+        Some(b) => {
+            dataset::Dataset { scans: b.rig.scans.clone(), guess: Some(b.rig.nominal.clone()) }
+        }
+        None => dataset::read_dir(host, &a.data)?,
+    };
+    let nominal = match (&config, guess) {
+        (_, Some(guess)) if bag.is_some() => guess,
+        (Some(c), _) if !c.nominal.is_empty() => {
+            for scan in &scans {
+                if !c.nominal.iter().any(|n| n.sensor == scan.sensor) {
+                    let s = &scan.sensor;
+                    return Err(format!("{label}: no transform_{s} for the data folder {s}"));
+                }
+            }
+            c.nominal_poses()
+        }
+        (_, Some(guess)) => guess,
+        _ => {
+            let mut names: Vec<String> = scans.iter().map(|s| s.sensor.clone()).collect();
+            names.dedup();
+            names.into_iter().map(|n| (n, crate::Pose::identity())).collect()
+        }
+    };
+    let reference = a
+        .reference
+        .clone()
+        .or(bag.as_ref().map(|b| b.rig.reference.clone()))
+        .or(config.as_ref().and_then(|c| c.reference.clone()))
+        .or_else(|| scans.first().map(|s| s.sensor.clone()));
+    let roi = a
+        .roi
+        .map(|r| crate::Aabb::new([r[0], r[1], r[2]], [r[3], r[4], r[5]]))
+        .or(config.as_ref().and_then(|c| c.roi));
+    let rig = Rig { scans, nominal, roi, reference };
+
+    // 3. Calibrate by each method on the same scans; when comparing, a method that fails
+    // is a finding like any other.
+    let outcomes = calib::compare(&rig, &settings, &methods, |method, p| {
+        host.progress(&progress_line(method, p));
+        Control::Continue
+    });
+    host.progress("");
+    if let [(_, outcome)] = outcomes.as_slice() {
+        let result = outcome.as_ref().map_err(|e| e.to_string())?;
+        host.out(&report::summary(result));
+        write_json(host, a.json.as_deref(), &Report::from(result))?;
+        if let (Some(format), Some(bag)) = (&a.export, &bag) {
+            host.out(&format!("\n{}", recording::export(format, result, bag)?));
+        }
+        return Ok(status([result.verdict.level]));
+    }
+    let failures: Vec<String> = outcomes
+        .iter()
+        .filter_map(|(m, r)| r.as_ref().err().map(|e| format!("{}: {e}", m.name())))
+        .collect();
+    if failures.len() == outcomes.len() {
+        return Err(failures.join("; "));
+    }
+
+    // 4. Report: the successes side by side, then each failure.
+    let results: Vec<_> = outcomes.iter().filter_map(|(_, r)| r.as_ref().ok()).collect();
+    host.out(&report::comparison(&results));
+    if !failures.is_empty() {
+        host.out("\nfailed:\n");
+        failures.iter().for_each(|f| host.out(&format!("  {f}\n")));
+    }
+    let entries: Vec<serde_json::Value> = outcomes
+        .iter()
+        .map(|(method, outcome)| match outcome {
+            Ok(c) => serde_json::to_value(Report::from(c)),
+            Err(e) => Ok(serde_json::json!({ "method": method.name(), "error": e.to_string() })),
+        })
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("JSON: {e}"))?;
+    write_json(host, a.json.as_deref(), &entries)?;
+    Ok(status(results.iter().map(|c| c.verdict.level)))
+}
+
+/// Writes `value` as pretty JSON to `path`, when given.
+pub(super) fn write_json(
+    host: &mut dyn Host,
+    path: Option<&str>,
+    value: &impl serde::Serialize,
+) -> Result<(), String> {
+    let Some(path) = path else { return Ok(()) };
+    let json = serde_json::to_string_pretty(value).map_err(|e| format!("JSON: {e}"))?;
+    host.write(path, (json + "\n").as_bytes()).map_err(|e| format!("{path}: {e}"))
+}
+
+/// The progress line: EM's iterations, then the frame pairs registered.
+fn progress_line(method: Method, p: &Progress) -> String {
+    let what = match p.stage {
+        Stage::Jrmpc => "JRMPC iteration",
+        Stage::FramePairs => "frame pair",
+        Stage::Cad => "CAD iteration",
+    };
+    format!("{}: {what} {}/{}", method.name(), p.iteration, p.max_iterations)
+}
