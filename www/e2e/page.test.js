@@ -207,9 +207,19 @@ test('the view: sensors shown, point size, colour scales, preset views, focus, P
   // the reference's surfaces.
   await page.locator('#colour').selectOption('distance');
   await page.waitForFunction(() => document.querySelector('[data-testid=scale]').dataset.mode === 'distance');
-  assert.match(await page.getByTestId('scale').textContent(), /distance to the reference's points \(m\).*0\.00.*0\.05 and beyond/);
+  assert.match(await page.getByTestId('scale').textContent(), /distance to the reference's surface \(m\).*0\.00.*0\.05 and beyond/);
   await page.waitForTimeout(300);
   await page.screenshot({ path: 'e2e/artifacts/page-distance.png' });
+  // Before calibration (the nominal, off by degrees) the points lie further from the
+  // reference's surfaces than after.
+  const median = () => page.getByTestId('scale').evaluate((s) => Number(s.dataset.median));
+  const after = await median();
+  await page.locator('input[name=show][value=before]').check();
+  await page.waitForFunction((m) => Number(document.querySelector('[data-testid=scale]').dataset.median) !== m, after);
+  const before = await median();
+  console.log(`median distance to the reference's surface: ${(before * 100).toFixed(1)} cm before, ${(after * 100).toFixed(1)} cm after`);
+  assert.ok(after < 0.01 && before > 2 * after, `${before} m before, ${after} m after`);
+  await page.locator('input[name=show][value=after]').check();
   await page.locator('#colour').selectOption('sensor');
   await page.waitForFunction(() => document.querySelector('[data-testid=scale]').hidden);
   // Point size, preset views and focus each draw a new frame.

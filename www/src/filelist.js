@@ -4,7 +4,11 @@
 export function renderFiles(container, { scans, bad, sensors }, onReassign) {
   const table = document.createElement('table');
   table.className = 'files';
-  table.innerHTML = '<tr><th>file</th><th>sensor</th><th>frame</th><th>format</th><th>points</th><th>dropped</th></tr>';
+  table.innerHTML = '<tr><th title="The file, with its folder">file</th>' +
+    '<th title="The sensor the file belongs to (from its folder or name); type another name to reassign it">sensor</th>' +
+    '<th title="The instant it was taken: scans of different sensors with the same frame name were taken at the same time">frame</th>' +
+    '<th title="The file\'s format as read">format</th><th title="Valid points read">points</th>' +
+    '<th title="Invalid points left out: NaN or infinite coordinates, and exact-zero returns (beams that hit nothing)">dropped</th></tr>';
   const list = document.createElement('datalist');
   list.id = 'sensor-names';
   list.append(...sensors.map((s) => Object.assign(document.createElement('option'), { value: s })));
@@ -23,6 +27,7 @@ export function renderFiles(container, { scans, bad, sensors }, onReassign) {
       td.append(c);
       tr.append(td);
     }
+    tr.firstChild.title = view.path;
     table.append(tr);
   }
   for (const b of bad) {

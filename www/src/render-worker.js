@@ -24,7 +24,7 @@
 // once colours are made; {type: 'picked', id, hit} and {type: 'snapshot', id, blob}.
 import * as THREE from 'three';
 import { targetObject } from './target.js';
-import { DISTANCE_RANGE, NearestGrid, fillRamp, fillSolid, heightOf, robustRange } from './colouring.js';
+import { DISTANCE_RANGE, SurfaceGrid, fillRamp, fillSolid, heightOf, robustRange } from './colouring.js';
 import { nearestOnScreen } from './pick.js';
 
 const scene = new THREE.Scene();
@@ -122,7 +122,8 @@ function cloud({ id, positions, intensity, sensor, color }) {
 const clouds = () => [...objects.values()].filter((o) => o.isPoints && o.geometry.userData.sensor !== undefined);
 
 // Colours every cloud by the current mode and reports the scale: {mode, range, missing} where
-// `missing` lists the sensors without intensity.
+// `missing` lists the sensors without intensity and `median` is the median distance to the
+// reference's surface (distance mode).
 function recolour() {
   recolourTimer = null;
   const all = clouds();
@@ -130,6 +131,7 @@ function recolour() {
   const { mode } = colouring;
   const missing = [...new Set(all.filter((o) => !o.geometry.userData.intensity).map((o) => o.geometry.userData.sensor))];
   let range = null;
+  let median = null;
   let value = null; // object -> (i -> number), or null for the sensor's colour
   if (mode === 'height') {
     value = (o) => heightOf(o.geometry.attributes.position.array, o.matrixWorld.elements);
@@ -138,7 +140,7 @@ function recolour() {
     value = (o) => o.geometry.userData.intensity && ((i) => o.geometry.userData.intensity[i]);
     range = robustRange(all.filter((o) => o.visible && o.geometry.userData.intensity).flatMap((o) => sample(o, value(o))));
   } else if (mode === 'distance') {
-    const grid = new NearestGrid();
+    const grid = new SurfaceGrid();
     const v = new THREE.Vector3();
     for (const o of all.filter((o) => o.visible && o.geometry.userData.sensor === colouring.reference)) {
       const p = o.geometry.attributes.position.array;
@@ -149,6 +151,10 @@ function recolour() {
     }
     value = (o) => o.geometry.userData.sensor !== colouring.reference && ((i) => grid.distance(...v.fromArray(o.geometry.attributes.position.array, 3 * i).applyMatrix4(o.matrixWorld).toArray()));
     range = DISTANCE_RANGE;
+    // The median distance of the points measured (a sample of each cloud shown): one number to
+    // compare before and after.
+    const measured = all.filter((o) => o.visible && value(o)).flatMap((o) => sample(o, value(o))).filter((d) => !Number.isNaN(d)).sort((a, b) => a - b);
+    median = measured.length ? measured[measured.length >> 1] : null;
   }
   for (const o of all) {
     const { count, color } = o.geometry.userData;
@@ -158,7 +164,7 @@ function recolour() {
     else fillSolid(out, count, mode === 'sensor' ? color : 0x5c636e); // grey: nothing to colour by
     o.geometry.attributes.color.needsUpdate = true;
   }
-  self.postMessage({ type: 'scale', mode, range, missing });
+  self.postMessage({ type: 'scale', mode, range, missing, median });
   render();
 }
 

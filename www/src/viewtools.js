@@ -8,7 +8,7 @@ const CLICK_SLOP_PX = 4; // a press that moves further is an orbit, not a pick
 const SCALE_TITLES = {
   height: 'height (vehicle z, m), 2nd–98th percentile',
   intensity: 'intensity, 2nd–98th percentile',
-  distance: 'distance to the reference\'s points (m)',
+  distance: 'distance to the reference\'s surface (m)',
 };
 
 const hex = (c) => `#${c.toString(16).padStart(6, '0')}`;
@@ -96,11 +96,12 @@ export function initViewTools({ viewer, state, el, focusBounds, onChange, onErro
       el.legend.classList.toggle('muted', state.colour !== 'sensor');
     },
     // The colour scale of the mode the worker coloured by ({mode, range, missing}).
-    renderScale({ mode, range, missing }) {
+    renderScale({ mode, range, missing, median }) {
       el.legend.classList.toggle('muted', mode !== 'sensor');
       el.scale.hidden = mode === 'sensor';
       if (mode === 'sensor') return;
-      el.scaleTitle.textContent = scaleNote(mode, range, missing);
+      el.scaleTitle.textContent = scaleNote(mode, range, missing) + (median != null ? `; median ${(median * 100).toFixed(1)} cm` : '');
+      el.scale.dataset.median = median ?? '';
       el.scale.querySelector('.bar').style.background = range ? rampCss() : '#5c636e';
       el.scaleLo.textContent = range ? range[0].toFixed(mode === 'intensity' ? 0 : 2) : '';
       el.scaleHi.textContent = range ? `${range[1].toFixed(mode === 'intensity' ? 0 : 2)}${mode === 'distance' ? ' and beyond' : ''}` : '';
@@ -118,6 +119,6 @@ export function initViewTools({ viewer, state, el, focusBounds, onChange, onErro
 function scaleNote(mode, range, missing) {
   if (mode === 'intensity' && !range) return 'intensity: these scans carry none (grey)';
   if (mode === 'intensity' && missing.length) return `${SCALE_TITLES.intensity}; grey: no intensity (${missing.join(', ')})`;
-  if (mode === 'distance') return `${SCALE_TITLES.distance}; the reference grey`;
+  if (mode === 'distance') return `${SCALE_TITLES.distance}; grey: the reference, or no surface of it within 25 cm`;
   return SCALE_TITLES[mode];
 }

@@ -168,3 +168,26 @@ test('the status once done: iterations for the GMM methods, frame pairs for ICP,
   const failed = [{ method: 'p2p', error: 'x' }, { method: 'p2l', error: 'y' }];
   assert.equal(describeDone([gmm], 3, failed), 'Done: 1 of 3 methods in 3.0 s on 2 workers; p2p, p2l failed (see Results).');
 });
+
+test('view colours: robust range, the ramp, distance to a plane of reference points', async () => {
+  const { robustRange, ramp, SurfaceGrid, leastAxis } = await import('../src/colouring.js');
+  // GMMCalib's intensity: mostly about 45, a few bright returns up to 5615.
+  const values = Array.from({ length: 1000 }, (_, i) => (i < 990 ? 30 + (i % 30) : 5615));
+  const [lo, hi] = robustRange(values);
+  assert.ok(lo >= 30 && hi <= 60, `${lo}..${hi}`);
+  assert.deepEqual(ramp(0).map(Math.round), [0, 0, 1]);
+  assert.deepEqual(ramp(1).map(Math.round), [1, 0, 0]);
+  const { normal } = leastAxis([1, 0, 0, 2, 0, 0.001]);
+  assert.ok(Math.abs(Math.abs(normal[2]) - 1) < 1e-9);
+  // A tilted plane z = 0.1 x sampled on a grid: a point 3 cm off it along its normal.
+  const grid = new SurfaceGrid();
+  for (let x = -1; x <= 1; x += 0.04) for (let y = -1; y <= 1; y += 0.04) grid.add(x, y, 0.1 * x);
+  const n = [-0.1, 0, 1].map((v) => v / Math.hypot(0.1, 1));
+  const d = grid.distance(0.2 + 0.03 * n[0], 0.1, 0.02 + 0.03 * n[2]);
+  assert.ok(Math.abs(d - 0.03) < 1e-3, String(d));
+  // Points on a line only (one ring) or none near: no surface.
+  const ring = new SurfaceGrid();
+  for (let x = -1; x <= 1; x += 0.01) ring.add(x, 0, 0);
+  assert.ok(Number.isNaN(ring.distance(0, 0.05, 0)));
+  assert.ok(Number.isNaN(grid.distance(5, 5, 5)));
+});
