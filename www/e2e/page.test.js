@@ -294,3 +294,57 @@ test('picking a point and measuring between two', async () => {
   assert.equal(await page.getByTestId('readout').isHidden(), true);
   assert.deepEqual(problems, []);
 });
+
+test('help and accessibility: every control labelled, tooltips on parameters and columns, visible focus, contrast, How it works', async () => {
+  const { page, problems } = await demoRun();
+  await page.locator('#load-panel summary').click();
+  await page.locator('#rig-panel summary').click();
+  await page.locator('details.more summary').click();
+  // Every control has a name a screen reader reads.
+  const unnamed = await page.evaluate(() => [...document.querySelectorAll('input, select, button, [role=separator], canvas')]
+    .filter((el) => el.type !== 'hidden' && !(el.hidden && el.type === 'file'))
+    .filter((el) => !(el.getAttribute('aria-label') || el.labels?.length || el.textContent.trim() || el.closest('label')))
+    .map((el) => el.outerHTML.slice(0, 80)));
+  assert.deepEqual(unnamed, []);
+  // Every parameter and every column says what it is.
+  const untitled = await page.evaluate(() => [
+    ...[...document.querySelectorAll('.settings label, .toolbar label')].filter((l) => !l.title && !l.closest('#legend')).map((l) => l.textContent.trim()),
+    ...[...document.querySelectorAll('table.files tr:first-child th')].filter((th) => !th.title).map((th) => th.textContent),
+  ]);
+  assert.deepEqual(untitled, []);
+  // Keyboard focus is visible.
+  await page.locator('#demo').focus();
+  await page.keyboard.press('Tab');
+  const outline = await page.evaluate(() => getComputedStyle(document.activeElement).outlineStyle);
+  assert.notEqual(outline, 'none');
+  // Text contrast (WCAG AA, 4.5:1) of the page's kinds of text against what lies behind them.
+  const low = await page.evaluate(() => {
+    const rgb = (s) => s.match(/[\d.]+/g).map(Number);
+    const lum = ([r, g, b]) => [r, g, b].map((c) => { c /= 255; return c <= 0.03928 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4; }).reduce((s, c, i) => s + c * [0.2126, 0.7152, 0.0722][i], 0);
+    const background = (el) => {
+      for (let e = el; e; e = e.parentElement) {
+        const c = rgb(getComputedStyle(e).backgroundColor);
+        if (c.length < 4 || c[3] > 0.5) return c;
+      }
+      return [15, 17, 21];
+    };
+    const out = [];
+    for (const el of document.querySelectorAll('.hint, .summary, .run, .direction, .reference, .precision, .spread, .stale, .error, button, label, th, td, summary, #status, .truth b, .sensor-verdict, .not-converged')) {
+      if (!el.getClientRects().length || !el.textContent.trim()) continue;
+      const style = getComputedStyle(el);
+      const [a, b] = [lum(rgb(style.color)), lum(background(el))];
+      const ratio = (Math.max(a, b) + 0.05) / (Math.min(a, b) + 0.05) * (style.opacity < 1 && !el.disabled ? 0 : 1);
+      if (ratio < 4.5 && !el.disabled && !el.closest('button:disabled')) out.push(`${el.tagName}.${el.className} ${ratio.toFixed(2)}: ${el.textContent.trim().slice(0, 30)}`);
+    }
+    return out;
+  });
+  assert.deepEqual(low, []);
+  // How it works: linked from the header, the stages in plain words.
+  const [how] = await Promise.all([page.waitForEvent('popup'), page.getByRole('link', { name: 'How it works' }).click()]);
+  await how.waitForLoadState();
+  const headings = await how.locator('h2').allTextContents();
+  assert.deepEqual(headings, ['Which way a transform maps', 'The stages of a calibration (method gmm)', 'The parameters', 'Files and columns', 'The view']);
+  assert.equal(await how.locator('#stages + ol > li').count(), 9);
+  assert.match(await how.locator('body').textContent(), /moved by 4\.110 deg in all" is the whole rotation/);
+  assert.deepEqual(problems, []);
+});
