@@ -348,3 +348,23 @@ test('help and accessibility: every control labelled, tooltips on parameters and
   assert.match(await how.locator('body').textContent(), /moved by 4\.110 deg in all" is the whole rotation/);
   assert.deepEqual(problems, []);
 });
+
+test('loose files without a sensor in their names: one sensor assumed, said, and asked', async () => {
+  const { page, problems } = await session.open();
+  const { pcdAscii } = await import('./rigfiles.js');
+  const cloud = new Float32Array(300).map((_, i) => 5 + Math.sin(i));
+  await page.getByTestId('file-input').setInputFiles(['1.pcd', '2.pcd', '3.pcd'].map((name) => ({ name, mimeType: 'application/octet-stream', buffer: pcdAscii(cloud) })));
+  await waitForStatus(page, /3 scans of 1 sensor loaded; 3 files without a sensor in their names taken as frames of sensor_1/);
+  const question = page.getByTestId('loose-question');
+  assert.match(await question.textContent(), /3 files carry no sensor in their names \(1\.pcd, 2\.pcd, 3\.pcd\)\. Taken as one sensor, sensor_1, with 3 frames/);
+  const rows = () => page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => [...tr.querySelectorAll('input')].map((i) => i.value).join('/')));
+  assert.deepEqual(await rows(), ['sensor_1/1', 'sensor_1/2', 'sensor_1/3']);
+  assert.match(await page.getByTestId('calibrate-why').textContent(), /Needs scans of two sensors or more/);
+  await page.screenshot({ path: 'e2e/artifacts/page-loose.png' });
+  await page.getByRole('button', { name: 'Each file is a sensor' }).click();
+  assert.deepEqual(await rows(), ['1/1', '2/1', '3/1']);
+  await waitForStatus(page, /Each of the 3 files is a sensor of its own: 3 sensors\./);
+  assert.equal(await question.count(), 0);
+  assert.equal(await page.getByTestId('calibrate').isEnabled(), true);
+  assert.deepEqual(problems, []);
+});

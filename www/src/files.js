@@ -122,6 +122,26 @@ export function pair(scans, fresh = scans) {
   return notes.length ? notes.join('; ') : null;
 }
 
+// Loose files whose names carry no sensor (`1.pcd 2.pcd 3.pcd` from the picker, no folder):
+// rather than one sensor per file, they are taken as the frames of one new sensor, named
+// `sensor_N` with the first N no sensor of `sensors` has. Changes those scans of `fresh` and
+// returns {sensor, scans} so the page can say so and ask, or null when there are fewer than two.
+export function groupNameless(fresh, sensors = []) {
+  const carriesSensor = (stem) => stem.lastIndexOf('_') > 0 && stem.lastIndexOf('_') < stem.length - 1; // as assign splits
+  const nameless = fresh.filter((s) => !s.named && !s.path.includes('/') && !carriesSensor(stemOf(s.path)));
+  if (nameless.length < 2) return null;
+  let n = 1;
+  while (sensors.includes(`sensor_${n}`)) n++;
+  const sensor = `sensor_${n}`;
+  for (const s of nameless) Object.assign(s, { sensor, frame: stemOf(s.path) });
+  return { sensor, scans: nameless };
+}
+
+// Undoes groupNameless: each of `scans` a sensor of its own name, frame 1.
+export function splitNameless(scans) {
+  for (const s of scans) Object.assign(s, { sensor: stemOf(s.path), frame: '1' });
+}
+
 // Map from key(item) to the items with that key, in order.
 function groupBy(items, key) {
   const groups = new Map();

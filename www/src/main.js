@@ -5,7 +5,8 @@
 import { WorkerClient } from './rpc.js';
 import { Viewer } from './viewer.js';
 import { Display, livePoses, sensorColour } from './display.js';
-import { fromDrop, fromInput, isMesh, pair, readEntries } from './files.js';
+import { fromDrop, fromInput, groupNameless, isMesh, pair, readEntries, splitNameless } from './files.js';
+import { renderLooseQuestion } from './loose.js';
 import { renderFiles } from './filelist.js';
 import { renderRig } from './rig.js';
 import { drawConvergence, renderResults } from './results.js';
@@ -157,6 +158,7 @@ async function loadFiles(entries) {
   const paths = new Set(scans.map((s) => s.path));
   const fresh = scans.map((s) => ({ id: `scan:${nextScanId++}`, ...s }));
   state.scans = [...state.scans.filter((v) => !paths.has(v.path)), ...fresh];
+  const loose = groupNameless(fresh, state.scans.filter((v) => !paths.has(v.path)).map((v) => v.sensor));
   const paired = pair(state.scans, fresh);
   state.bad.push(...bad);
   sortScans(state);
@@ -164,7 +166,17 @@ async function loadFiles(entries) {
   writeHash(state.settings);
   showLoaded(config);
   const sensors = state.rig.sensors.length;
-  setStatus(`${state.scans.length} scans of ${sensors} sensor${sensors === 1 ? '' : 's'} loaded${paired ? ` (${paired})` : ''}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
+  const assumed = loose ? `; ${loose.scans.length} files without a sensor in their names taken as frames of ${loose.sensor}` : '';
+  setStatus(`${state.scans.length} scans of ${sensors} sensor${sensors === 1 ? '' : 's'} loaded${paired ? ` (${paired})` : ''}${assumed}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
+  renderLooseQuestion($('loose'), loose, () => {
+    splitNameless(loose.scans);
+    sortScans(state);
+    rigFrom();
+    renderPanels();
+    changed('sensors');
+    redraw();
+    setStatus(`Each of the ${loose.scans.length} files is a sensor of its own: ${state.rig.sensors.length} sensors.`);
+  });
   if (state.bad.length) showError(state.bad.map((b) => `${b.path}: ${b.error}`).join('\n'));
 }
 
@@ -215,6 +227,7 @@ function clearAll() {
   forgetResults();
   $('rig').innerHTML = '<p class="hint">Load scans first.</p>';
   $('recording').replaceChildren();
+  $('loose').replaceChildren();
   $('progress').value = 0;
   state.hidden.clear();
   tools.clearPicks();

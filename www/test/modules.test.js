@@ -2,7 +2,7 @@
 // (round trip through GMMCalib YAML), URL settings.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { assign, natural, pair } from '../src/files.js';
+import { assign, groupNameless, natural, pair, splitNameless } from '../src/files.js';
 import { readFileSync } from 'node:fs';
 import { initSync, parseConfig, rosExports } from '../pkg/gmmcalib.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
@@ -190,4 +190,15 @@ test('view colours: robust range, the ramp, distance to a plane of reference poi
   for (let x = -1; x <= 1; x += 0.01) ring.add(x, 0, 0);
   assert.ok(Number.isNaN(ring.distance(0, 0.05, 0)));
   assert.ok(Number.isNaN(grid.distance(5, 5, 5)));
+});
+
+test('loose files without a sensor in their names: one sensor with several frames, said and undoable', () => {
+  const scan = (path) => ({ path, ...assign(path) });
+  const fresh = ['1.pcd', '2.pcd', '10.pcd', 'left_1.pcd', 'rig/sensor_1/1.pcd'].map(scan);
+  const group = groupNameless(fresh, ['sensor_1']);
+  assert.equal(group.sensor, 'sensor_2');
+  assert.deepEqual(fresh.map((s) => `${s.sensor}/${s.frame}`), ['sensor_2/1', 'sensor_2/2', 'sensor_2/10', 'left/1', 'sensor_1/1']);
+  splitNameless(group.scans);
+  assert.deepEqual(fresh.slice(0, 3).map((s) => `${s.sensor}/${s.frame}`), ['1/1', '2/1', '10/1']);
+  assert.equal(groupNameless([scan('only.pcd')]), null, 'one file: nothing to ask');
 });
