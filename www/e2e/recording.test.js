@@ -36,6 +36,7 @@ test('an MCAP dropped on the page: pick topics, calibrate, export URDF', async (
   const right = result.sensors[1].extrinsic;
   // The twin's truth: front_right at (2.3, -0.6, 1.6) in base_link (the CLI: 2.2997, -0.5986, 1.5997).
   assert.ok(Math.hypot(right[3] - 2.3, right[7] + 0.6, right[11] - 1.6) < 0.005, `front_right at ${right[3]}, ${right[7]}, ${right[11]}`);
+  await page.locator('#export-box > summary').click(); // the exports fold below the answer
   await page.locator('[data-export=urdf] summary').click();
   const urdf = await page.locator('[data-export=urdf] pre').textContent();
   assert.match(urdf, /<parent link="base_link"\/>\s*<child link="front_right"\/>/);
