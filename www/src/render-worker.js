@@ -112,9 +112,10 @@ function cloud({ id, positions, intensity, sensor, color }) {
   const count = positions.length / 3;
   const geometry = new THREE.BufferGeometry();
   geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
-  geometry.setAttribute('color', new THREE.BufferAttribute(new Float32Array(3 * count), 3));
   geometry.userData = { count, intensity, sensor, color };
-  const material = new THREE.PointsMaterial({ size: colouring.size, sizeAttenuation: false, vertexColors: true });
+  // By sensor: one colour, no colour attribute (half the data a frame draws); per point
+  // colours are made when another mode asks (recolour).
+  const material = new THREE.PointsMaterial({ size: colouring.size, sizeAttenuation: false, color });
   put(id, new THREE.Points(geometry, material));
   scheduleRecolour(0);
 }
@@ -158,10 +159,21 @@ function recolour() {
   }
   for (const o of all) {
     const { count, color } = o.geometry.userData;
+    const perPoint = mode !== 'sensor';
+    if (o.material.vertexColors !== perPoint) {
+      o.material.vertexColors = perPoint;
+      o.material.color.setHex(perPoint ? 0xffffff : color);
+      o.material.needsUpdate = true;
+    }
+    if (!perPoint) {
+      o.geometry.deleteAttribute('color');
+      continue;
+    }
+    if (!o.geometry.attributes.color) o.geometry.setAttribute('color', new THREE.BufferAttribute(new Float32Array(3 * count), 3));
     const out = o.geometry.attributes.color.array;
     const f = value?.(o);
     if (f && range) fillRamp(out, count, f, range);
-    else fillSolid(out, count, mode === 'sensor' ? color : 0x5c636e); // grey: nothing to colour by
+    else fillSolid(out, count, 0x5c636e); // grey: nothing to colour by
     o.geometry.attributes.color.needsUpdate = true;
   }
   self.postMessage({ type: 'scale', mode, range, missing, median });
