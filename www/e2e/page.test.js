@@ -43,6 +43,11 @@ test('the answer first: verdict and the first extrinsic in view at 1280x720 with
   const shownXyz = (await relative.locator('pre').textContent()).split('\n')[0].trim().split(/\s+/).slice(2).map(Number);
   assert.deepEqual(shownXyz, [3, 7, 11].map((k) => +result.sensors[1].relative[k].toFixed(6)));
   assert.match(await page.getByTestId('reference-line').textContent(), /front_left is the reference: it keeps its nominal/);
+  // Copy gives the block as users paste it, its direction first.
+  await page.evaluate(() => (navigator.clipboard.writeText = async (text) => (window.copied = text)));
+  await page.getByRole('button', { name: 'Copy T_vehicle_front_right' }).click();
+  const copied = await page.evaluate(() => window.copied);
+  assert.match(copied, /^# T_vehicle_front_right: maps front_right's points into vehicle\nxyz \(m\) +\S+ \S+ \S+\nrpy \(deg\) +\S+ \S+ \S+\nquat \(x y z w\) +\S+ \S+ \S+ \S+$/);
   // EM's convergence, as the JSON has it.
   const run = page.getByTestId('run-summary');
   assert.equal(await run.getAttribute('data-converged'), String(result.converged));
@@ -187,6 +192,16 @@ test('the view: sensors shown, point size, colour scales, preset views, focus, P
   const { page, problems } = await demoRun();
   const first = await loadedPoints(page, '1');
   await waitForView(page, first);
+  // The inset: resized by its corner, hidden by its close button.
+  const inset = await page.getByTestId('inset').boundingBox();
+  await page.mouse.move(inset.x + inset.width - 3, inset.y + inset.height - 3);
+  await page.mouse.down();
+  await page.mouse.move(inset.x + inset.width + 97, inset.y + inset.height + 57, { steps: 5 });
+  await page.mouse.up();
+  const grown = await page.getByTestId('inset').boundingBox();
+  assert.ok(grown.width > inset.width + 80 && grown.height > inset.height + 40, JSON.stringify([inset, grown]));
+  await page.getByRole('button', { name: 'Hide the target view' }).click();
+  assert.equal(await page.getByTestId('inset').isHidden(), true);
   // Hide front_right: only front_left's first frame is drawn.
   const left = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => tr.querySelectorAll('td')).filter((c) => c[1].firstChild.value === 'front_left' && c[2].firstChild.value === '1').map((c) => Number(c[4].textContent.replaceAll(',', ''))));
   await page.getByLabel('show front_right').uncheck();
