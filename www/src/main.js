@@ -20,6 +20,7 @@ import { describeInstants, isRecording, renderRecording } from './recording.js';
 import { foldSetup, initInset, initLayout } from './layout.js';
 import { initViewTools } from './viewtools.js';
 import { calibrateBlocker, describeRig, describeScans } from './summary.js';
+import { initSettings } from './settings.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
@@ -42,6 +43,8 @@ const tools = initViewTools({
   onChange: () => redraw(),
   onError: showError,
 });
+
+const settings = initSettings({ $, state, client, changed, targetLoaded: () => forgetResults(), setStatus: (text) => setStatus(text), showError });
 
 function showError(error) {
   $('error').hidden = !error;
@@ -91,7 +94,7 @@ function changed(what) {
 
 function rigFrom(config) {
   rebuildRig(state, config);
-  syncSettingsInputs();
+  settings.sync();
 }
 
 // New scans are in: the rig from them and `config`, no result, every panel and the view anew.
@@ -145,7 +148,7 @@ async function loadFiles(entries) {
   // An .obj or .stl among the files is the target's CAD model (a .ply is a scan: pick a PLY
   // model with the target's "CAD model…").
   const model = entries.find((e) => isMesh(e.path));
-  if (model) await loadTargetMesh(model);
+  if (model) await settings.loadTargetMesh(model);
   entries = entries.filter((e) => !isRecording(e.path) && !isMesh(e.path));
   if (!entries.length) return;
   if (state.truth) clearAll(); // user files replace a demo
@@ -250,7 +253,7 @@ async function loadDemo() {
     state.scans = rig.scans.map((v) => ({ id: `scan:${nextScanId++}`, path: `${v.sensor}_${v.frame}`, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: v.dropped, format: 'simulated' }));
     state.truth = rig.truth;
     // The scene's own target: its cube, its CAD model, or none.
-    if (rig.targetObj) await loadTargetMesh({ path: 'target.obj', file: new Blob([rig.targetObj]) });
+    if (rig.targetObj) await settings.loadTargetMesh({ path: 'target.obj', file: new Blob([rig.targetObj]) });
     else state.settings.target = rig.target;
     rigFrom({ nominal: rig.nominal, roi: rig.roi, reference: rig.reference });
     renderPanels();
@@ -349,83 +352,6 @@ function focusBounds(key) {
 
 // --- controls ---------------------------------------------------------------------------------
 
-const SETTING_INPUTS = ['method', 'components', 'iterations', 'initialSigma', 'workers', 'global'];
-
-function syncSettingsInputs() {
-  for (const key of SETTING_INPUTS) $(key).value = state.settings[key];
-  const [kind, size = ''] = state.settings.target.split(':');
-  $('target-kind').value = kind;
-  // A model's size is its own: shown, not edited.
-  $('target-size').value = kind === 'mesh' ? (state.targetMesh?.extents.map((e) => e.toFixed(2)).join(',') ?? '') : size;
-  $('target-size').disabled = kind === 'none' || kind === 'mesh';
-  if (state.settings.demo) $('demo-preset').value = state.settings.demo; // else the last one picked
-  $('demo-seed').value = state.settings.seed;
-  $('demo-frames').value = state.settings.frames;
-}
-
-for (const key of SETTING_INPUTS) {
-  $(key).addEventListener('change', () => {
-    const el = $(key);
-    const value = el.type === 'number' ? Number(el.value) : el.value;
-    if (el.type === 'number' && !(Number.isFinite(value) && value > 0)) {
-      el.value = state.settings[key];
-      return;
-    }
-    state.settings[key] = value;
-    writeHash(state.settings);
-    changed('settings');
-  });
-}
-
-// The target from its two inputs. A cube's or sphere's size becomes a box's three edges and
-// back; a size that is not positive numbers is put back (to the default when the kind changed).
-function targetChanged() {
-  const kind = $('target-kind').value;
-  if (kind === 'mesh') {
-    if (state.targetMesh) state.settings.target = `mesh:${state.targetMesh.name}`;
-    else $('mesh-input').click(); // the kind shows once a model is loaded
-    syncSettingsInputs();
-    writeHash(state.settings);
-    return;
-  }
-  const [previousKind] = state.settings.target.split(':');
-  let size = $('target-size').value.split(',').filter((v) => v.trim()).map(Number);
-  if (kind === 'box' && size.length === 1) size = [size[0], size[0], size[0]];
-  if (kind !== 'box' && size.length === 3) size = [Math.max(...size)];
-  const valid = size.length === (kind === 'box' ? 3 : 1) && size.every((v) => Number.isFinite(v) && v > 0);
-  if (kind === 'none') state.settings.target = 'none';
-  else if (valid) state.settings.target = `${kind}:${size.join(',')}`;
-  else if (kind !== previousKind) state.settings.target = kind === 'box' ? 'box:0.5,0.5,0.5' : `${kind}:0.5`;
-  syncSettingsInputs();
-  writeHash(state.settings);
-  changed('target');
-}
-$('target-kind').addEventListener('change', targetChanged);
-$('mesh-input').addEventListener('change', async (e) => {
-  const [file] = e.target.files;
-  if (file) await loadTargetMesh({ path: file.name, file });
-  e.target.value = '';
-});
-
-// A CAD-model target: checked and measured by the library (a bad file is named and changes
-// nothing), kept with its bytes for the calibration.
-async function loadTargetMesh({ path, file }) {
-  try {
-    const bytes = await file.arrayBuffer();
-    const mesh = await client.request('mesh', { bytes: bytes.slice(0), name: path });
-    state.targetMesh = { name: path, bytes, extents: mesh.extents, size: mesh.size, triangles: mesh.triangles.length / 3 };
-    state.settings.target = `mesh:${path}`;
-    forgetResults();
-    syncSettingsInputs();
-    writeHash(state.settings);
-    setStatus(`Target: ${path}, ${state.targetMesh.triangles} triangles, ${mesh.extents.map((x) => x.toFixed(2)).join(' × ')} m; where it stands is found from the data.`);
-  } catch (error) {
-    showError(`${error.message ?? error}`);
-    syncSettingsInputs();
-  }
-}
-$('target-size').addEventListener('change', targetChanged);
-
 function viewerLookAt() {
   const bounds = state.rig.roi ?? pointBounds(state);
   if (bounds) mainViewer.lookAt(bounds);
@@ -482,6 +408,6 @@ async function loadMethods() {
   $('method').value = state.settings.method;
 }
 
-syncSettingsInputs();
+settings.sync();
 updateCalibrate();
 loadMethods().then(() => state.settings.demo && loadDemo(), showError);
