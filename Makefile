@@ -10,7 +10,7 @@ WASM_BINDGEN_VERSION := $(shell awk '/^name = "wasm-bindgen"$$/{getline; gsub(/[
 WASM_OUT := target/$(WASM_TARGET)/release/gmmcalib.wasm
 PORT ?= 5173
 
-.PHONY: serve build wasm test test-rust test-wasm test-browser lint bench bench-browser bench-wasm setup-rust setup-node setup-browser clean
+.PHONY: serve build wasm package test test-rust test-wasm test-package test-browser lint bench bench-browser bench-wasm setup-rust setup-node setup-package setup-browser clean
 
 serve: wasm setup-node
 	@echo "gmmcalib: open http://localhost:$(PORT)/"
@@ -19,7 +19,7 @@ serve: wasm setup-node
 build: wasm setup-node
 	cd www && npx vite build
 
-test: lint test-rust test-wasm test-browser
+test: lint test-rust test-wasm test-package test-browser
 
 # Every target that builds for wasm32 (clippy's second run too) depends on setup-rust, so
 # `make test` and `make serve` each work first on a machine that has only Rust.
@@ -52,6 +52,19 @@ wasm: setup-rust
 	cargo build --lib --release --target $(WASM_TARGET)
 	wasm-bindgen --target web --out-dir www/pkg $(WASM_OUT)
 
+# The npm package (packages/gmmcalib): the page's wasm, one binary for Node and browsers,
+# packed as packages/gmmcalib/gmmcalib-<version>.tgz.
+package: wasm
+	mkdir -p packages/gmmcalib/wasm
+	cp www/pkg/gmmcalib.js www/pkg/gmmcalib_bg.wasm packages/gmmcalib/wasm/
+	cd packages/gmmcalib && npm pack --silent
+
+# The package packed, installed offline into a fresh project, calibrating twin rigs under Node
+# against the native CLI, the drift check, and its types under tsc.
+test-package: package setup-package
+	cargo build --release --bin gmmcalib
+	cd packages/gmmcalib && node --test --test-concurrency=1 test/
+
 setup-rust:
 	rustup target add $(WASM_TARGET) >/dev/null 2>&1 || rustup target add $(WASM_TARGET)
 	@if [ "$$(wasm-bindgen --version 2>/dev/null | cut -d' ' -f2)" != "$(WASM_BINDGEN_VERSION)" ]; then \
@@ -64,6 +77,11 @@ setup-node:
 		cd www && npm ci --no-audit --no-fund; \
 	fi
 
+setup-package:
+	@if [ ! -d packages/gmmcalib/node_modules ] || [ packages/gmmcalib/package-lock.json -nt packages/gmmcalib/node_modules/.package-lock.json ]; then \
+		cd packages/gmmcalib && npm ci --no-audit --no-fund; \
+	fi
+
 setup-browser: setup-node
 	@if [ ! -x /usr/bin/chromium ]; then \
 		apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y chromium; \
@@ -71,7 +89,7 @@ setup-browser: setup-node
 
 clean:
 	cargo clean
-	rm -rf www/pkg www/dist www/node_modules
+	rm -rf www/pkg www/dist www/node_modules packages/gmmcalib/wasm packages/gmmcalib/node_modules packages/gmmcalib/*.tgz
 
 # The paper's experiment on the digital twin (docs/accuracy.md, "The paper's experiment"):
 # writes docs/experiment/{table.md,summary.json,*.svg,trials.csv}. FRAMES, TRIALS, SEED override.

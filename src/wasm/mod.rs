@@ -5,6 +5,8 @@
 //! `www/src/worker.js`.
 
 mod calibrate;
+mod command;
+mod compare;
 mod config;
 mod exports;
 mod files;
@@ -21,6 +23,8 @@ use wasm_bindgen::prelude::*;
 use crate::se3::{Pose, xyz_rpy};
 
 pub use calibrate::{calibrate, methods};
+pub use command::run_command;
+pub use compare::compare_calibrations;
 pub use config::{parse_config, parse_open_calib};
 pub use exports::ros_exports;
 pub use files::{parse_cloud, parse_mesh};

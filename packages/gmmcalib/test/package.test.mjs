@@ -1,0 +1,136 @@
+// The package as a user gets it: packed, installed offline into a fresh project, then the
+// Node command calibrates twin rigs and runs the drift check, against the native CLI.
+// Needs `make package` (the wasm in wasm/) and the native CLI (target/release/gmmcalib).
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { execFileSync, spawnSync } from 'node:child_process';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const pkg = path.resolve(here, '..');
+const native = path.resolve(pkg, '../../target/release/gmmcalib');
+let dir; // the fresh project
+let node; // its installed command
+
+/** Runs `cmd args` in the fresh project: { status, stdout, stderr }. */
+function run(cmd, args) {
+  const r = spawnSync(cmd, args, { cwd: dir, encoding: 'utf8' });
+  if (r.error) throw r.error;
+  return { status: r.status, stdout: r.stdout, stderr: r.stderr };
+}
+
+before(() => {
+  assert.ok(fs.existsSync(native), `${native} missing: cargo build --release --bin gmmcalib`);
+  dir = fs.mkdtempSync(path.join(os.tmpdir(), 'gmmcalib-package-'));
+  const out = execFileSync('npm', ['pack', '--pack-destination', dir, '--json'], { cwd: pkg, encoding: 'utf8' });
+  const tarball = JSON.parse(out)[0].filename;
+  fs.writeFileSync(path.join(dir, 'package.json'), JSON.stringify({ name: 'ci-check', private: true, type: 'module' }));
+  // No network: an unreachable registry and --offline; the tarball has no dependencies.
+  execFileSync('npm', ['install', '--offline', '--no-audit', '--no-fund', `./${tarball}`], {
+    cwd: dir,
+    env: { ...process.env, npm_config_registry: 'http://127.0.0.1:9/' },
+    stdio: 'pipe',
+  });
+  node = path.join(dir, 'node_modules/.bin/gmmcalib');
+  // Twin rigs: a and b the same rig recorded twice; c is b with sensor_2 turned 0.5 deg.
+  for (const [name, ...extra] of [['a', '--seed', '1'], ['b', '--seed', '2'], ['c', '--seed', '2', '--move', 'sensor_2:0,0,0.5,0,0,0']]) {
+    execFileSync(native, ['simulate', '--out', path.join(dir, name), '--frames', '5', ...extra]);
+  }
+});
+
+after(() => fs.rmSync(dir, { recursive: true, force: true }));
+
+const calibrateArgs = (rig, json) => ['calibrate', '--data', `${rig}/data`, '--config', `${rig}/config.yaml`, '--json', json];
+
+/** Paths (`a.b[3].c`) where two JSON values differ, with both values. */
+function differences(a, b, at = '') {
+  if (typeof a !== 'object' || a === null) return Object.is(a, b) ? [] : [[at, a, b]];
+  if (Array.isArray(a) && a.length !== b?.length) return [[at, a.length, b?.length]];
+  return Object.keys({ ...a, ...b }).flatMap((k) => differences(a[k], b?.[k], Array.isArray(a) ? `${at}[${k}]` : `${at}.${k}`));
+}
+
+test('the Node command writes the native CLI JSON bit for bit, and the same text', () => {
+  const fromNode = run(node, calibrateArgs('a', 'a.node.json'));
+  const fromNative = run(native, calibrateArgs('a', 'a.native.json'));
+  assert.equal(fromNode.status, 0, fromNode.stderr);
+  assert.equal(fromNative.status, 0, fromNative.stderr);
+  const read = (f) => fs.readFileSync(path.join(dir, f), 'utf8');
+  // Every number is bit for bit the native one, except the target's shape fit: its trig and
+  // exp come from Rust's libm in wasm and the system's natively (1e-10 apart here).
+  const fit = /^(\.reconstruction\.fits\[\d+\]|\.verdict\.reasons\[\d+\]\.values)\.(rms|size|extents|centre|rotation)/;
+  const diff = differences(JSON.parse(read('a.node.json')), JSON.parse(read('a.native.json')));
+  assert.deepEqual(diff.filter(([at]) => !fit.test(at)), []);
+  for (const [at, a, b] of diff) assert.ok(Math.abs(a - b) <= 1e-8 * Math.max(1, Math.abs(b)), `${at}: ${a} vs ${b}`);
+  assert.ok(JSON.parse(read('a.node.json')).sensors[1].precision, 'gmm gives a precision');
+  assert.equal(fromNode.stdout, fromNative.stdout);
+  assert.match(fromNode.stdout, /verdict: GOOD/);
+});
+
+test('drift check: the same rig passes, a sensor turned 0.5 deg fails and is named', () => {
+  for (const rig of ['b', 'c']) assert.equal(run(node, calibrateArgs(rig, `${rig}.json`)).status, 0);
+  const still = run(node, ['compare', 'a.node.json', 'b.json', '--json', 'still.json']);
+  assert.equal(still.status, 0, still.stdout + still.stderr);
+  assert.match(still.stdout, /passed: no sensor moved/);
+  const report = JSON.parse(fs.readFileSync(path.join(dir, 'still.json'), 'utf8'));
+  assert.equal(report.passed, true);
+  assert.ok(report.sensors[0].angle < (0.1 * Math.PI) / 180, JSON.stringify(report.sensors[0]));
+
+  const moved = run(node, ['compare', 'a.node.json', 'c.json']);
+  assert.equal(moved.status, 3, moved.stdout + moved.stderr);
+  const line = moved.stderr.match(/gmmcalib: drift: sensor_2 moved ([\d.]+) deg/);
+  assert.ok(line, moved.stderr);
+  assert.ok(Math.abs(Number(line[1]) - 0.5) < 0.1, line[0]);
+  // The native CLI says the same.
+  const nativeMoved = run(native, ['compare', 'a.node.json', 'c.json']);
+  assert.deepEqual(nativeMoved, moved);
+});
+
+test('bad input: the same one-line named errors as the native CLI, no stack trace', () => {
+  fs.writeFileSync(path.join(dir, 'broken.json'), '{"reference": "sensor_1", "sensors": [}');
+  fs.writeFileSync(path.join(dir, 'bad.yaml'), 'transform_sensor_1: [1, 2]\n');
+  const cases = [
+    ['calibrate', '--data', 'nowhere'],
+    ['calibrate', '--data', 'a/data', '--config', 'missing.yaml'],
+    ['calibrate', '--data', 'a/data', '--config', 'bad.yaml'],
+    ['calibrate', '--data', 'a/data', '--iterations', '0'],
+    ['calibrate', '--data', 'a/data', '--bogus', '1'],
+    ['compare', 'broken.json', 'b.json'],
+    ['compare', 'a.node.json'],
+    ['frobnicate'],
+  ];
+  for (const args of cases) {
+    const n = run(node, args);
+    const r = run(native, args);
+    assert.equal(n.status, 1, `${args.join(' ')}: ${n.stderr}`);
+    assert.equal(n.stderr, r.stderr.replace(/, compare, inspect, simulate, experiment or study/, ' or compare'), args.join(' '));
+    assert.match(n.stderr, /^gmmcalib: [^\n]+\n$/);
+    assert.doesNotMatch(n.stderr, /\n\s+at /);
+  }
+  assert.match(run(node, ['calibrate', '--data', 'nowhere']).stderr, /nowhere: No such file or directory/);
+  assert.match(run(node, ['compare', 'broken.json', 'b.json']).stderr, /broken\.json: line 1 column \d+/);
+});
+
+test('the API: import { calibrate } from "gmmcalib" just works, and the types check strictly', () => {
+  const script = `
+    import { simulateRig, calibrate, compareCalibrations } from 'gmmcalib';
+    const rig = simulateRig({ preset: 'sampled', frames: 2, seed: 4 });
+    const r = calibrate({ scans: rig.scans, nominal: rig.nominal, roi: rig.roi, method: 'p2l' });
+    const text = JSON.stringify({ ...r, reconstruction: {} });
+    const d = compareCalibrations(text, 'old.json', text, 'new.json');
+    console.log(JSON.stringify({ sensors: r.sensors.length, passed: d.passed, angle: d.sensors[0].angle < 1e-12 }));`;
+  fs.writeFileSync(path.join(dir, 'use.mjs'), script);
+  const out = JSON.parse(execFileSync('node', ['use.mjs'], { cwd: dir, encoding: 'utf8' }));
+  assert.deepEqual(out, { sensors: 2, passed: true, angle: true });
+
+  for (const f of ['types.ts', 'tsconfig.json']) fs.copyFileSync(path.join(here, f), path.join(dir, f));
+  const tsc = spawnSync(path.join(pkg, 'node_modules/.bin/tsc'), ['-p', 'tsconfig.json'], { cwd: dir, encoding: 'utf8' });
+  assert.equal(tsc.status, 0, tsc.stdout + tsc.stderr);
+  // The check can fail: a wrong type is caught.
+  fs.writeFileSync(path.join(dir, 'types.ts'), fs.readFileSync(path.join(here, 'types.ts'), 'utf8') + '\nconst wrong: string = drift.passed;\n');
+  const bad = spawnSync(path.join(pkg, 'node_modules/.bin/tsc'), ['-p', 'tsconfig.json'], { cwd: dir, encoding: 'utf8' });
+  assert.notEqual(bad.status, 0);
+  assert.match(bad.stdout, /Type 'boolean' is not assignable to type 'string'/);
+});
