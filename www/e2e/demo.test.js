@@ -137,7 +137,8 @@ test('compare all keeps the methods that ran when others fail', async () => {
   for (const [row, method] of failed.map((row, i) => [row, ['jrmpc', 'p2p', 'p2l', 'gicp'][i]])) {
     assert.match(row, new RegExp(`^${method}failed: .*front_right.*ROI`));
   }
-  assert.match(await page.locator('#results').textContent(), /Details: gmm/);
+  assert.match(await page.locator('#results').textContent(), /The answer of gmm \(the first method that ran\)/);
+  assert.match(await page.locator('.compare-box summary').textContent(), /^All methods: 2 ran, 4 failed$/);
   const json = JSON.parse(await page.getByTestId('result-json').textContent());
   // The global stage found front_right from 40 deg / 2 m off, clearly.
   assert.ok(json[0].global[1].overlay.best.score > 0.5, JSON.stringify(json[0].global[1]));

@@ -17,6 +17,9 @@ export function errorVsTruth(sensor, truth) {
   return { deg: degrees(angle), mm: distance * 1000 };
 }
 
+// Green within the twin's accuracy bound (0.1 deg and 10 mm, docs/accuracy.md), amber beyond.
+const truthClass = ({ deg, mm }) => (deg < 0.1 && mm < 10 ? 'near' : 'off');
+
 // The three lines of a transform as users paste them; also what its Copy button copies.
 export function transformLines(m) {
   return [
@@ -56,7 +59,7 @@ function referenceHtml(s, truth) {
   const rpy = rpyOf(s.extrinsic).map(degrees);
   const error = errorVsTruth(s, truth);
   return `<p class="reference" data-testid="reference-line"><b>${esc(s.name)}</b> is the reference: it keeps its nominal
-    <code>T_vehicle_${esc(s.name)}</code> (xyz ${f(xyzOf(s.extrinsic), 3)} m, rpy ${f(rpy, 3)} deg)${error ? `; <span class="truth" data-sensor="${esc(s.name)}">error vs the truth <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></span>` : ''}.</p>`;
+    <code>T_vehicle_${esc(s.name)}</code> (xyz ${f(xyzOf(s.extrinsic), 3)} m, rpy ${f(rpy, 3)} deg)${error ? `; <span class="truth ${truthClass(error)}" data-sensor="${esc(s.name)}">error vs the truth <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></span>` : ''}.</p>`;
 }
 
 function sensorHtml(s, r, truth) {
@@ -65,7 +68,7 @@ function sensorHtml(s, r, truth) {
     ? `<p class="precision" title="One-sigma uncertainty of the final estimate from the joint plane adjustment">precision (1 sigma): position ${s.precision.position.map((v) => (v * 1000).toFixed(1)).join(', ')} mm, rotation about x, y, z ${s.precision.rotation.map((v) => degrees(v).toFixed(4)).join(', ')} deg</p>`
     : '';
   const spread = `<p class="spread" title="Standard deviation, per axis, of the corrections found frame by frame">spread over ${s.spread.frames} frames: xyz ${s.spread.xyz.map((v) => (v * 1000).toFixed(1)).join(', ')} mm, rpy ${s.spread.rpy.map((v) => degrees(v).toFixed(3)).join(', ')} deg</p>`;
-  const errorText = error ? `<p class="truth" data-sensor="${esc(s.name)}">error vs the simulated truth: <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></p>` : '';
+  const errorText = error ? `<p class="truth ${truthClass(error)}" data-sensor="${esc(s.name)}">error vs the simulated truth: <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></p>` : '';
   return `<section class="answer-sensor" data-sensor="${esc(s.name)}">
     <h3>${esc(s.name)} ${sensorVerdict(r, s.name)}</h3>${errorText}
     ${transformHtml(`T_vehicle_${s.name}`, s.name, 'vehicle', s.extrinsic, 'extrinsic')}

@@ -109,11 +109,13 @@ export function renderResults(container, results, truth, failures = []) {
     ? `${t.fits.length === 1 ? 'target' : `${t.fits.length} targets`}: ${t.fits.map(fitText).join('; ')}`
     : t.means.length ? 'no target stands out from the ground' : 'no target reconstructed (none given, or an ICP method)';
   const targetText = fit + placed;
+  const compared = results.length + failures.length > 1;
   container.innerHTML = `
     ${verdictHtml(r)}
-    ${results.length + failures.length > 1 ? `<h3>All methods</h3><div class="table-wrap">${comparisonHtml(results, truth, failures)}</div><h3>Details: ${r.method}</h3>` : ''}
+    ${compared ? `<h3>The answer of ${esc(r.method)} (the first method that ran)</h3>` : ''}
     ${(r.levelling ?? []).filter((l) => l.warning).map((l) => `<p class="error" data-testid="warning">${esc(l.sensor)}: ${esc(l.warning)}</p>`).join('')}
     ${answerHtml(r, truth)}
+    ${compared ? `<details class="compare-box" open><summary>All methods: ${results.length} ran${failures.length ? `, ${failures.length} failed` : ''}</summary><div class="table-wrap">${comparisonHtml(results, truth, failures)}</div></details>` : ''}
     <details class="more"><summary>More: 4×4 matrices and corrections, target fit, ground levelling, notes</summary>
       <p>reference ${esc(r.reference)}; ${targetText}</p>
       ${r.sensors.map((s) => sensorDetailHtml(s, r.reference)).join('')}
