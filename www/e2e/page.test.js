@@ -383,3 +383,23 @@ test('loose files without a sensor in their names: one sensor assumed, said, and
   assert.equal(await page.getByTestId('calibrate').isEnabled(), true);
   assert.deepEqual(problems, []);
 });
+
+test('intensity spans its 2nd-98th percentile: a few bright returns do not paint the rest blue', async () => {
+  const { page, problems } = await session.open();
+  // GMMCalib-like intensities: mostly 30-60, 1 % at 5615.
+  const pcd = (shift) => {
+    const lines = Array.from({ length: 2000 }, (_, i) => `${8 + (i % 40) * 0.05} ${shift + Math.floor(i / 40) * 0.05} ${0.1 * Math.sin(i)} ${i % 100 === 0 ? 5615 : 30 + (i % 31)}`);
+    return Buffer.from(['VERSION 0.7', 'FIELDS x y z intensity', 'SIZE 4 4 4 4', 'TYPE F F F F', 'COUNT 1 1 1 1', 'WIDTH 2000', 'HEIGHT 1',
+      'VIEWPOINT 0 0 0 1 0 0 0', 'POINTS 2000', 'DATA ascii', ...lines, ''].join('\n'));
+  };
+  await page.getByTestId('file-input').setInputFiles([['a_1.pcd', 0], ['b_1.pcd', 0.02]].map(([name, shift]) => ({ name, mimeType: 'application/octet-stream', buffer: pcd(shift) })));
+  await waitForStatus(page, /2 scans of 2 sensors loaded/);
+  await page.locator('#colour').selectOption('intensity');
+  await page.waitForFunction(() => document.querySelector('[data-testid=scale]').dataset.mode === 'intensity');
+  const scale = await page.getByTestId('scale').textContent();
+  assert.match(scale, /intensity, 2nd–98th percentile/);
+  const [lo, hi] = [await page.locator('#scale-lo').textContent(), await page.locator('#scale-hi').textContent()].map(Number);
+  assert.ok(lo >= 30 && lo <= 32 && hi >= 58 && hi <= 60, `${lo}..${hi}`);
+  await page.screenshot({ path: 'e2e/artifacts/page-intensity.png' });
+  assert.deepEqual(problems, []);
+});
