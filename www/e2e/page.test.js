@@ -61,9 +61,11 @@ test('the answer first: verdict and the first extrinsic in view at 1280x720 with
   assert.match(await page.getByTestId('inset').textContent(), /Reconstructed target/);
   await waitForView(page, await loadedPoints(page, '1'));
   await page.screenshot({ path: 'e2e/artifacts/page-1280x720.png' });
+  const drawn = await page.locator('#view').evaluate((v) => Number(v.dataset.frames));
   await page.setViewportSize({ width: 1920, height: 1080 });
   assert.ok(await inViewport(page.getByTestId('extrinsic').first()));
-  await page.waitForTimeout(300);
+  await page.waitForFunction((k) => Number(document.querySelector('#view').dataset.frames) > k, drawn);
+  await waitForView(page, await loadedPoints(page, '1'));
   await page.screenshot({ path: 'e2e/artifacts/page-1920x1080.png' });
   assert.deepEqual(problems, []);
 });
@@ -270,8 +272,10 @@ test('the view: sensors shown, point size, colour scales, preset views, focus, P
   const view = await page.locator('#view').boundingBox();
   assert.equal(colours.width, Math.round(view.width));
   assert.ok(colours.red > 100, `${colours.red} pixels of front_left's red in the PNG`);
+  const drawn = await frames(page);
   await page.setViewportSize({ width: 1920, height: 1080 });
-  await page.waitForTimeout(300);
+  await page.waitForFunction((k) => Number(document.querySelector('#view').dataset.frames) > k, drawn);
+  await waitForView(page, first);
   await page.screenshot({ path: 'e2e/artifacts/page-top-1920x1080.png' });
   assert.deepEqual(problems, []);
 });
