@@ -21,6 +21,7 @@ import { foldSetup, initInset, initLayout } from './layout.js';
 import { initViewTools } from './viewtools.js';
 import { calibrateBlocker, describeRig, describeScans } from './summary.js';
 import { initSettings } from './settings.js';
+import { initDrift } from './drift.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
@@ -45,6 +46,7 @@ const tools = initViewTools({
 });
 
 const settings = initSettings({ $, state, client, changed, targetLoaded: () => forgetResults(), setStatus: (text) => setStatus(text), showError });
+const drift = initDrift($('drift'), (request) => client.request('compare', request));
 
 function showError(error) {
   $('error').hidden = !error;
@@ -72,6 +74,7 @@ function forgetResults() {
   $('results').innerHTML = '<p class="hint">No result yet.</p>';
   $('exports').innerHTML = '<p class="hint">After a run.</p>';
   targetViewer.clear();
+  drift.setResult(null);
 }
 
 // A result that no longer matches the scans, rig or settings stays readable, marked out of date
@@ -81,6 +84,7 @@ function setStale(what) {
   $('stale').hidden = !what;
   $('stale').textContent = what ? `Out of date: the ${what} changed after this run. Calibrate again for a current result.` : '';
   $('results').classList.toggle('out-of-date', Boolean(what));
+  drift.setStale(what);
 }
 
 function changed(what) {
@@ -234,6 +238,7 @@ function clearAll() {
   $('progress').value = 0;
   state.hidden.clear();
   tools.clearPicks();
+  drift.clear();
   renderPanels();
 }
 
@@ -326,6 +331,8 @@ async function showResults(results, failures, json) {
   const items = await exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, ...state.exportFrames }, ros);
   if (state.results !== results) return;
   renderExports($('exports'), items);
+  // The drift check compares what the JSON export holds.
+  drift.setResult(items.find((item) => item.key === 'json').text);
   await nextTask();
   if (state.results !== results) return;
   $('result-json').textContent = resultJson(json);

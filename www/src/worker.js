@@ -5,7 +5,7 @@ import init, * as wasm from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
 import { calibrateSharded } from './shard-pool.js';
 
-const { calibrate, methods, parseCloud, parseConfig, parseMesh, parseOpenCalib, rosExports, simulateRig, RecordingFile } = wasm;
+const { calibrate, compareCalibrations, methods, parseCloud, parseConfig, parseMesh, parseOpenCalib, rosExports, simulateRig, RecordingFile } = wasm;
 
 // Open recordings by id. A recording is read where it lies: FileReaderSync on slices of the
 // File, so a multi-gigabyte file is never in memory; only its index and the chosen chunks are.
@@ -25,6 +25,7 @@ const handlers = {
   config: ({ text, name }) => parseConfig(text, name),
   mesh: ({ bytes, name }) => parseMesh(new Uint8Array(bytes), name),
   exports: ({ extrinsics }) => rosExports(extrinsics),
+  compare: ({ stored, storedName, current, currentName, tolerance }) => compareCalibrations(stored, storedName, current, currentName, tolerance),
   opencalib: ({ paths, pathsName, guess, guessName }) => parseOpenCalib(paths, pathsName, guess ?? null, guessName ?? null),
   methods: () => methods(),
   openRecording: ({ file }, id) => {
@@ -47,8 +48,9 @@ const handlers = {
   },
   simulate: ({ options }) => simulateRig(options),
   // `workers` > 1 shares JRMPC's E-step and the frame pairs' ICP with that many workers in
-  // all (this one included), where a worker can start workers of its own.
-  calibrate: ({ input, workers = 1 }, id) => {
+  // all (this one included), where a worker can start workers of its own; `estep` 'auto' or
+  // 'gpu' puts the E-step on the GPU where WebGPU allows (shard-pool.js, gpu-estep.js).
+  calibrate: ({ input, workers = 1, estep = 'cpu' }, id) => {
     // At most 10 progress messages a second (and always the last): the page redraws on each,
     // and on two cores that work competes with the calculation (sample scale on 2 workers:
     // 1.2 s with every iteration shown, 0.9 s with this).
@@ -61,7 +63,8 @@ const handlers = {
       }
       return true;
     };
-    if (workers > 1 && typeof Worker === 'function') return calibrateSharded(wasm, input, workers, onProgress);
+    const shared = workers > 1 && typeof Worker === 'function';
+    if (shared || estep !== 'cpu') return calibrateSharded(wasm, input, shared ? workers : 1, onProgress, undefined, estep);
     const result = calibrate(input, onProgress);
     for (const r of Array.isArray(result) ? result : [result]) if (!r.error) r.workers = 1;
     return result;
