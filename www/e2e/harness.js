@@ -29,26 +29,28 @@ export async function serveDist() {
   return { url: `http://127.0.0.1:${server.address().port}/`, close: () => server.close() };
 }
 
-// playwright-core gives every launch a fresh, empty profile directory of its own.
-export async function launch() {
+// playwright-core gives every launch a fresh, empty profile directory of its own. `extra`:
+// more switches (gpu.test.js: WebGPU on SwiftShader).
+export async function launch(extra = []) {
   return chromium.launch({
     executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
     args: [
       '--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--disable-quic',
       '--no-first-run', '--disable-background-networking', '--disable-component-update',
-      '--disable-sync',
+      '--disable-sync', ...extra,
     ],
   });
 }
 
 // One server and one Chromium for a test file, started before its tests and stopped after.
-// `open(hash)` opens the site (with an optional `#...` hash) in a fresh page.
-export function browserSession() {
+// `open(hash)` opens the site (with an optional `#...` hash) in a fresh page; `extra`: more
+// Chromium switches.
+export function browserSession(extra = []) {
   let server;
   let browser;
   before(async () => {
     server = await serveDist();
-    browser = await launch();
+    browser = await launch(extra);
   });
   after(async () => {
     await browser?.close();

@@ -44,7 +44,8 @@ export function describeProgress(stages, p, left = null) {
 // The status line once `results` (one per method run) are in, `seconds` after the click.
 export function describeDone(results, seconds, failures = []) {
   const r = results[0];
-  const on = r.workers > 1 ? ` on ${r.workers} workers` : '';
+  const workers = r.workers > 1 ? ` on ${r.workers} workers` : '';
+  const on = r.estep === 'gpu' ? `${workers}, E-step on the GPU (${r.gpu})` : workers;
   if (failures.length) {
     const failed = failures.map((f) => f.method).join(', ');
     return `Done: ${results.length} of ${results.length + failures.length} methods in ${seconds.toFixed(1)} s${on}; ${failed} failed (see Results).`;

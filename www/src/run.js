@@ -68,7 +68,7 @@ export async function runCalibration(client, state, onProgress) {
   const { input, transfer } = await calibrateInput(state);
   // Each stage (a method's EM, its frame pairs) has its own clock for the time left.
   let stage = { key: null, clock: null };
-  const outcome = await client.request('calibrate', { input, workers: workerCount(state.settings.workers) }, {
+  const outcome = await client.request('calibrate', { input, workers: workerCount(state.settings.workers), estep: state.settings.estep }, {
     transfer,
     onProgress: (p) => {
       const key = `${p.method}/${p.stage}`;

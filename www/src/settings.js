@@ -1,9 +1,9 @@
 // The settings panel's inputs (method, target, global alignment, components, iterations,
-// initial sigma, workers; the demo's preset, seed, frames) bound to `state.settings` and the URL
+// initial sigma, workers, the E-step's device; the demo's preset, seed, frames) bound to `state.settings` and the URL
 // hash, and the target's CAD model, checked by the library.
 import { writeHash } from './url.js';
 
-const SETTING_INPUTS = ['method', 'components', 'iterations', 'initialSigma', 'workers', 'global'];
+const SETTING_INPUTS = ['method', 'components', 'iterations', 'initialSigma', 'workers', 'estep', 'global'];
 
 // `$`: the page's elements by id; `client`: the worker client; `changed(what)`: a setting
 // changed after a run; `targetLoaded()`: a new CAD model replaces the target (the result goes);

@@ -5,7 +5,8 @@
 // views' statistics (O(views x K) numbers, transferred, not copied) and the session's M-step
 // takes them in view order. The frame pairs' ICP: a reference view's pairs at a time. Which
 // phase comes next, and the loop over methods when comparing, are the session's. The result is
-// `calibrate`'s, bit for bit, for any number of workers.
+// `calibrate`'s, bit for bit, for any number of workers. JRMPC's E-step may run on the GPU
+// instead (gpu-estep.js): within the fidelity rule of the CPU's result, not bit for bit.
 
 // Contiguous slices of views with about equal points: [{first, count}], at most `parts`, none
 // empty. The E-step costs about the same per point, so equal points balance the workers.
@@ -87,20 +88,22 @@ const yieldToEvents = () => new Promise((resolve) => {
 });
 
 // JRMPC's EM with the E-step shared: this worker keeps the first slice of the views, each remote
-// one more (remotes beyond the slices idle).
-async function shareEm(wasm, session, remotes, onProgress) {
+// one more (remotes beyond the slices idle). With `gpu` (a GpuEStep) one GPU shard holds every
+// view instead. Returns the GPU shard's {seconds, iterations} of E-step, or null.
+async function shareEm(wasm, session, remotes, onProgress, gpu = null) {
   const sizes = session.viewSizes();
-  const slices = splitViews(Array.from(sizes), remotes.length + 1);
+  const slices = gpu ? [{ first: 0, count: sizes.length }] : splitViews(Array.from(sizes), remotes.length + 1);
   const shardOf = ({ first, count }) => [session.shardPoints(first, count), sizes.slice(first, first + count)];
-  const local = new wasm.JrmpcShard(...shardOf(slices[0]));
+  const local = gpu ? gpu.shard(...shardOf(slices[0])) : new wasm.JrmpcShard(...shardOf(slices[0]));
   try {
     await Promise.all(slices.slice(1).map((slice, i) => remotes[i].init(...shardOf(slice))));
     while (!session.finished()) {
       const estep = session.eStepInput();
       const pending = slices.slice(1).map((slice, i) => remotes[i].eStep(estep, slice.first));
-      const outputs = [local.eStep(estep, slices[0].first), ...(await Promise.all(pending))];
+      const outputs = [await local.eStep(estep, slices[0].first), ...(await Promise.all(pending))];
       if (onProgress(session.mStep(outputs)) === false) session.cancel();
     }
+    return gpu ? { seconds: local.seconds, iterations: local.iterations } : null;
   } finally {
     local.free();
   }
@@ -157,8 +160,9 @@ async function shareFramePairs(session, remotes, onProgress) {
 // `calibrate(input, onProgress)` with the work shared by `workers` workers (this one included):
 // each method's phases as the session asks for them; with `method: 'all'`, a method whose
 // workers fail is noted as failed and the next one runs. `wasm` is the initialised module;
-// `spawn()` makes a remote worker (tests pass an in-process one).
-export async function calibrateSharded(wasm, input, workers, onProgress, spawn = () => new RemoteWorker()) {
+// `spawn()` makes a remote worker (tests pass an in-process one). `eStep` ('cpu' | 'auto' |
+// 'gpu', gpu-estep.js) says where JRMPC's E-step runs; each EM result tells where it ran.
+export async function calibrateSharded(wasm, input, workers, onProgress, spawn = () => new RemoteWorker(), eStep = 'cpu') {
   const session = new wasm.CalibrationSession(input);
   const remotes = [];
   let cancelled = false;
@@ -166,12 +170,24 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
     if (onProgress(progress) === false) cancelled = true;
     return !cancelled;
   };
+  let gpu = null;
+  const emRan = new Map(); // method -> its E-step's path
   try {
+    if (eStep !== 'cpu') {
+      // Loaded only when asked for: its shader comes through Vite (`?raw`), which Node's tests
+      // of this module do without.
+      const { GpuEStep, gpuAdapter } = await import('./gpu-estep.js');
+      const adapter = await gpuAdapter(eStep);
+      if (adapter) gpu = await GpuEStep.create(adapter);
+    }
     for (let i = 1; i < workers; i++) remotes.push(spawn());
     for (let phase = session.phase(); phase !== 'done'; phase = session.phase()) {
       try {
-        if (phase === 'em') await shareEm(wasm, session, remotes, heed);
-        else if (phase === 'cad') session.registerCad(heed); // one call: fast, not shared
+        if (phase === 'em') {
+          const method = session.method();
+          const timing = await shareEm(wasm, session, remotes, heed, gpu);
+          emRan.set(method, timing ? { estep: 'gpu', gpu: gpu.name, gpuEStepSeconds: timing.seconds, gpuIterations: timing.iterations } : { estep: 'cpu' });
+        } else if (phase === 'cad') session.registerCad(heed); // one call: fast, not shared
         else await shareFramePairs(session, remotes, heed);
         session.advance();
       } catch (error) {
@@ -180,10 +196,11 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
       }
     }
     const result = session.result();
-    for (const r of Array.isArray(result) ? result : [result]) if (!r.error) r.workers = workers;
+    for (const r of Array.isArray(result) ? result : [result]) if (!r.error) Object.assign(r, { workers }, emRan.get(r.method));
     return result;
   } finally {
     for (const remote of remotes) remote.terminate();
     session.free();
+    gpu?.destroy();
   }
 }

@@ -1,0 +1,80 @@
+// Issue 22: JRMPC's E-step on the GPU (WebGPU, gpu-estep.js). Chromium runs WebGPU on
+// SwiftShader (a software adapter, so its speed says nothing about a GPU) when started with
+// these switches and the page is a secure context (http://127.0.0.1). The demo on the GPU path
+// holds the fidelity rule against the CPU path; without an adapter, 'gpu' is refused with a
+// clear message and 'auto' runs on the CPU.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { browserSession, waitForStatus } from './harness.js';
+import { errorOf, simulateRig } from './rigfiles.js';
+
+const WEBGPU = ['--enable-unsafe-webgpu', '--use-webgpu-adapter=swiftshader'];
+const withGpu = browserSession(WEBGPU);
+const withoutGpu = browserSession();
+
+// The fidelity rule (docs/method.md): within 0.002 deg / 0.2 mm of the exact path, and no
+// trial changes between pass and fail (the demo's bound against the truth: demo.test.js).
+const FIDELITY = { deg: 0.002, mm: 0.2 };
+const DEMO_ERROR_BOUND = { deg: 0.1, mm: 10 };
+const DEMO = 'demo=paper&frames=2&seed=3&workers=1';
+
+async function run(session, estep, { expectError = false } = {}) {
+  const { page, problems } = await session.open(`#${DEMO}&estep=${estep}`);
+  await waitForStatus(page, /Calibrate next/);
+  assert.equal(await page.locator('#estep').inputValue(), estep);
+  await page.getByTestId('calibrate').click();
+  if (expectError) {
+    await page.waitForFunction(() => !document.querySelector('[data-testid=error]').hidden, null, { timeout: 120_000 });
+    const error = await page.getByTestId('error').textContent();
+    await page.close();
+    return { error };
+  }
+  await waitForStatus(page, /^Done/, 400_000);
+  const status = await page.getByTestId('status').textContent();
+  const result = JSON.parse(await page.getByTestId('result-json').textContent());
+  assert.deepEqual(problems, []);
+  await page.close();
+  return { status, result };
+}
+
+// The rotation (deg) and translation (mm) between two 4x4 row-major extrinsics.
+function between(a, b) {
+  let trace = 0;
+  for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) trace += a[4 * i + j] * b[4 * i + j];
+  const deg = (Math.acos(Math.min(1, Math.max(-1, (trace - 1) / 2))) * 180) / Math.PI;
+  return { deg, mm: Math.hypot(a[3] - b[3], a[7] - b[7], a[11] - b[11]) * 1000 };
+}
+
+test('the demo with its E-step on the GPU holds the fidelity rule against the CPU', async () => {
+  const gpu = await run(withGpu, 'gpu');
+  const cpu = await run(withGpu, 'cpu');
+  console.log(`gpu: ${gpu.status}\ncpu: ${cpu.status}`);
+  assert.match(gpu.status, /, E-step on the GPU \(google swiftshader\)\.$/);
+  assert.doesNotMatch(cpu.status, /GPU/);
+  assert.equal(gpu.result.estep, 'gpu');
+  assert.ok(gpu.result.gpuIterations > 10 && gpu.result.gpuEStepSeconds > 0);
+  const ms = (1000 * gpu.result.gpuEStepSeconds) / gpu.result.gpuIterations;
+  console.log(`SwiftShader (software WebGPU, not a GPU): ${ms.toFixed(0)} ms of E-step per iteration over ${gpu.result.gpuIterations} iterations`);
+
+  const { truth } = simulateRig({ preset: 'paper', frames: 2, seed: 3 });
+  assert.deepEqual(gpu.result.sensors.map((s) => s.name), cpu.result.sensors.map((s) => s.name));
+  for (const [g, c] of gpu.result.sensors.map((s, i) => [s, cpu.result.sensors[i]])) {
+    const d = between(g.extrinsic, c.extrinsic);
+    console.log(`${g.name}: GPU against CPU ${d.deg.toExponential(2)} deg / ${d.mm.toExponential(2)} mm`);
+    assert.ok(d.deg <= FIDELITY.deg && d.mm <= FIDELITY.mm, `${g.name}: ${d.deg} deg / ${d.mm} mm`);
+    const pass = (s) => {
+      const e = errorOf(s.extrinsic, truth[s.name]);
+      return e.deg < DEMO_ERROR_BOUND.deg && e.mm < DEMO_ERROR_BOUND.mm;
+    };
+    assert.equal(pass(g), pass(c), `${g.name}: pass or fail changed`);
+  }
+  assert.equal(gpu.result.verdict.level, cpu.result.verdict.level);
+});
+
+test('without a WebGPU adapter, gpu is refused by name and auto runs on the CPU', async () => {
+  const forced = await run(withoutGpu, 'gpu', { expectError: true });
+  assert.match(forced.error, /set to run on the GPU, but (WebGPU offers no adapter here|this browser has no WebGPU).*set it to auto or cpu/);
+  const auto = await run(withoutGpu, 'auto');
+  assert.equal(auto.result.estep, 'cpu');
+  assert.doesNotMatch(auto.status, /GPU/);
+});
