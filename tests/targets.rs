@@ -25,7 +25,9 @@ fn calibrate(twin: &Twin, settings: &Settings) -> Result<calib::Calibration, Cal
 #[test]
 fn the_chair_twin_calibrates_with_its_cad_model_by_gmm_and_cad() {
     let (model, twin) = twin(Preset::paper_chair(), 5);
-    for method in [Method::Gmm, Method::Cad] {
+    // gmm's mixture blurs the chairs' thin legs and backs (0.13 deg / 22 mm median on the
+    // study); cad registers onto the model itself (0.044 deg / 5.3 mm).
+    for (method, bound_deg, bound_m) in [(Method::Gmm, 0.5, 0.05), (Method::Cad, 0.1, 0.015)] {
         let settings = Settings { method, target: model.target(), ..Settings::default() };
         let result = calibrate(&twin, &settings).unwrap_or_else(|e| panic!("{method:?}: {e}"));
         // Three chairs stand in the ROI; each is found and the model fits the reconstruction.
@@ -36,7 +38,7 @@ fn the_chair_twin_calibrates_with_its_cad_model_by_gmm_and_cad() {
         assert!(t.fits.iter().all(|f| f.shape == "mesh" && f.inlier_share > 0.9), "{:?}", t.fits);
         let (deg, m) = worst_error(&result, &twin);
         eprintln!("chair twin, {}: {deg:.4} deg / {:.1} mm", method.name(), m * 1e3);
-        assert!(deg < 0.5 && m < 0.05, "{method:?}: {deg} deg / {m} m");
+        assert!(deg < bound_deg && m < bound_m, "{method:?}: {deg} deg / {m} m");
     }
 }
 
@@ -48,7 +50,7 @@ fn cad_takes_the_cube_as_its_model() {
     assert_eq!(result.reconstruction.placements.len(), 3, "the three calibration cubes");
     let (deg, m) = worst_error(&result, &twin);
     eprintln!("cube twin, cad: {deg:.4} deg / {:.1} mm", m * 1e3);
-    assert!(deg < 0.5 && m < 0.05, "{deg} deg / {m} m");
+    assert!(deg < 0.1 && m < 0.01, "{deg} deg / {m} m");
 }
 
 #[test]

@@ -55,6 +55,19 @@ impl Summary {
         Matrix3::new(m[0], m[1], m[2], m[1], m[3], m[4], m[2], m[4], m[5])
     }
 
+    /// A point's whole weight on an unbounded plane through `c` with unit normal `n`, whose
+    /// precision across it is `lambda` and along it none: `lambda (x - c)^T n n^T (x - c)`.
+    pub fn plane(n: &Vector3<f64>, c: &Vector3<f64>, lambda: f64) -> Self {
+        let m = n * n.transpose() * lambda;
+        let m1 = m * c;
+        Self {
+            w: 1.0,
+            m0: [m[(0, 0)], m[(0, 1)], m[(0, 2)], m[(1, 1)], m[(1, 2)], m[(2, 2)]],
+            m1: m1.into(),
+            m2: c.dot(&m1),
+        }
+    }
+
     /// `sum r_k (x - c_k)^T Lambda_k (x - c_k)`, not below 0 (CADCalib clamps its squared
     /// distances at 0 the same way).
     pub fn anisotropic_sq(&self, x: &Vector3<f64>) -> f64 {
@@ -123,6 +136,17 @@ impl Mixture {
             })
             .collect();
         Self { origin, centres, weight_max, bounding_volume }
+    }
+
+    /// The centres numbered in `keep`, with this mixture's origin and constants: one copy's
+    /// share of it.
+    pub fn subset(&self, keep: &[usize]) -> Self {
+        Self {
+            origin: self.origin,
+            centres: keep.iter().map(|&k| self.centres[k]).collect(),
+            weight_max: self.weight_max,
+            bounding_volume: self.bounding_volume,
+        }
     }
 
     /// CADCalib's outlier term of the posterior denominator at `sigma2`,

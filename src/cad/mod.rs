@@ -116,6 +116,9 @@ pub struct CadIteration {
 pub struct CadRegistration {
     /// Per sensor: maps the sensor's (already pre-aligned) points onto the model.
     pub poses: Vec<Pose>,
+    /// Per copy of the model: maps its centres as given onto where the data put them (the
+    /// identity without [`Copies`]).
+    pub copies: Vec<Pose>,
     /// Final sigma (m).
     pub sigma: f64,
     /// Iterations run.
@@ -164,91 +167,244 @@ impl fmt::Display for CadError {
 
 impl std::error::Error for CadError {}
 
-/// Registers every sensor to the fixed CAD mixture.
+/// What is registered: every view's points, already pre-aligned into the vehicle frame by the
+/// nominal extrinsics, and the sensor of each view (in `0..sensors`); all of a sensor's views
+/// share its one transform.
+#[derive(Clone, Copy, Debug)]
+pub struct CadViews<'a> {
+    pub points: &'a [&'a [[f32; 3]]],
+    pub sensor_of: &'a [usize],
+    pub sensors: usize,
+}
+
+/// The model's copies, when the data refine where each one stands (our placement comes from
+/// the reference's points, not from a survey): which copy each centre and each view belongs
+/// to, and the sensor held at the identity so that the problem keeps one frame, its own.
+#[derive(Clone, Copy, Debug)]
+pub struct Copies<'a> {
+    /// Copy of each centre of the model, numbered from 0.
+    pub of_centre: &'a [usize],
+    /// Copy of each view: a view holds the points of one sensor near one copy.
+    pub of_view: &'a [usize],
+    /// The sensor whose pose stays the identity.
+    pub fixed_sensor: usize,
+    /// Copies move once sigma is below this (m): while it is wider, the responsibilities blur
+    /// a copy's shape into a blob whose turn nothing holds.
+    pub below_sigma: f64,
+}
+
+/// The ground the targets stand on, in the fixed sensor's frame: an unbounded flat face of the
+/// model with a flat face's precision across it and none along it. Targets a few decimetres
+/// tall hold the tilt about themselves only weakly (at 12 m a 0.1 deg tilt about them moves a
+/// sensor 2 cm), the ground holds it at every metre of its extent, as levelling does.
+#[derive(Clone, Copy, Debug)]
+pub struct Ground<'a> {
+    /// Unit normal and offset of the plane `n . p + offset = 0` (vehicle frame).
+    pub normal: [f64; 3],
+    pub offset: f64,
+    /// Points on the ground, pre-aligned like the views, and the sensor of each list.
+    pub points: &'a [&'a [[f32; 3]]],
+    pub sensor_of: &'a [usize],
+}
+
+/// Registers every sensor to the CAD mixture.
 ///
-/// `views`: every view's points, already pre-aligned into the vehicle frame by the nominal
-/// extrinsics; `sensor_of_view[v]` in `0..sensors` names the sensor view `v` belongs to, and
-/// all of a sensor's views share its one transform. `progress` runs after every iteration and
+/// Without `copies` the centres stay where
+/// they are (CADCalib); with them each copy of the model moves rigidly with the points of
+/// every sensor near it, and one sensor stays fixed. `progress` runs after every iteration and
 /// may stop the run (`Control::Stop`). Deterministic.
 pub fn register(
-    views: &[&[[f32; 3]]],
-    sensor_of_view: &[usize],
-    sensors: usize,
+    input: &CadViews,
     model: &CadModel,
+    copies: Option<&Copies>,
+    ground: Option<&Ground>,
     settings: &CadSettings,
     mut progress: impl FnMut(&CadIteration) -> Control,
 ) -> Result<CadRegistration, CadError> {
+    let CadViews { points: views, sensor_of: sensor_of_view, sensors } = *input;
     validate(views, sensor_of_view, sensors, model, settings)?;
+    let mut ground_points: Vec<Vec<Vector3<f64>>> = vec![Vec::new(); sensors];
+    if let Some(g) = ground {
+        let n = Vector3::from(g.normal);
+        if !(g.offset.is_finite()
+            && n.iter().all(|c| c.is_finite())
+            && (n.norm() - 1.0).abs() < 1e-6)
+        {
+            return Err(CadError::InvalidSetting("ground"));
+        }
+        if g.sensor_of.len() != g.points.len() || g.sensor_of.iter().any(|&s| s >= sensors) {
+            return Err(CadError::InvalidSetting("ground.sensor_of"));
+        }
+        for (list, &s) in g.points.iter().zip(g.sensor_of) {
+            ground_points[s].extend(
+                list.iter()
+                    .filter(|p| p.iter().all(|c| c.is_finite()))
+                    .map(|p| Vector3::from(p.map(f64::from))),
+            );
+        }
+    }
+    // A flat face's precision across the plane, in the same units as the model's terms.
+    let ground_lambda = 1.0 + settings.a_max;
+    let (mut gathered_points, mut gathered_summaries) = (Vec::new(), Vec::new());
+    if let Some(c) = copies {
+        if c.of_centre.len() != model.len() {
+            return Err(CadError::InvalidSetting("copies.of_centre"));
+        }
+        if c.of_view.len() != views.len() {
+            return Err(CadError::InvalidSetting("copies.of_view"));
+        }
+        if c.fixed_sensor >= sensors {
+            return Err(CadError::InvalidSetting("copies.fixed_sensor"));
+        }
+    }
+    let count =
+        copies.map_or(1, |c| c.of_centre.iter().chain(c.of_view).max().map_or(1, |m| m + 1));
+    let copy_of_view = |v: usize| copies.map_or(0, |c| c.of_view[v]);
+    let centres_of: Vec<Vec<usize>> = (0..count)
+        .map(|c| {
+            (0..model.len()).filter(|&k| copies.map_or(0, |cs| cs.of_centre[k]) == c).collect()
+        })
+        .collect();
 
-    // Raw points (f64), grouped by sensor: sensor s owns points[ranges[s]].
+    // Raw points (f64), grouped by sensor: sensor s owns points[ranges[s]]; and by copy.
     let mut points: Vec<Vector3<f64>> = Vec::new();
+    let mut copy_of_point: Vec<usize> = Vec::new();
     let mut ranges = Vec::with_capacity(sensors);
     for s in 0..sensors {
         let start = points.len();
-        for (view, _) in views.iter().zip(sensor_of_view).filter(|(_, of)| **of == s) {
+        for (v, (view, _)) in
+            views.iter().zip(sensor_of_view).enumerate().filter(|(_, (_, of))| **of == s)
+        {
             points.extend(view.iter().map(|p| Vector3::from(p.map(f64::from))));
+            copy_of_point.resize(points.len(), copy_of_view(v));
         }
         ranges.push(start..points.len());
     }
+    let sensor_of_point: Vec<usize> =
+        ranges.iter().enumerate().flat_map(|(s, r)| r.clone().map(move |_| s)).collect();
+    let points_of: Vec<Vec<usize>> = (0..count)
+        .map(|c| (0..points.len()).filter(|&i| copy_of_point[i] == c).collect())
+        .collect();
     let centroids: Vec<Vector3<f64>> = ranges
         .iter()
         .map(|r| points[r.clone()].iter().sum::<Vector3<f64>>() / r.len() as f64)
+        .collect();
+    let copy_centroids: Vec<Vector3<f64>> = centres_of
+        .iter()
+        .map(|ks| {
+            ks.iter().map(|&k| model.centres[k]).sum::<Vector3<f64>>() / ks.len().max(1) as f64
+        })
         .collect();
 
     // CADCalib `_initialize_distribution_parameters` and `_initialize_bounding_volume`: the
     // box of all (identity-transformed) points and all centres; sigma^2 = its squared diagonal.
     let (volume, diagonal2) = em::bounding_box(points.iter().chain(&model.centres).copied());
-    let mut sigma2 = match settings.initial_sigma {
+    let sigma2_start = match settings.initial_sigma {
         Some(s) => s * s,
         None => diagonal2,
     }
     .max(settings.variance_floor);
-    let mixture = Mixture::new(model, GAMMA, settings.outlier_weight, sigma2, volume);
-    let origin = mixture.origin;
+    let mut sigma2 = sigma2_start;
+    // The mixture's constants stay those of the initial sigma (CADCalib); only moved copies
+    // rebuild it, with the same constants.
+    let mut mixture = Mixture::new(model, GAMMA, settings.outlier_weight, sigma2, volume);
+    let mut copy_poses = vec![Pose::identity(); count];
+    let fixed = copies.map(|c| c.fixed_sensor);
 
     let mut poses = vec![Pose::identity(); sensors];
     let mut xs = vec![Vector3::zeros(); points.len()];
     let mut summaries = vec![Summary::default(); points.len()];
     let mut scratch = Scratch::default();
+    let (mut copy_xs, mut copy_summaries) = (Vec::new(), Vec::new());
     let mut support = vec![0usize; sensors];
     let mut rms = vec![0.0; sensors];
     let mut history = Vec::new();
     let (mut converged, mut cancelled) = (false, false);
 
     for iteration in 1..=settings.max_iterations {
-        // E-step over every point of every view, at the current poses.
+        // E-step over every point of every view, at the current poses, each point against
+        // its own copy's centres.
         let sigma = sigma2.sqrt();
+        let origin = mixture.origin;
         for (pose, range) in poses.iter().zip(&ranges) {
             for (x, y) in xs[range.clone()].iter_mut().zip(&points[range.clone()]) {
                 *x = pose.transform_point(&(*y).into()).coords - origin;
             }
         }
-        let grid = Grid::new(&mixture, settings.radius_sigmas * sigma);
         let outlier = mixture.outlier_term(sigma2);
-        grid.e_step(&xs, 0.5 / sigma2, outlier, &mut scratch, &mut summaries);
+        for (ks, members) in centres_of.iter().zip(&points_of) {
+            let grid = Grid::new(&mixture.subset(ks), settings.radius_sigmas * sigma);
+            copy_xs.clear();
+            copy_xs.extend(members.iter().map(|&i| xs[i]));
+            copy_summaries.resize(members.len(), Summary::default());
+            grid.e_step(&copy_xs, 0.5 / sigma2, outlier, &mut scratch, &mut copy_summaries);
+            for (&i, summary) in members.iter().zip(&copy_summaries) {
+                summaries[i] = *summary;
+            }
+        }
 
-        // M-step: each sensor's pose, then sigma^2 (CADCalib `m_step`).
+        // M-step: each sensor's pose, each copy's, then sigma^2 (CADCalib `m_step`).
         let previous = poses.clone();
-        let (mut num_all, mut den_all) = (0.0, 0.0);
         for (s, range) in ranges.iter().enumerate() {
-            let (points, summaries) = (&points[range.clone()], &summaries[range.clone()]);
+            if fixed == Some(s) {
+                continue;
+            }
+            gathered_points.clear();
+            gathered_points.extend_from_slice(&points[range.clone()]);
+            gathered_points.extend_from_slice(&ground_points[s]);
+            gathered_summaries.clear();
+            gathered_summaries.extend_from_slice(&summaries[range.clone()]);
+            if let Some(g) = ground {
+                let n = Vector3::from(g.normal);
+                let on_plane = -n * g.offset - origin;
+                let term = Summary::plane(&n, &on_plane, ground_lambda);
+                gathered_summaries.resize(gathered_points.len(), term);
+            }
             em::gauss_newton(
                 &mut poses[s],
                 &origin,
-                points,
-                summaries,
+                &gathered_points,
+                &gathered_summaries,
                 settings.gauss_newton_steps,
                 settings.damping,
             );
+        }
+        // Moving a copy by M against its centres equals moving its points by M^-1 against
+        // them as they stand (the precisions turn with the copy), so each copy takes the same
+        // Gauss-Newton steps as a sensor, on every sensor's points near it.
+        let mut moves = vec![Pose::identity(); count];
+        let copies_move = copies.is_some_and(|c| sigma < c.below_sigma);
+        if copies_move {
+            for (c, members) in points_of.iter().enumerate() {
+                let at: Vec<Vector3<f64>> = members
+                    .iter()
+                    .map(|&i| poses[sensor_of_point[i]].transform_point(&points[i].into()).coords)
+                    .collect();
+                copy_summaries.clear();
+                copy_summaries.extend(members.iter().map(|&i| summaries[i]));
+                em::gauss_newton(
+                    &mut moves[c],
+                    &origin,
+                    &at,
+                    &copy_summaries,
+                    settings.gauss_newton_steps,
+                    settings.damping,
+                );
+            }
+        }
+        let (mut num_all, mut den_all) = (0.0, 0.0);
+        for (s, range) in ranges.iter().enumerate() {
             let (mut num, mut den) = (0.0, 0.0);
-            for (y, summary) in points.iter().zip(summaries) {
+            for i in range.clone() {
+                let summary = &summaries[i];
                 if summary.w > 0.0 {
-                    let x = poses[s].transform_point(&(*y).into()).coords - origin;
+                    let at = poses[s].transform_point(&points[i].into());
+                    let x = moves[copy_of_point[i]].transform_point(&at).coords - origin;
                     num += summary.anisotropic_sq(&x);
                     den += summary.w;
                 }
             }
-            support[s] = summaries.iter().filter(|summary| summary.w > 0.0).count();
+            support[s] = summaries[range.clone()].iter().filter(|summary| summary.w > 0.0).count();
             rms[s] = if den > 0.0 { (num / den).sqrt() } else { 0.0 };
             num_all += num;
             den_all += den;
@@ -265,6 +421,21 @@ pub fn register(
             let shift = (now.transform_point(&c) - before.transform_point(&c)).norm();
             max_change = max_change.max(before.rotation.angle_to(&now.rotation)).max(shift);
         }
+        if copies_move {
+            for ((copy, m), centroid) in copy_poses.iter_mut().zip(&moves).zip(&copy_centroids) {
+                let at = copy.transform_point(&(*centroid).into());
+                let shift = (m.inverse_transform_point(&at) - at).norm();
+                max_change = max_change.max(m.rotation.angle()).max(shift);
+                *copy = m.inverse() * *copy;
+            }
+            mixture = Mixture::new(
+                &moved(model, &copy_poses, |k| copies.map_or(0, |c| c.of_centre[k])),
+                GAMMA,
+                settings.outlier_weight,
+                sigma2_start,
+                volume,
+            );
+        }
         let record = CadIteration { iteration, sigma: sigma2.sqrt(), max_change };
         history.push(record);
         converged = max_change < settings.tolerance;
@@ -279,6 +450,7 @@ pub fn register(
 
     Ok(CadRegistration {
         poses,
+        copies: copy_poses,
         sigma: sigma2.sqrt(),
         iterations: history.len(),
         converged,
@@ -287,6 +459,18 @@ pub fn register(
         support,
         rms,
     })
+}
+
+/// The model with each centre (and its normal) carried by its copy's pose.
+fn moved(model: &CadModel, poses: &[Pose], copy_of: impl Fn(usize) -> usize) -> CadModel {
+    let (mut centres, mut normals) =
+        (Vec::with_capacity(model.len()), Vec::with_capacity(model.len()));
+    for k in 0..model.len() {
+        let pose = &poses[copy_of(k)];
+        centres.push(pose.transform_point(&model.centres[k].into()).coords);
+        normals.push(pose.rotation * model.normals[k]);
+    }
+    CadModel { centres, normals, anisotropy: model.anisotropy.clone() }
 }
 
 fn validate(

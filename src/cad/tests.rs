@@ -158,9 +158,15 @@ fn recovers(sensors: usize, outliers: bool, seed: u64) {
     let (views, sensor_of_view) = views(&errors, 20_000, outliers, seed);
     let settings = CadSettings::default();
     let start = Instant::now();
-    let result =
-        register(&refs(&views), &sensor_of_view, sensors, &model, &settings, |_| Control::Continue)
-            .expect("registers");
+    let result = register(
+        &CadViews { points: &refs(&views), sensor_of: &sensor_of_view, sensors },
+        &model,
+        None,
+        None,
+        &settings,
+        |_| Control::Continue,
+    )
+    .expect("registers");
     eprintln!(
         "{sensors} sensors, {} points, outliers {outliers}: {} iterations in {:.2} s, sigma {:.1} mm",
         views.iter().map(Vec::len).sum::<usize>(),
@@ -236,7 +242,15 @@ fn errors_are_named() {
     let settings = CadSettings::default();
     let points = [[2.0f32, 0.0, 0.75], [2.1, 0.1, 0.75], [2.0, 0.2, 0.75]];
     let go = |views: &[&[[f32; 3]]], of: &[usize], sensors: usize, model: &CadModel| {
-        register(views, of, sensors, model, &settings, |_| Control::Continue).map(|_| ())
+        register(
+            &CadViews { points: views, sensor_of: of, sensors },
+            model,
+            None,
+            None,
+            &settings,
+            |_| Control::Continue,
+        )
+        .map(|_| ())
     };
     let empty = CadModel { centres: Vec::new(), normals: Vec::new(), anisotropy: Vec::new() };
     assert_eq!(go(&[&points], &[0], 1, &empty), Err(CadError::NoCentres));
@@ -255,7 +269,15 @@ fn errors_are_named() {
     assert_eq!(go(&[&points], &[0], 1, &broken), Err(CadError::InvalidSetting("model")));
     let zero = CadSettings { max_iterations: 0, ..CadSettings::default() };
     assert_eq!(
-        register(&[&points], &[0], 1, &model, &zero, |_| Control::Continue).map(|_| ()),
+        register(
+            &CadViews { points: &[&points], sensor_of: &[0], sensors: 1 },
+            &model,
+            None,
+            None,
+            &zero,
+            |_| Control::Continue
+        )
+        .map(|_| ()),
         Err(CadError::InvalidSetting("max_iterations"))
     );
     assert_eq!(CadError::NoPoints { sensor: 3 }.to_string(), "sensor 3 has no points");
@@ -269,11 +291,18 @@ fn stops_on_convergence_and_on_request() {
     let views = refs(&views);
     let settings = CadSettings::default();
     let mut calls = 0;
-    let done = register(&views, &sensor_of_view, 2, &model, &settings, |it| {
-        calls += 1;
-        assert_eq!(it.iteration, calls);
-        Control::Continue
-    })
+    let done = register(
+        &CadViews { points: &views, sensor_of: &sensor_of_view, sensors: 2 },
+        &model,
+        None,
+        None,
+        &settings,
+        |it| {
+            calls += 1;
+            assert_eq!(it.iteration, calls);
+            Control::Continue
+        },
+    )
     .expect("registers");
     assert!(done.converged && !done.cancelled);
     assert!(done.iterations < settings.max_iterations, "{} iterations", done.iterations);
@@ -283,17 +312,31 @@ fn stops_on_convergence_and_on_request() {
     assert!(before.iter().all(|h| h.max_change >= settings.tolerance));
     assert_eq!(done.sigma, last.sigma);
 
-    let stopped = register(&views, &sensor_of_view, 2, &model, &settings, |it| {
-        if it.iteration == 3 { Control::Stop } else { Control::Continue }
-    })
+    let stopped = register(
+        &CadViews { points: &views, sensor_of: &sensor_of_view, sensors: 2 },
+        &model,
+        None,
+        None,
+        &settings,
+        |it| {
+            if it.iteration == 3 { Control::Stop } else { Control::Continue }
+        },
+    )
     .expect("registers");
     assert!(stopped.cancelled && !stopped.converged);
     assert_eq!(stopped.iterations, 3);
 
     // A cap below what convergence needs: neither converged nor cancelled.
     let capped = CadSettings { max_iterations: 4, ..CadSettings::default() };
-    let short = register(&views, &sensor_of_view, 2, &model, &capped, |_| Control::Continue)
-        .expect("registers");
+    let short = register(
+        &CadViews { points: &views, sensor_of: &sensor_of_view, sensors: 2 },
+        &model,
+        None,
+        None,
+        &capped,
+        |_| Control::Continue,
+    )
+    .expect("registers");
     assert!(!short.converged && !short.cancelled && short.iterations == 4);
 }
 
@@ -312,8 +355,15 @@ fn timing_six_views_of_5000_points() {
     {
         let settings = CadSettings { initial_sigma, tolerance, ..CadSettings::default() };
         let start = Instant::now();
-        let r = register(&views, &sensor_of_view, 3, &model, &settings, |_| Control::Continue)
-            .expect("registers");
+        let r = register(
+            &CadViews { points: &views, sensor_of: &sensor_of_view, sensors: 3 },
+            &model,
+            None,
+            None,
+            &settings,
+            |_| Control::Continue,
+        )
+        .expect("registers");
         let worst = r.poses.iter().zip(&errors).map(|(p, e)| residual(p, e).0).fold(0.0, f64::max);
         eprintln!(
             "initial sigma {initial_sigma:?}, tolerance {tolerance}: {} iterations in {:.3} s, worst {worst:.3} deg",
@@ -321,4 +371,121 @@ fn timing_six_views_of_5000_points() {
             start.elapsed().as_secs_f64(),
         );
     }
+}
+
+/// The model placed 1 deg and 2 cm off (as a placement from one sensor's few points can be):
+/// with its copy free and sensor 0 fixed, sensor 1 lands on sensor 0 and the copy on the
+/// truth; with the copy fixed, sensor 1 is pulled onto the misplaced model.
+#[test]
+fn a_misplaced_copy_moves_with_the_data() {
+    let misplaced = Pose::from_parts(
+        Translation3::new(0.02, -0.01, 0.01),
+        UnitQuaternion::from_scaled_axis(
+            Vector3::new(0.2, 1.0, 0.3).normalize() * 1f64.to_radians(),
+        ),
+    );
+    let true_model = model();
+    let model = CadModel {
+        centres: true_model
+            .centres
+            .iter()
+            .map(|c| misplaced.transform_point(&(*c).into()).coords)
+            .collect(),
+        normals: true_model.normals.iter().map(|n| misplaced.rotation * n).collect(),
+        anisotropy: true_model.anisotropy.clone(),
+    };
+    let errors = vec![Pose::identity(), errors(2)[1]];
+    let (views, sensor_of_view) = views(&errors, 20_000, false, 21);
+    let views = refs(&views);
+    let input = CadViews { points: &views, sensor_of: &sensor_of_view, sensors: 2 };
+    let of_centre = vec![0; model.len()];
+    let of_view = vec![0; views.len()];
+    let copies =
+        Copies { of_centre: &of_centre, of_view: &of_view, fixed_sensor: 0, below_sigma: 0.1 };
+    let settings = CadSettings::default();
+    let free = register(&input, &model, Some(&copies), None, &settings, |_| Control::Continue)
+        .expect("registers");
+    let fixed =
+        register(&input, &model, None, None, &settings, |_| Control::Continue).expect("registers");
+    assert_eq!(free.poses[0], Pose::identity());
+    let (deg, m) = residual(&free.poses[1], &errors[1]);
+    let (copy_deg, copy_m) = residual(&free.copies[0], &misplaced);
+    let (fixed_deg, fixed_m) = residual(&fixed.poses[1], &errors[1]);
+    eprintln!(
+        "copy free: sensor 1 {deg:.4} deg {:.2} mm, copy {copy_deg:.4} deg {:.2} mm; copy fixed: sensor 1 {fixed_deg:.3} deg {:.1} mm",
+        m * 1e3,
+        copy_m * 1e3,
+        fixed_m * 1e3
+    );
+    assert!(deg < 0.05 && m < 0.002, "sensor 1: {deg} deg, {m} m");
+    assert!(copy_deg < 0.05 && copy_m < 0.002, "copy: {copy_deg} deg, {copy_m} m");
+    assert!(
+        fixed_deg > 0.5,
+        "with the copy fixed sensor 1 follows the misplaced model: {fixed_deg}"
+    );
+}
+
+/// A few noisy points on the cube leave the tilt about it loose; the ground (20 x 20 m around
+/// the vehicle, both sensors seeing it) holds it.
+#[test]
+fn the_ground_holds_the_tilt_about_the_target() {
+    let model = model();
+    let tilt = Pose::from_parts(
+        Translation3::new(0.0, 0.0, 0.0),
+        UnitQuaternion::from_scaled_axis(
+            Vector3::new(1.0, 1.0, 0.0).normalize() * 1f64.to_radians(),
+        ),
+    );
+    let errors = vec![Pose::identity(), tilt];
+    let (mut views, sensor_of_view) = views(&errors, 300, false, 31);
+    let mut rng = Pcg64::seed_from_u64(32);
+    let noise = Normal::new(0.0, 0.02).expect("sigma");
+    let ground: Vec<Vec<[f32; 3]>> = errors
+        .iter()
+        .map(|e| {
+            (0..4000)
+                .map(|_| {
+                    let p = Vector3::new(
+                        rng.random_range(-10.0..10.0),
+                        rng.random_range(-10.0..10.0),
+                        noise.sample(&mut rng),
+                    );
+                    let q = e.transform_point(&Point3::from(p));
+                    [q.x as f32, q.y as f32, q.z as f32]
+                })
+                .collect()
+        })
+        .collect();
+    // Noisier target points: 2 cm.
+    let mut rng = Pcg64::seed_from_u64(33);
+    for view in &mut views {
+        for p in view.iter_mut() {
+            for c in p.iter_mut() {
+                *c += noise.sample(&mut rng) as f32;
+            }
+        }
+    }
+    let views = refs(&views);
+    let input = CadViews { points: &views, sensor_of: &sensor_of_view, sensors: 2 };
+    let lists: Vec<&[[f32; 3]]> = ground.iter().map(Vec::as_slice).collect();
+    let on_ground =
+        Ground { normal: [0.0, 0.0, 1.0], offset: 0.0, points: &lists, sensor_of: &[0, 1] };
+    let settings = CadSettings::default();
+    let tilt_error = |pose: &Pose| {
+        let r = (pose * tilt).rotation * Vector3::z();
+        r.angle(&Vector3::z()).to_degrees()
+    };
+    let with = register(&input, &model, None, Some(&on_ground), &settings, |_| Control::Continue)
+        .expect("registers");
+    let without =
+        register(&input, &model, None, None, &settings, |_| Control::Continue).expect("registers");
+    let (with_tilt, without_tilt) = (tilt_error(&with.poses[1]), tilt_error(&without.poses[1]));
+    eprintln!("tilt error with the ground {with_tilt:.4} deg, without {without_tilt:.4} deg");
+    assert!(with_tilt < 0.01, "with the ground: {with_tilt} deg");
+    assert!(without_tilt > 2.0 * with_tilt, "without: {without_tilt}, with: {with_tilt}");
+    let bad = Ground { normal: [0.0, 0.0, 2.0], ..on_ground };
+    assert_eq!(
+        register(&input, &model, None, Some(&bad), &settings, |_| Control::Continue).map(|_| ()),
+        Err(CadError::InvalidSetting("ground"))
+    );
 }

@@ -163,15 +163,12 @@ pub(super) fn finish(
         verdict::judge_frames(&mut v, (result.spread.rpy, result.spread.xyz), result.spread.frames);
         sensor_verdicts.push(v);
     }
-    let mut reasons = verdict::judge_reconstruction(
+    let reasons = verdict::judge_reconstruction(
         &settings.target,
         &reconstruction.fits,
         !reconstruction.means.is_empty(),
         (iterations > 0).then_some((converged, iterations)),
     );
-    if stages.cad.is_some() {
-        reasons.push(verdict::unvalidated());
-    }
     let level = sensor_verdicts
         .iter()
         .map(|v| v.level)

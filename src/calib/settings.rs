@@ -139,7 +139,7 @@ pub struct Settings {
     /// spec"); `None`: off.
     pub bev: Option<BevSettings>,
     /// Before everything, align each sensor globally from a far-off nominal (any yaw, steep
-    /// tilts, metres off; docs/method.md, "Global alignment"); `None`: for `gmm` only.
+    /// tilts, metres off; docs/method.md, "Global alignment"); `None`: for `gmm` and `cad`.
     pub align_globally: Option<bool>,
     pub global: GlobalSettings,
     /// For `cad`'s registration onto the target's model.
@@ -225,7 +225,8 @@ impl Stages {
             Method::Icp(metric) => Some(PairSettings::from_nominal(metric, &settings.icp)),
             Method::Jrmpc | Method::Cad => None,
         };
-        let global = settings.align_globally.unwrap_or(method == Method::Gmm);
+        // `cad` finds its basin as `gmm` does: its EM alone holds no more than a few degrees.
+        let global = settings.align_globally.unwrap_or(matches!(method, Method::Gmm | Method::Cad));
         Self {
             method,
             global: global.then(|| settings.global.clone()),

@@ -121,11 +121,6 @@ pub enum ReasonKind {
     NotLevelled(LevellingSkipped),
     /// JRMPC stopped at its iteration limit before the convergence test.
     NotConverged { iterations: usize },
-    /// `cad` registers onto the target's model alone, and the evidence here does not yet catch
-    /// every way that goes wrong: on the twins it ended 0.47 deg / 99 mm (median) from the
-    /// truth where `gmm` ends 0.013 deg / 2 mm, mostly as a tilt about the targets that the
-    /// structure's agreement hardly sees. Every `cad` result is to be checked against `gmm`'s.
-    Unvalidated,
     /// How the target's shape fits the reconstruction: information (a chair is not a cube).
     TargetFit { target: Target, fit: ShapeFit },
     /// No target stands out of the reconstruction.
@@ -337,11 +332,6 @@ pub(super) fn judge_reconstruction(
         reasons.push(Reason { level: Level::Good, kind: ReasonKind::NotConverged { iterations } });
     }
     reasons
-}
-
-/// The reason every `cad` result carries ([`ReasonKind::Unvalidated`]).
-pub(super) fn unvalidated() -> Reason {
-    Reason { level: Level::Check, kind: ReasonKind::Unvalidated }
 }
 
 impl ReasonKind {

@@ -242,33 +242,58 @@ impl Views {
         if self.placements.is_empty() {
             return Err(CalibError::TargetNotFound(self.settings.target.label()));
         }
+        // One cad view per (view, copy): the copy the points lie near.
         let near = self.near_placements(&mesh);
-        let mut sizes: Vec<usize> = near.iter().map(Vec::len).collect();
+        let mut sizes: Vec<usize> =
+            near.iter().map(|n| n.by_copy.iter().map(Vec::len).sum()).collect();
         sizes.sort_unstable();
-        let per_copy = (1.75 * sizes[sizes.len() / 2] as f64 / self.placements.len() as f64)
-            .ceil()
-            .max(50.0) as usize;
-        let samples: Vec<([f64; 3], [f64; 3])> = self
-            .placements
-            .iter()
-            .enumerate()
-            .flat_map(|(c, placed)| {
-                let seed = self.settings.seed.wrapping_add(c as u64);
-                mesh.sample_with_normals(per_copy, seed).into_iter().map(move |(p, n)| {
-                    let q = placed.pose * nalgebra::Point3::from(p);
-                    let m = placed.pose.rotation * nalgebra::Vector3::from(n);
-                    ([q.x, q.y, q.z], [m.x, m.y, m.z])
-                })
-            })
-            .collect();
+        let copies = self.placements.len();
+        let per_copy =
+            (1.75 * sizes[sizes.len() / 2] as f64 / copies as f64).ceil().max(50.0) as usize;
+        let mut samples: Vec<([f64; 3], [f64; 3])> = Vec::with_capacity(per_copy * copies);
+        let mut copy_of_centre = Vec::with_capacity(per_copy * copies);
+        for (c, placed) in self.placements.iter().enumerate() {
+            let seed = self.settings.seed.wrapping_add(c as u64);
+            for (p, n) in mesh.sample_with_normals(per_copy, seed) {
+                let q = placed.pose * nalgebra::Point3::from(p);
+                let m = placed.pose.rotation * nalgebra::Vector3::from(n);
+                samples.push(([q.x, q.y, q.z], [m.x, m.y, m.z]));
+                copy_of_centre.push(c);
+            }
+        }
         let model = crate::cad::CadModel::from_samples(&samples, settings.a_max);
-        let clouds: Vec<&[[f32; 3]]> = near.iter().map(Vec::as_slice).collect();
-        let sensor_of_view: Vec<usize> = self.views.iter().map(|v| v.sensor).collect();
+        let (mut clouds, mut sensor_of_view, mut copy_of_view) =
+            (Vec::new(), Vec::new(), Vec::new());
+        for (view, n) in self.views.iter().zip(&near) {
+            for (c, points) in n.by_copy.iter().enumerate() {
+                clouds.push(points.as_slice());
+                sensor_of_view.push(view.sensor);
+                copy_of_view.push(c);
+            }
+        }
+        let ground_lists: Vec<&[[f32; 3]]> = near.iter().map(|n| n.ground.as_slice()).collect();
+        let ground_sensors: Vec<usize> = self.views.iter().map(|v| v.sensor).collect();
+        let ground = self.ground.map(|g| crate::cad::Ground {
+            normal: g.normal.into(),
+            offset: g.offset,
+            points: &ground_lists,
+            sensor_of: &ground_sensors,
+        });
+        let input = crate::cad::CadViews {
+            points: &clouds,
+            sensor_of: &sensor_of_view,
+            sensors: self.sensors.len(),
+        };
         let reg = crate::cad::register(
-            &clouds,
-            &sensor_of_view,
-            self.sensors.len(),
+            &input,
             &model,
+            Some(&crate::cad::Copies {
+                of_centre: &copy_of_centre,
+                of_view: &copy_of_view,
+                fixed_sensor: self.reference,
+                below_sigma: 0.1 * mesh_size(&mesh),
+            }),
+            ground.as_ref(),
             &settings,
             &mut progress,
         )
@@ -278,11 +303,18 @@ impl Views {
             }
             other => CalibError::StageFailed(format!("cad: {other}")),
         })?;
-        let k = model.centres.len();
+        // The mixture is the model where the data put its copies.
+        let means: Vec<nalgebra::Vector3<f64>> = model
+            .centres
+            .iter()
+            .zip(&copy_of_centre)
+            .map(|(m, &c)| reg.copies[c].transform_point(&(*m).into()).coords)
+            .collect();
+        let k = means.len();
         Ok(Registration {
             poses: self.views.iter().map(|v| reg.poses[v.sensor]).collect(),
             mixture: crate::jrmpc::Mixture {
-                means: model.centres.clone(),
+                means,
                 variances: vec![reg.sigma * reg.sigma; k],
                 priors: vec![1.0 / k as f64; k],
             },
@@ -303,32 +335,32 @@ impl Views {
     }
 
     /// Each view's points within a tenth of the model's size (at least 10 cm) of a placed
-    /// copy's bounding box, and off the ground: what `cad` registers.
-    fn near_placements(&self, mesh: &crate::io::mesh::Mesh) -> Vec<Vec<[f32; 3]>> {
+    /// copy's bounding box, and off the ground, per copy (the first copy whose box holds a
+    /// point takes it); and its points on the ground: what `cad` registers.
+    fn near_placements(&self, mesh: &crate::io::mesh::Mesh) -> Vec<NearPlacements> {
         let b = mesh.bounds();
-        let size = (0..3).map(|i| b.max[i] - b.min[i]).fold(0.0, f64::max);
-        let margin = (0.1 * size).max(0.1);
+        let margin = (0.1 * mesh_size(mesh)).max(0.1);
         let ground_band = PlaceSettings::default().ground_band;
         let inverse: Vec<Pose> = self.placements.iter().map(|p| p.pose.inverse()).collect();
         self.views
             .iter()
             .map(|v| {
-                v.cloud
-                    .points
-                    .iter()
-                    .filter(|p| {
-                        let x = nalgebra::Point3::new(p[0] as f64, p[1] as f64, p[2] as f64);
-                        let off_ground =
-                            self.ground.is_none_or(|g| g.distance(&x.coords) > ground_band);
-                        off_ground
-                            && inverse.iter().any(|t| {
-                                let q = t * x;
-                                (0..3)
-                                    .all(|i| q[i] >= b.min[i] - margin && q[i] <= b.max[i] + margin)
-                            })
-                    })
-                    .copied()
-                    .collect()
+                let (mut by_copy, mut ground) = (vec![Vec::new(); inverse.len()], Vec::new());
+                for p in &v.cloud.points {
+                    let x = nalgebra::Point3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+                    if self.ground.is_some_and(|g| g.distance(&x.coords).abs() <= ground_band) {
+                        ground.push(*p);
+                        continue;
+                    }
+                    let near = inverse.iter().position(|t| {
+                        let q = t * x;
+                        (0..3).all(|i| q[i] >= b.min[i] - margin && q[i] <= b.max[i] + margin)
+                    });
+                    if let Some(c) = near {
+                        by_copy[c].push(*p);
+                    }
+                }
+                NearPlacements { by_copy, ground }
             })
             .collect()
     }
@@ -577,4 +609,16 @@ fn place_targets(
         .collect();
     let level = Plane { normal: nalgebra::Vector3::z(), offset: 0.0 };
     Ok(crate::target::place(&model, &points, ground.unwrap_or(&level), &settings))
+}
+
+/// One view's points as `cad` takes them: near each placed copy, and on the ground.
+struct NearPlacements {
+    by_copy: Vec<Vec<[f32; 3]>>,
+    ground: Vec<[f32; 3]>,
+}
+
+/// The model's largest extent (m).
+fn mesh_size(mesh: &crate::io::mesh::Mesh) -> f64 {
+    let b = mesh.bounds();
+    (0..3).map(|i| b.max[i] - b.min[i]).fold(0.0, f64::max)
 }

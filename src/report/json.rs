@@ -475,7 +475,6 @@ impl From<&Reason> for ReasonReport {
             ReasonKind::NotConverged { iterations } => {
                 vec![("iterations", Number(*iterations as f64))]
             }
-            ReasonKind::Unvalidated => vec![],
             ReasonKind::TargetFit { target, fit } => vec![
                 ("shape", Text(fit.shape.into())),
                 ("size", Number(fit.size)),

@@ -8,11 +8,11 @@ pub mod ros;
 mod sentences;
 mod text;
 
+pub use drift::{DriftReport, LimitReport, SensorDriftReport, drift_findings, drift_table};
 pub use json::{
     AgreementReport, BevReport, CandidateReport, EvidenceReport, FitReport, GlobalReport,
     HistoryReport, LevellingReport, NoteReport, ObservabilityReport, OverlayReport,
     PrecisionReport, ReasonReport, ReconstructionReport, Report, SensorReport, SensorVerdictReport,
     SpreadReport, Value, VerdictReport,
 };
-pub use drift::{DriftReport, LimitReport, SensorDriftReport, drift_findings, drift_table};
 pub use text::{comparison, summary, verdict};

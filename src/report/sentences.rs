@@ -246,12 +246,6 @@ impl fmt::Display for ReasonKind {
             ReasonKind::NotConverged { iterations } => {
                 write!(f, "JRMPC stopped at its limit of {iterations} iterations before converging")
             }
-            ReasonKind::Unvalidated => write!(
-                f,
-                "cad registers onto the target's model alone and is not yet as accurate as gmm \
-                 (on the twins 0.5 deg / 10 cm median against 0.013 deg / 2 mm), in ways this \
-                 evidence does not all catch (a tilt about the targets): compare with gmm's result"
-            ),
             ReasonKind::TargetFit { target, fit } if fit.shape == "mesh" => write!(
                 f,
                 "the mesh ({:.2} m across) fits a reconstructed target with RMS {:.1} mm, {:.0} % \
@@ -321,7 +315,6 @@ impl ReasonKind {
             ReasonKind::Search(_) => "search",
             ReasonKind::NotLevelled(_) => "notLevelled",
             ReasonKind::NotConverged { .. } => "notConverged",
-            ReasonKind::Unvalidated => "unvalidated",
             ReasonKind::TargetFit { .. } => "targetFit",
             ReasonKind::NoTarget => "noTarget",
             ReasonKind::Methods { .. } => "methods",
