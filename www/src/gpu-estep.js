@@ -48,7 +48,7 @@ export class GpuEStep {
     device.pushErrorScope('validation');
     const module = device.createShaderModule({ code: shaderSource });
     const pipeline = (entryPoint) => device.createComputePipeline({ layout: 'auto', compute: { module, entryPoint } });
-    const pipelines = { transform: pipeline('transform'), sums: pipeline('sums') };
+    const pipelines = { normalise: pipeline('normalise'), sums: pipeline('sums') };
     const error = await device.popErrorScope();
     if (error) {
       device.destroy();
@@ -84,50 +84,52 @@ class GpuShard {
     if (points.length !== 3 * this.count) throw new Error(`GPU shard: ${points.length} coordinates for ${this.count} points`);
     this.seconds = 0;
     this.iterations = 0;
-    // Points as vec4: x, y, z and the view's index (exact in f32 below 2^24 views).
-    const flat = new Float32Array(4 * Math.max(this.count, 1));
-    const chunks = []; // [first point, count] per chunk; a chunk is within one view
+    // Points as f32 pairs (gpu-estep.wgsl), vec4 each: the high part with the view's index
+    // (exact in f32 below 2^24 views), the low part.
+    const [his, los] = [new Float32Array(4 * Math.max(this.count, 1)), new Float32Array(4 * Math.max(this.count, 1))];
+    const chunks = []; // [first point, count, view, 0] per chunk; a chunk is within one view
     this.viewChunks = []; // per view, its chunks' indices
     let at = 0;
     this.sizes.forEach((size, view) => {
-      for (let i = 0; i < size; i++) {
-        flat.set([points[3 * (at + i)], points[3 * (at + i) + 1], points[3 * (at + i) + 2], view], 4 * (at + i));
+      for (let i = at; i < at + size; i++) {
+        for (let c = 0; c < 3; c++) {
+          his[4 * i + c] = points[3 * i + c];
+          los[4 * i + c] = points[3 * i + c] - his[4 * i + c];
+        }
+        his[4 * i + 3] = view;
       }
       const mine = [];
       for (let start = 0; start < size; start += CHUNK) {
-        mine.push(chunks.length / 2);
-        chunks.push(at + start, Math.min(CHUNK, size - start));
+        mine.push(chunks.length / 4);
+        chunks.push(at + start, Math.min(CHUNK, size - start), view, 0);
       }
       this.viewChunks.push(mine);
       at += size;
     });
-    this.chunks = chunks.length / 2;
+    this.chunks = chunks.length / 4;
     if (this.chunks > MAX_GROUPS) throw new Error(`GPU shard: ${this.count} points is more than one dispatch holds`);
     const storage = GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST;
     const make = (size, usage) => device.createBuffer({ size: Math.max(16, size), usage });
     this.buffers = {
       params: make(16, GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST),
-      points: make(flat.byteLength, storage),
-      views: make(48 * this.sizes.length, storage),
-      moved: make(flat.byteLength, GPUBufferUsage.STORAGE),
+      points: make(his.byteLength, storage),
+      lows: make(los.byteLength, storage),
+      norms: make(4 * this.count, GPUBufferUsage.STORAGE),
       chunks: make(16 * this.chunks, storage),
     };
-    device.queue.writeBuffer(this.buffers.points, 0, flat);
-    const chunkWords = new Uint32Array(4 * this.chunks);
-    for (let c = 0; c < this.chunks; c++) chunkWords.set([chunks[2 * c], chunks[2 * c + 1]], 4 * c);
-    device.queue.writeBuffer(this.buffers.chunks, 0, chunkWords);
-    this.k = 0; // the component buffers are made for the first input's K
+    device.queue.writeBuffer(this.buffers.points, 0, his);
+    device.queue.writeBuffer(this.buffers.lows, 0, los);
+    device.queue.writeBuffer(this.buffers.chunks, 0, Uint32Array.from(chunks));
+    this.k = 0; // the buffers that depend on K are made for the first input's K
   }
 
   // Buffers and bind groups that depend on K.
   #sizeFor(k) {
     const { device, pipelines } = this.gpu;
-    for (const name of ['components', 'scales', 'partials', 'readBack']) this.buffers[name]?.destroy();
-    const storage = GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST;
+    for (const name of ['means', 'partials', 'readBack']) this.buffers[name]?.destroy();
     const partialBytes = 20 * this.chunks * k;
     Object.assign(this.buffers, {
-      components: device.createBuffer({ size: 16 * k, usage: storage }),
-      scales: device.createBuffer({ size: Math.max(16, 4 * k), usage: storage }),
+      means: device.createBuffer({ size: 32 * this.sizes.length * k, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST }),
       partials: device.createBuffer({ size: partialBytes, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_SRC }),
       readBack: device.createBuffer({ size: partialBytes, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST }),
     });
@@ -137,8 +139,8 @@ class GpuShard {
       entries: bindings.map(([binding, buffer]) => ({ binding, resource: { buffer } })),
     });
     this.groups = {
-      transform: group(pipelines.transform, [[0, b.params], [1, b.points], [2, b.views], [3, b.components], [4, b.scales], [5, b.moved]]),
-      sums: group(pipelines.sums, [[0, b.params], [3, b.components], [4, b.scales], [5, b.moved], [6, b.chunks], [7, b.partials]]),
+      normalise: group(pipelines.normalise, [[0, b.params], [1, b.points], [2, b.lows], [3, b.means], [4, b.norms]]),
+      sums: group(pipelines.sums, [[0, b.params], [1, b.points], [2, b.lows], [3, b.means], [4, b.norms], [5, b.chunks], [6, b.partials]]),
     };
     this.k = k;
   }
@@ -148,8 +150,7 @@ class GpuShard {
   async eStep(input, first) {
     const started = performance.now();
     const { device, pipelines } = this.gpu;
-    const [beta, kNumber] = input;
-    const k = kNumber;
+    const [beta, k] = input;
     const views = this.sizes.length;
     const transforms = 2 + 5 * k + 12 * first;
     if (!(Number.isInteger(k) && k > 0 && beta > 0) || input.length < transforms + 12 * views) {
@@ -159,20 +160,28 @@ class GpuShard {
     const means = input.subarray(2, 2 + 3 * k);
     const variances = input.subarray(2 + 3 * k, 2 + 4 * k);
     const priors = input.subarray(2 + 4 * k, 2 + 5 * k);
-    // The mixture: mean and h_k = Q_k / 2 per component, and s_k = p_k Q_k^1.5 (computed in
-    // f64, as Mixture::peak_scales does, then rounded).
-    const components = new Float32Array(4 * k);
-    const scales = new Float32Array(k);
-    for (let c = 0; c < k; c++) {
-      const q = 1 / variances[c];
-      components.set([means[3 * c], means[3 * c + 1], means[3 * c + 2], q / 2], 4 * c);
-      scales[c] = priors[c] * q * Math.sqrt(q);
-    }
     const rt = input.subarray(transforms, transforms + 12 * views);
-    const viewRows = new Float32Array(12 * views);
+    // Per view, per component: its mean in the view's frame, c = R^T (x_k - t), as an f32
+    // pair, with h_k = Q_k / 2 and s_k = p_k Q_k^1.5 (in f64, as Mixture::peak_scales, then
+    // rounded).
+    const centres = new Float64Array(3 * k * views);
+    const packed = new Float32Array(8 * k * views);
     for (let v = 0; v < views; v++) {
-      const m = rt.subarray(12 * v, 12 * v + 12); // R row-major, then t
-      viewRows.set([m[0], m[1], m[2], m[9], m[3], m[4], m[5], m[10], m[6], m[7], m[8], m[11]], 12 * v);
+      const r = rt.subarray(12 * v, 12 * v + 9); // row-major
+      const t = rt.subarray(12 * v + 9, 12 * v + 12);
+      for (let c = 0; c < k; c++) {
+        const d = [means[3 * c] - t[0], means[3 * c + 1] - t[1], means[3 * c + 2] - t[2]];
+        const q = 1 / variances[c];
+        const at = v * k + c;
+        for (let i = 0; i < 3; i++) {
+          const x = r[i] * d[0] + r[3 + i] * d[1] + r[6 + i] * d[2];
+          centres[3 * at + i] = x;
+          packed[8 * at + i] = x;
+          packed[8 * at + 4 + i] = x - packed[8 * at + i];
+        }
+        packed[8 * at + 3] = q / 2;
+        packed[8 * at + 7] = priors[c] * q * Math.sqrt(q);
+      }
     }
     const groups = Math.ceil(this.count / WORKGROUP);
     const rows = Math.ceil(groups / MAX_GROUPS);
@@ -182,18 +191,18 @@ class GpuShard {
     new Float32Array(params)[2] = beta;
     const b = this.buffers;
     device.queue.writeBuffer(b.params, 0, params);
-    device.queue.writeBuffer(b.components, 0, components);
-    device.queue.writeBuffer(b.scales, 0, scales);
-    device.queue.writeBuffer(b.views, 0, viewRows);
+    device.queue.writeBuffer(b.means, 0, packed);
 
     const encoder = device.createCommandEncoder();
     const pass = encoder.beginComputePass();
-    pass.setPipeline(pipelines.transform);
-    pass.setBindGroup(0, this.groups.transform);
-    if (this.count) pass.dispatchWorkgroups(perRow, rows);
-    pass.setPipeline(pipelines.sums);
-    pass.setBindGroup(0, this.groups.sums);
-    if (this.count) pass.dispatchWorkgroups(k, this.chunks);
+    if (this.count) {
+      pass.setPipeline(pipelines.normalise);
+      pass.setBindGroup(0, this.groups.normalise);
+      pass.dispatchWorkgroups(perRow, rows);
+      pass.setPipeline(pipelines.sums);
+      pass.setBindGroup(0, this.groups.sums);
+      pass.dispatchWorkgroups(k, this.chunks);
+    }
     pass.end();
     encoder.copyBufferToBuffer(b.partials, 0, b.readBack, 0, b.partials.size);
     device.queue.submit([encoder.finish()]);
@@ -204,29 +213,25 @@ class GpuShard {
     const output = new Float64Array(1 + 5 * k * views);
     output[0] = this.count * k; // dense: every term
     for (let v = 0; v < views; v++) {
-      const [r, t] = [rt.subarray(12 * v, 12 * v + 9), rt.subarray(12 * v + 9, 12 * v + 12)];
       const base = 1 + 5 * k * v;
       for (let c = 0; c < k; c++) {
-        // The chunks' sums about x_k, in f64 and chunk order.
+        // The chunks' sums about c, in f64 and chunk order.
         let [l, ux, uy, uz, u2] = [0, 0, 0, 0, 0];
-        if (this.count) {
-          for (const chunk of this.viewChunks[v]) {
-            const at = 5 * (chunk * k + c);
-            l += partials[at];
-            ux += partials[at + 1];
-            uy += partials[at + 2];
-            uz += partials[at + 3];
-            u2 += partials[at + 4];
-          }
+        for (const chunk of this.viewChunks[v]) {
+          const at = 5 * (chunk * k + c);
+          l += partials[at];
+          ux += partials[at + 1];
+          uy += partials[at + 2];
+          uz += partials[at + 3];
+          u2 += partials[at + 4];
         }
-        // Back to sums over untransformed points (estep::accumulate): with m = R^T (x_k - t)
-        // the mean in the view's frame and u' = R^T u, v = m - R^T u.
-        const d = [means[3 * c] - t[0], means[3 * c + 1] - t[1], means[3 * c + 2] - t[2]];
-        const m = [0, 1, 2].map((i) => r[i] * d[0] + r[3 + i] * d[1] + r[6 + i] * d[2]);
-        const u = [0, 1, 2].map((i) => r[i] * ux + r[3 + i] * uy + r[6 + i] * uz);
-        const mu = m[0] * u[0] + m[1] * u[1] + m[2] * u[2];
+        // Sums of u = c - v, back to sums of v = c - u (as estep::accumulate does).
+        const m = centres.subarray(3 * (v * k + c), 3 * (v * k + c) + 3);
+        const mu = m[0] * ux + m[1] * uy + m[2] * uz;
         output[base + c] = l;
-        for (let i = 0; i < 3; i++) output[base + k + 3 * c + i] = l * m[i] - u[i];
+        output[base + k + 3 * c] = l * m[0] - ux;
+        output[base + k + 3 * c + 1] = l * m[1] - uy;
+        output[base + k + 3 * c + 2] = l * m[2] - uz;
         output[base + 4 * k + c] = l * (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]) - 2 * mu + u2;
       }
     }
