@@ -338,3 +338,71 @@ fn fuzz_findings_are_errors_not_panics() {
         }
     }
 }
+
+/// A source counting its reads.
+struct Counted {
+    data: Vec<u8>,
+    reads: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+}
+
+impl gmmcalib::io::recording::ReadAt for Counted {
+    fn size(&self) -> u64 {
+        self.data.len() as u64
+    }
+
+    fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> std::io::Result<()> {
+        self.reads.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.data.read_at(offset, buf)
+    }
+}
+
+#[test]
+fn an_mcap_with_statistics_opens_from_its_summary_alone() {
+    use std::sync::atomic::Ordering::Relaxed;
+    let reads = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let source = Counted { data: bytes("stamps.mcap"), reads: reads.clone() };
+    let mut rec = Recording::open(Box::new(source), "stamps.mcap", &mut |_, _| {}).unwrap();
+    let opened = reads.load(Relaxed);
+    // The magics, the footer and the summary: none of the 60 chunks' message indexes.
+    assert!(opened <= 5, "{opened} reads to open");
+    for t in rec.topics() {
+        assert_eq!(t.count, 20, "{}", t.name);
+        assert!((t.rate_hz() - 10.0).abs() < 0.01, "{} at {} Hz", t.name, t.rate_hz());
+    }
+    let a = rec.topic("/a/points").unwrap();
+    let times = rec.times(a).unwrap();
+    assert_eq!(times.len(), 20);
+    assert_eq!(times[1] - times[0], 100_000_000);
+    // One message index record per chunk of /a/points, then nothing more for it.
+    assert_eq!(reads.load(Relaxed) - opened, 20);
+    rec.times(a).unwrap();
+    assert_eq!(reads.load(Relaxed) - opened, 20);
+}
+
+#[test]
+fn instants_pair_by_header_stamps_not_log_times() {
+    // /b/points is logged a full period late: by log time /a's message k would pair with /b's
+    // k - 1; by stamp it is /b's k, 2 ms later. /c/points has no stamps: its log time stands.
+    for file in ["stamps.mcap", "stamps.bag"] {
+        let mut rec = open(file);
+        let topic = |n: &str| rec.topic(n).unwrap();
+        let (a, b, c) = (topic("/a/points"), topic("/b/points"), topic("/c/points"));
+        let select = Select { frames: 5, tolerance_ns: 20_000_000 };
+        let chosen = rec.choose(&[a, b, c], a, &select).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(chosen.picks.len(), 5, "{file}");
+        for p in &chosen.picks {
+            assert_eq!(
+                p.reference_ns,
+                1_700_000_000_000_000_000 + p.reference as u64 * 100_000_000
+            );
+            assert_eq!(p.others, [(p.reference, 2_000_000), (p.reference, 7_000_000)], "{file}");
+        }
+        // Each message's point is (k, topic, 1): an instant's scans share k.
+        for k in 0..5 {
+            let x: Vec<f32> =
+                (0..3).map(|t| chosen.scans[t * 5 + k].cloud.cloud.points[0][0]).collect();
+            assert_eq!(x, [x[0]; 3], "{file}: instant {k}");
+            assert_eq!(x[0] as usize, chosen.picks[k].reference, "{file}");
+        }
+    }
+}

@@ -108,12 +108,24 @@ pub struct ChunkRef {
     pub crc: u32,
 }
 
+/// One topic's message index record of one chunk, not read yet: the chunk and where the
+/// record lies in the file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Span {
+    pub chunk: usize,
+    pub at: u64,
+    pub len: u64,
+}
+
 /// What opening a recording yields.
 #[derive(Debug, Default)]
 pub struct Index {
     pub topics: Vec<Topic>,
     pub entries: Vec<Entry>,
     pub chunks: Vec<ChunkRef>,
+    /// Per topic, its message index records left for when the topic is used (MCAP whose
+    /// summary counts the messages: opening reads the summary alone); empty: all in `entries`.
+    pub deferred: Vec<Option<Vec<Span>>>,
     /// Problems that left the rest readable (a truncated tail, a corrupt chunk skipped).
     pub problems: Vec<RecordingError>,
 }

@@ -15,7 +15,7 @@ use std::collections::HashMap;
 use super::bytes::{Cursor, crc32};
 use super::compression::{self, Compression};
 use super::error::{Bad, RecordingError};
-use super::index::{ChunkRef, Encoding, Entry, Index, Loc, Progress, Topic};
+use super::index::{ChunkRef, Encoding, Entry, Index, Loc, Progress, Span, Topic};
 use super::source::{ReadAt, read};
 
 pub const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
@@ -26,6 +26,7 @@ const MESSAGE: u8 = 0x05;
 const CHUNK: u8 = 0x06;
 const MESSAGE_INDEX: u8 = 0x07;
 const CHUNK_INDEX: u8 = 0x08;
+const STATISTICS: u8 = 0x0B;
 const FOOTER: u8 = 0x02;
 const DATA_END: u8 = 0x0F;
 /// Footer record: opcode, length, summary_start, summary_offset_start, summary_crc.
@@ -111,8 +112,10 @@ pub fn open(src: &mut dyn ReadAt, file: &str, progress: Progress) -> Result<Inde
     }
 }
 
-/// The index from the summary and the message indexes; `None` when the file has not enough
-/// of them (no footer, no summary, loose messages, chunks without message indexes).
+/// The index from the summary, with each topic's message indexes left for when it is used
+/// ([`message_index`]) when the summary's statistics count every channel's messages, else read
+/// now; `None` when the file has not enough of them (no footer, no summary, loose messages,
+/// chunks without message indexes).
 fn summary(src: &mut dyn ReadAt) -> Result<Option<Index>, Bad> {
     let size = src.size();
     if size < 8 + FOOTER_LEN + 8 || read(src, size - 8, 8, "magic")? != MAGIC {
@@ -135,22 +138,30 @@ fn summary(src: &mut dyn ReadAt) -> Result<Option<Index>, Bad> {
     let data = read(src, start, footer_at - start, "summary")?;
     let mut registry = Registry::default();
     let mut chunk_indexes = Vec::new();
-    let mut total = None;
+    let mut counts = None;
     for record in records(&data, start) {
         let (op, body, at) = record?;
         match op {
             SCHEMA | CHANNEL => registry.record(op, body, at)?,
             CHUNK_INDEX => chunk_indexes.push(chunk_index(body, at)?),
-            0x0B => total = Some(Cursor::new(body, at).u64("message count")?),
+            STATISTICS => counts = Some(statistics(body, at)?),
             _ => {}
         }
     }
-    let in_chunks: bool = chunk_indexes.iter().all(|(_, index_len)| *index_len > 0);
+    let total = counts.as_ref().map(|(total, _)| *total);
+    let in_chunks: bool = chunk_indexes.iter().all(|c| c.index_len > 0);
     if !in_chunks || (chunk_indexes.is_empty() && total != Some(0)) {
         return Ok(None);
     }
     let mut index = Index { topics: registry.topics.clone(), ..Index::default() };
-    for (n, (chunk, index_len)) in chunk_indexes.into_iter().enumerate() {
+    if let Some((_, counts)) = counts
+        && registry.channels.keys().all(|c| counts.contains_key(c))
+        && chunk_indexes.iter().all(|c| !c.offsets.is_empty())
+    {
+        defer(&mut index, &registry, chunk_indexes, &counts)?;
+        return Ok(Some(index));
+    }
+    for (n, ChunkIndex { chunk, index_len, .. }) in chunk_indexes.into_iter().enumerate() {
         let indexes_at = chunk.start + chunk_end(&chunk);
         let bytes = read(src, indexes_at, index_len, "message index")?;
         for record in records(&bytes, indexes_at) {
@@ -173,14 +184,44 @@ fn summary(src: &mut dyn ReadAt) -> Result<Option<Index>, Bad> {
     Ok(Some(index))
 }
 
-/// A chunk index: the chunk (its record's place and sizes) and its message indexes' length.
-fn chunk_index(body: &[u8], at: u64) -> Result<(ChunkRef, u64), Bad> {
+/// A Statistics record's message count and its messages per channel.
+fn statistics(body: &[u8], at: u64) -> Result<(u64, HashMap<u16, u64>), Bad> {
     let mut c = Cursor::new(body, at);
-    c.u64("start time")?;
-    c.u64("end time")?;
+    let total = c.u64("message count")?;
+    c.bytes(2 + 4 + 4 + 4 + 4 + 8 + 8, "statistics counts and times")?;
+    let map_at = c.offset() + 4;
+    let map = c.prefixed("channel message counts")?;
+    let mut m = Cursor::new(map, map_at);
+    let mut counts = HashMap::new();
+    while m.remaining() > 0 {
+        counts.insert(m.u16("channel id")?, m.u64("message count")?);
+    }
+    Ok((total, counts))
+}
+
+/// What the summary says of one chunk.
+struct ChunkIndex {
+    chunk: ChunkRef,
+    /// Log times of its first and last message (ns).
+    times: (u64, u64),
+    /// Per channel, the file offset of its message index record.
+    offsets: Vec<(u16, u64)>,
+    /// Length of all its message index records.
+    index_len: u64,
+}
+
+/// A chunk index: the chunk (its record's place and sizes) and its message indexes.
+fn chunk_index(body: &[u8], at: u64) -> Result<ChunkIndex, Bad> {
+    let mut c = Cursor::new(body, at);
+    let times = (c.u64("start time")?, c.u64("end time")?);
     let start = c.u64("chunk start")?;
     let length = c.u64("chunk length")?;
-    c.prefixed("message index offsets")?;
+    let map_at = c.offset() + 4;
+    let mut m = Cursor::new(c.prefixed("message index offsets")?, map_at);
+    let mut offsets = Vec::new();
+    while m.remaining() > 0 {
+        offsets.push((m.u16("channel id")?, m.u64("message index offset")?));
+    }
     let index_len = c.u64("message index length")?;
     let compression = c.string("compression")?;
     let data_len = c.u64("compressed size")?;
@@ -198,7 +239,66 @@ fn chunk_index(body: &[u8], at: u64) -> Result<(ChunkRef, u64), Bad> {
         compression: Compression::parse(&compression).ok_or(compression),
         crc: 0,
     };
-    Ok((chunk, index_len))
+    Ok(ChunkIndex { chunk, times, offsets, index_len })
+}
+
+/// Leaves each topic's message indexes for later: the statistics count its messages, its
+/// chunks bound its times, and the chunk indexes say where its records lie.
+fn defer(
+    index: &mut Index,
+    registry: &Registry,
+    chunks: Vec<ChunkIndex>,
+    counts: &HashMap<u16, u64>,
+) -> Result<(), Bad> {
+    let n = registry.topics.len();
+    let mut spans = vec![Vec::new(); n];
+    let mut times = vec![(u64::MAX, 0); n];
+    for (k, ci) in chunks.into_iter().enumerate() {
+        let begin = ci.chunk.start + chunk_end(&ci.chunk);
+        let end = begin + ci.index_len;
+        let mut offsets = ci.offsets;
+        offsets.sort_by_key(|&(_, at)| at);
+        for (i, &(channel, at)) in offsets.iter().enumerate() {
+            let next = offsets.get(i + 1).map_or(end, |&(_, a)| a);
+            if at < begin || next > end || at >= next {
+                let problem = format!("message index of channel {channel} outside its chunk's");
+                return Err(Bad::at(at, problem));
+            }
+            let topic = registry.topic(channel, at)?;
+            spans[topic].push(Span { chunk: k, at, len: next - at });
+            times[topic] = (times[topic].0.min(ci.times.0), times[topic].1.max(ci.times.1));
+        }
+        index.chunks.push(ci.chunk);
+    }
+    for (channel, &topic) in &registry.channels {
+        let t = &mut index.topics[topic];
+        t.count = usize::try_from(counts[channel]).unwrap_or(usize::MAX);
+        (t.first_ns, t.last_ns) = if t.count > 0 { times[topic] } else { (0, 0) };
+    }
+    index.deferred = spans.into_iter().map(Some).collect();
+    Ok(())
+}
+
+/// The entries of `topic` in one chunk: its message index record at `span`.
+pub fn message_index(src: &mut dyn ReadAt, span: &Span, topic: usize) -> Result<Vec<Entry>, Bad> {
+    let bytes = read(src, span.at, span.len, "message index")?;
+    let mut entries = Vec::new();
+    for record in records(&bytes, span.at) {
+        let (op, body, at) = record?;
+        if op != MESSAGE_INDEX {
+            continue;
+        }
+        let mut c = Cursor::new(body, at);
+        c.u16("channel id")?;
+        let pairs = c.prefixed("message index records")?;
+        let mut p = Cursor::new(pairs, at + 2 + 4);
+        while p.remaining() > 0 {
+            let time_ns = p.u64("log time")?;
+            let offset = p.u64("message offset")?;
+            entries.push(Entry { topic, time_ns, loc: Loc::Chunk { chunk: span.chunk, offset } });
+        }
+    }
+    Ok(entries)
 }
 
 /// Length of the chunk record (opcode and length included) from its index entry.

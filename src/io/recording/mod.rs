@@ -36,11 +36,12 @@ pub use source::ReadAt;
 pub use tf::{Transform, Tree, TreeError, decode as decode_tf};
 
 use error::Bad;
-use index::{ChunkRef, Entry, Loc};
+use index::{ChunkRef, Entry, Loc, Span};
 
 /// An open recording: its topics and where each message lies. Reading a message reads (and
 /// decompresses) only its chunk; the last chunk is kept, so messages read in file order
-/// decompress each chunk once.
+/// decompress each chunk once. An MCAP whose summary counts its messages is opened from the
+/// summary alone; a topic's message indexes are read when the topic is first used.
 pub struct Recording {
     file: String,
     container: Container,
@@ -48,6 +49,8 @@ pub struct Recording {
     topics: Vec<Topic>,
     /// Per topic, its messages in time order (stable: file order among equal times).
     entries: Vec<Vec<Entry>>,
+    /// Per topic, its message index records not read yet.
+    deferred: Vec<Option<Vec<Span>>>,
     chunks: Vec<ChunkRef>,
     cache: Option<(usize, Vec<u8>)>,
     problems: Vec<RecordingError>,
@@ -73,29 +76,66 @@ impl Recording {
             let problem = "not a recording: expected MCAP, a ROS 1 bag v2.0 or a rosbag2 .db3";
             return Err(Bad::at(0, problem).in_file(file));
         };
-        let mut topics = index.topics;
-        let mut entries = vec![Vec::new(); topics.len()];
+        let mut entries = vec![Vec::new(); index.topics.len()];
         for e in index.entries {
             if let Some(list) = entries.get_mut(e.topic) {
                 list.push(e);
             }
         }
-        for (topic, list) in topics.iter_mut().zip(&mut entries) {
-            list.sort_by_key(|e| e.time_ns);
-            topic.count = list.len();
-            topic.first_ns = list.first().map_or(0, |e| e.time_ns);
-            topic.last_ns = list.last().map_or(0, |e| e.time_ns);
-        }
-        Ok(Self {
+        let mut deferred = index.deferred;
+        deferred.resize(index.topics.len(), None);
+        let mut recording = Self {
             file: file.to_string(),
             container,
             source,
-            topics,
-            entries,
+            topics: index.topics,
+            entries: Vec::new(),
+            deferred,
             chunks: index.chunks,
             cache: None,
             problems: index.problems,
-        })
+        };
+        for (topic, list) in entries.into_iter().enumerate() {
+            if recording.deferred[topic].is_none() {
+                recording.set_entries(topic, list);
+            } else {
+                recording.entries.push(Vec::new()); // counted by the summary, read when used
+            }
+        }
+        Ok(recording)
+    }
+
+    /// `topic`'s messages, put in time order; its count and times from them.
+    fn set_entries(&mut self, topic: usize, mut list: Vec<Entry>) {
+        list.sort_by_key(|e| e.time_ns);
+        let t = &mut self.topics[topic];
+        t.count = list.len();
+        t.first_ns = list.first().map_or(0, |e| e.time_ns);
+        t.last_ns = list.last().map_or(0, |e| e.time_ns);
+        match self.entries.get_mut(topic) {
+            Some(slot) => *slot = list,
+            None => self.entries.push(list),
+        }
+    }
+
+    /// Reads `topic`'s message indexes when they were left for its first use.
+    fn load(&mut self, topic: usize) -> Result<(), RecordingError> {
+        let Some(spans) = self.deferred.get_mut(topic).and_then(Option::take) else {
+            return Ok(());
+        };
+        let mut list = Vec::new();
+        for span in &spans {
+            match mcap::message_index(self.source.as_mut(), span, topic) {
+                Ok(entries) => list.extend(entries),
+                Err(bad) => {
+                    self.deferred[topic] = Some(spans);
+                    let name = self.topics[topic].name.clone();
+                    return Err(RecordingError { topic: Some(name), ..bad.in_file(&self.file) });
+                }
+            }
+        }
+        self.set_entries(topic, list);
+        Ok(())
     }
 
     /// Opens a file on disk.
@@ -132,8 +172,9 @@ impl Recording {
     }
 
     /// Recording times (ns) of `topic`'s messages, in order.
-    pub fn times(&self, topic: usize) -> Vec<u64> {
-        self.entries.get(topic).map_or(Vec::new(), |l| l.iter().map(|e| e.time_ns).collect())
+    pub fn times(&mut self, topic: usize) -> Result<Vec<u64>, RecordingError> {
+        self.load(topic)?;
+        Ok(self.entries.get(topic).map_or(Vec::new(), |l| l.iter().map(|e| e.time_ns).collect()))
     }
 
     fn error(&self, topic: usize, message: usize, bad: Bad) -> RecordingError {
@@ -146,6 +187,7 @@ impl Recording {
 
     /// The serialised bytes of message `message` of `topic`.
     pub fn message(&mut self, topic: usize, message: usize) -> Result<Vec<u8>, RecordingError> {
+        self.load(topic)?;
         let entry = self.entries.get(topic).and_then(|l| l.get(message)).copied();
         let entry = entry.ok_or_else(|| self.error(topic, message, Bad::new("no such message")))?;
         self.read_entry(&entry).map_err(|bad| self.error(topic, message, bad))
@@ -205,6 +247,9 @@ impl Recording {
             })
             .collect();
         for topic in wanted {
+            if let Err(e) = self.load(topic) {
+                problems.push(e);
+            }
             for m in 0..self.entries[topic].len() {
                 let decoded = self.encoding(topic, m).and_then(|enc| {
                     let data = self.message(topic, m)?;

@@ -63,6 +63,11 @@ impl Field {
     }
 }
 
+/// A message's `header.stamp` (ns since the epoch), reading the header alone.
+pub fn stamp(data: &[u8], encoding: Encoding) -> Result<i64, String> {
+    Wire::new(data, encoding)?.header().map(|(stamp_ns, _)| stamp_ns)
+}
+
 /// Decodes one PointCloud2 message; the error says what is wrong with it.
 pub fn decode(data: &[u8], encoding: Encoding) -> Result<PointCloud, String> {
     let mut w = Wire::new(data, encoding)?;

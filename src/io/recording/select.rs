@@ -2,8 +2,10 @@
 //! topic has a scan close to the reference's, and whether the rig moved between them.
 //!
 //! The calibration assumes that the scans of one instant see the same scene; pairing by the
-//! recording (log) time within a tolerance keeps that, and a moving rig (which breaks the
-//! assumption between instants only if the sensors are not synchronised) is reported.
+//! sensors' stamps within a tolerance keeps that ([`Recording::choose`](super::Recording::choose)
+//! gives [`pick`] stamps estimated from the log times, then checks the chosen messages' own),
+//! and a moving rig (which breaks the assumption between instants only if the sensors are not
+//! synchronised) is reported.
 
 use std::collections::HashSet;
 
