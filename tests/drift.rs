@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use gmmcalib::report::ros::{Extrinsic, tf_static_yaml, urdf_joints};
+use gmmcalib::report::ros::{Extrinsic, tf_static_yaml, urdf};
 use gmmcalib::se3::from_row_major;
 
 fn gmmcalib(dir: &Path, args: &[&str]) -> (i32, String, String) {
@@ -49,8 +49,8 @@ fn a_turned_sensor_fails_against_every_stored_form() {
     }
     let stored = std::fs::read_to_string(dir.join("a.json")).unwrap();
     std::fs::write(dir.join("a.tf.yaml"), tf_static_yaml(&extrinsics(&stored))).unwrap();
-    let urdf = format!("<robot name=\"rig\">\n{}</robot>\n", urdf_joints(&extrinsics(&stored)));
-    std::fs::write(dir.join("a.urdf"), urdf).unwrap();
+    let robot = urdf(&extrinsics(&stored));
+    std::fs::write(dir.join("a.urdf"), robot).unwrap();
 
     for form in ["a.json", "a.tf.yaml", "a.urdf"] {
         // Against itself: nothing moved.

@@ -113,7 +113,7 @@ pub fn export(format: &str, result: &Calibration, bag: &BagRig) -> Result<String
                     extrinsics.iter().map(|e| (e.child.clone(), e.pose)).collect();
                 urdf.with_origins(&bag.rig.base, &poses)?
             }
-            None => ros::urdf_joints(&extrinsics),
+            None => ros::urdf(&extrinsics),
         },
         other => {
             return Err(format!(

@@ -66,22 +66,36 @@ pub fn tf_static_yaml(extrinsics: &[Extrinsic]) -> String {
     out
 }
 
-/// URDF fixed joints `<parent>_to_<child>` with `<origin xyz rpy>` (as the page's export).
-/// To correct a loaded URDF in place, see `io::recording::urdf::Urdf::with_origins`.
-pub fn urdf_joints(extrinsics: &[Extrinsic]) -> String {
-    let mut out = String::from("<!-- origin = T_parent_child: maps child points into parent -->\n");
+/// A URDF: a `<robot>` with a link for every frame and a fixed joint `<parent>_to_<child>`
+/// with `<origin xyz rpy>` per extrinsic, a file ROS and the drift check read as it is. To
+/// correct a loaded URDF in place, see `io::recording::urdf::Urdf::with_origins`.
+pub fn urdf(extrinsics: &[Extrinsic]) -> String {
+    let mut out = String::from(
+        "<?xml version=\"1.0\"?>\n<!-- origin = T_parent_child: maps child points into parent -->\n<robot name=\"gmmcalib_calibration\">\n",
+    );
+    let mut links: Vec<&str> = Vec::new();
+    for e in extrinsics {
+        for name in [e.parent.as_str(), e.child.as_str()] {
+            if !links.contains(&name) {
+                links.push(name);
+            }
+        }
+    }
+    for link in links {
+        out += &format!("  <link name=\"{link}\"/>\n");
+    }
     for e in extrinsics {
         let (xyz, rpy) = xyz_rpy(&e.pose);
         let list = |v: [f64; 3]| v.map(|x| x.to_string()).join(" ");
         out += &format!(
-            "<joint name=\"{p}_to_{c}\" type=\"fixed\">\n  <parent link=\"{p}\"/>\n  <child link=\"{c}\"/>\n  <origin xyz=\"{}\" rpy=\"{}\"/>\n</joint>\n",
+            "  <joint name=\"{p}_to_{c}\" type=\"fixed\">\n    <parent link=\"{p}\"/>\n    <child link=\"{c}\"/>\n    <origin xyz=\"{}\" rpy=\"{}\"/>\n  </joint>\n",
             list(xyz),
             list(rpy),
             p = e.parent,
             c = e.child
         );
     }
-    out
+    out + "</robot>\n"
 }
 
 /// Autoware's `sensor_kit_calibration.yaml`: per parent, per child `x y z roll pitch yaw`.
@@ -217,11 +231,7 @@ mod tests {
     #[test]
     fn urdf_autoware_and_kitti_round_trip() {
         let e = sample();
-        let urdf = crate::io::recording::urdf::Urdf::parse(&format!(
-            "<robot name=\"r\">{}</robot>",
-            urdf_joints(&e)
-        ))
-        .unwrap();
+        let urdf = crate::io::recording::urdf::Urdf::parse(&urdf(&e)).unwrap();
         for e in &e {
             same(&urdf.tree().resolve(&e.parent, &e.child).unwrap(), &e.pose);
         }

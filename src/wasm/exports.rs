@@ -48,7 +48,7 @@ pub fn ros_exports(extrinsics: JsValue) -> Result<JsValue, JsError> {
         ros1: ros::ros1_static_transform_publisher(&extrinsics),
         ros2: ros::ros2_static_transform_publisher(&extrinsics),
         tf_yaml: ros::tf_static_yaml(&extrinsics),
-        urdf: ros::urdf_joints(&extrinsics),
+        urdf: ros::urdf(&extrinsics),
         autoware: ros::autoware_calibration(&extrinsics),
         kitti: ros::kitti_tr(&extrinsics),
     })

@@ -81,6 +81,14 @@ test('drift check: a stored calibration compared with the result, within, moved,
   assert.equal(await page.getByTestId('status').textContent(), status);
   assert.equal(await page.getByTestId('verdict').isVisible(), true);
 
+  // Its URDF export, picked as it is: a whole <robot>, read by the same check.
+  await page.locator('[data-export=urdf] > summary').click();
+  const urdf = await page.locator('[data-export=urdf] pre').textContent();
+  await input.setInputFiles(file('extrinsics.urdf', urdf));
+  await page.waitForFunction(() => /extrinsics\.urdf/.test(document.querySelector('[data-testid=drift-outcome]')?.textContent));
+  assert.equal(await outcome.getAttribute('data-passed'), 'true');
+  assert.equal(await page.getByTestId('drift-error').isHidden(), true);
+
   // front_right turned by 0.5 deg in the stored one: it has moved, and the outcome names it.
   const stored = structuredClone(result);
   stored.sensors[1].extrinsic = turned(stored.sensors[1].extrinsic, 0.5);

@@ -1,5 +1,5 @@
 // The drift check in the results (issue 24): a stored calibration (our JSON, its tf YAML
-// export, or a URDF holding its joints), picked or dropped on the control, compared with the current result
+// export, or the exported URDF), picked or dropped on the control, compared with the current result
 // by the library (`compareCalibrations`, the same check as `gmmcalib compare`), against fixed
 // limits or K sigma of the combined precision. Per sensor the rotation and translation change,
 // the precision, the limit and moved / within; the outcome in the library's words. A comparison
@@ -12,7 +12,7 @@ const CURRENT_NAME = 'the current result';
 
 const CONTROLS = `
   <h3>Has a sensor moved? Drift check</h3>
-  <div class="buttons drift-drop" data-testid="drift-drop" title="Pick or drop a stored calibration here: our result JSON, its /tf_static YAML export, or a URDF whose robot holds the exported joints">
+  <div class="buttons drift-drop" data-testid="drift-drop" title="Pick or drop a stored calibration here: our result JSON, its /tf_static YAML export, or the exported URDF">
     <label class="button">Compare with a stored calibration… <input data-testid="drift-input" type="file" accept=".json,.urdf,.xml,.yaml,.yml" hidden /></label>
     <button type="button" data-testid="drift-again" disabled title="Compare the same stored file with the current result and limits">Compare again</button>
     <span class="hint" data-testid="drift-file"></span>
