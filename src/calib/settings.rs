@@ -128,7 +128,8 @@ pub struct Settings {
     pub icp: IcpSettings,
     /// For `gmm`'s frame pairs (the refinement of JRMPC's corrections).
     pub refine: PairSettings,
-    /// For `gmm`'s joint plane adjustment after the refinement; `None`: off.
+    /// For the joint plane adjustment after `gmm`'s refinement and `cad`'s registration;
+    /// `None`: off.
     pub planes: Option<PlaneSettings>,
     /// Level each sensor's ground onto the reference's before cropping (docs/method.md,
     /// "Where the bias comes from"); `None`: only for `gmm` (the paper's methods run as
@@ -251,7 +252,7 @@ impl Stages {
             }),
             pairs,
             ground_normals: method == Method::Gmm,
-            planes: settings.planes.clone().filter(|_| method == Method::Gmm),
+            planes: settings.planes.clone().filter(|_| matches!(method, Method::Gmm | Method::Cad)),
         }
     }
 }
