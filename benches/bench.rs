@@ -50,6 +50,12 @@ mod native {
     pub fn main() {
         let quick = std::env::args().any(|a| a == "--quick");
         let fast_only = std::env::args().any(|a| a == "--fast-only");
+        // The global stage and the targets (cube, CAD model, none) alone.
+        if std::env::args().any(|a| a == "--targets") {
+            global_stage();
+            targets();
+            return;
+        }
         println!(
             "gmmcalib native bench ({} build; CPU time in brackets, the machine may be shared)",
             if cfg!(debug_assertions) { "debug" } else { "release" },
@@ -81,12 +87,16 @@ mod native {
         let sample = jrmpc::rig(&JOBS[0]);
         let chairs = Model::RayCast(Preset::paper_chair());
         let chair_twin = Twin::new(&chairs, 3, 1, &Miscalibration::default());
+        // `cad` needs a target: `none` is `gmm`'s alone.
+        let (both, gmm) =
+            (&[calib::Method::Gmm, calib::Method::Cad][..], &[calib::Method::Gmm][..]);
         let cases = [
-            ("sample scale (cube)", sample, gmmcalib::target::Target::default()),
-            ("chair twin, 3 frames (CAD model)", chair_twin.rig(), chairs.target()),
+            ("sample scale (cube)", sample.clone(), gmmcalib::target::Target::default(), both),
+            ("sample scale (target none)", sample, gmmcalib::target::Target::None, gmm),
+            ("chair twin, 3 frames (CAD model)", chair_twin.rig(), chairs.target(), both),
         ];
-        for (name, rig, target) in &cases {
-            for method in [calib::Method::Gmm, calib::Method::Cad] {
+        for (name, rig, target, methods) in &cases {
+            for &method in *methods {
                 let settings =
                     calib::Settings { method, target: target.clone(), ..Default::default() };
                 let (result, wall, cpu) =

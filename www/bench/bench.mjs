@@ -1,5 +1,6 @@
 // The wasm twin of `cargo run --release --bin bench`: the same jobs under Node, one thread.
-// Run `make wasm` first (or `make bench`). Pass --quick for the small jobs.
+// Run `make wasm` first (or `make bench`). Pass --quick for the small jobs, --targets for the
+// global stage and the targets (cube, CAD model, none) alone.
 //
 // JRMPC is timed twice: through the JS API (`calibrate`, what the page calls), and through
 // `benches/bench.rs` built for wasm32 (`bench_jrmpc`, built here with cargo), which also
@@ -14,6 +15,7 @@ const sampledRig = (options) => simulateRig({ preset: 'sampled', ...options });
 
 const pkg = await init({ module_or_path: await readFile(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
 const quick = process.argv.includes('--quick');
+const targetsOnly = process.argv.includes('--targets');
 console.log(`gmmcalib wasm bench (Node ${process.version}, one thread)`);
 
 const root = new URL('../../', import.meta.url);
@@ -35,7 +37,7 @@ const jobs = [
   { name: 'sample scale: 10 views x 1300 points, K=444', frames: 5, pointsPerView: 1300, components: 444, denseIterations: 10 },
   { name: 'paper scale: 212 views x 1850 points, K=400', frames: 106, pointsPerView: 1850, components: 400, denseIterations: 2 },
 ];
-for (const [index, job] of (quick ? jobs.slice(0, 1) : jobs).entries()) {
+for (const [index, job] of (targetsOnly ? [] : quick ? jobs.slice(0, 1) : jobs).entries()) {
   const rig = sampledRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
   const points = rig.scans.reduce((n, v) => n + v.points.length / 3, 0);
   let started = performance.now();
@@ -61,7 +63,7 @@ for (const [index, job] of (quick ? jobs.slice(0, 1) : jobs).entries()) {
 // `gmm`, the default, end to end through the JS API as the page runs it: JRMPC (100 iterations
 // here: this rig never meets the convergence test), then the frame pairs' GICP, the plane
 // adjustment and the target fit (their share is the time after EM's last progress).
-for (const job of quick ? jobs.slice(0, 1) : jobs) {
+for (const job of targetsOnly ? [] : quick ? jobs.slice(0, 1) : jobs) {
   const rig = sampledRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
   let emEnded = 0;
   const started = performance.now();
@@ -75,7 +77,7 @@ for (const job of quick ? jobs.slice(0, 1) : jobs) {
 }
 
 // ICP baselines: per frame pair, on partial views of the synthetic rig.
-for (const pointsPerView of quick ? [2000] : [2000, 65000]) {
+for (const pointsPerView of targetsOnly ? [] : quick ? [2000] : [2000, 65000]) {
   const frames = pointsPerView > 10000 ? 1 : 5;
   const rig = sampledRig({ frames, pointsPerView, partial: true, seed: 2 });
   for (const method of ['p2p', 'p2l', 'gicp']) {
@@ -112,12 +114,14 @@ for (const pointsPerView of quick ? [2000] : [2000, 65000]) {
 {
   const sample = sampledRig({ frames: 5, pointsPerView: 1300, partial: true, seed: 1 });
   const chairs = simulateRig({ preset: 'paper-chair', frames: 3, seed: 1 });
+  // `cad` needs a target: `none` is `gmm`'s alone.
   const cases = [
-    ['sample scale (cube)', sample, {}],
-    ['chair twin, 3 frames (CAD model)', chairs, { target: { kind: 'mesh' }, targetMesh: { name: 'target.obj', bytes: new TextEncoder().encode(chairs.targetObj) } }],
+    ['sample scale (cube)', sample, {}, ['gmm', 'cad']],
+    ['sample scale (target none)', sample, { target: { kind: 'none' } }, ['gmm']],
+    ['chair twin, 3 frames (CAD model)', chairs, { target: { kind: 'mesh' }, targetMesh: { name: 'target.obj', bytes: new TextEncoder().encode(chairs.targetObj) } }, ['gmm', 'cad']],
   ];
-  for (const [name, rig, extra] of cases) {
-    for (const method of ['gmm', 'cad']) {
+  for (const [name, rig, extra, methods] of cases) {
+    for (const method of methods) {
       const started = performance.now();
       const result = calibrate(rigInput(rig, { method, ...extra }));
       console.log(`${method} ${name}: ${((performance.now() - started) / 1000).toFixed(2)} s, ${result.iterations} iterations, verdict ${result.verdict.level}`);
@@ -125,20 +129,22 @@ for (const pointsPerView of quick ? [2000] : [2000, 65000]) {
   }
 }
 
-// Parsing: a 1M-point binary PCD (x y z intensity, float32).
-const n = 1_000_000;
-const header = `# .PCD v0.7\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH ${n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS ${n}\nDATA binary\n`;
-const head = new TextEncoder().encode(header);
-const data = new Float32Array(n * 4);
-for (let i = 0; i < n * 4; i++) data[i] = 1 + (i % 9973) * 0.001;
-const bytes = new Uint8Array(head.length + n * 16);
-bytes.set(head);
-bytes.set(new Uint8Array(data.buffer), head.length);
-let best = Infinity;
-for (let run = 0; run < 5; run++) {
-  const started = performance.now();
-  const parsed = parseCloud(bytes, 'bench.pcd');
-  best = Math.min(best, performance.now() - started);
-  if (parsed.count !== n) throw new Error(`parsed ${parsed.count} points`);
+if (!targetsOnly) {
+  // Parsing: a 1M-point binary PCD (x y z intensity, float32).
+  const n = 1_000_000;
+  const header = `# .PCD v0.7\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH ${n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS ${n}\nDATA binary\n`;
+  const head = new TextEncoder().encode(header);
+  const data = new Float32Array(n * 4);
+  for (let i = 0; i < n * 4; i++) data[i] = 1 + (i % 9973) * 0.001;
+  const bytes = new Uint8Array(head.length + n * 16);
+  bytes.set(head);
+  bytes.set(new Uint8Array(data.buffer), head.length);
+  let best = Infinity;
+  for (let run = 0; run < 5; run++) {
+    const started = performance.now();
+    const parsed = parseCloud(bytes, 'bench.pcd');
+    best = Math.min(best, performance.now() - started);
+    if (parsed.count !== n) throw new Error(`parsed ${parsed.count} points`);
+  }
+  console.log(`parseCloud 1M-point binary PCD (${(bytes.length / 1e6).toFixed(0)} MB)  ${best.toFixed(1)} ms best of 5`);
 }
-console.log(`parseCloud 1M-point binary PCD (${(bytes.length / 1e6).toFixed(0)} MB)  ${best.toFixed(1)} ms best of 5`);
