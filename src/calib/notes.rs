@@ -31,6 +31,10 @@ pub enum NoteKind {
     /// The plane adjustment moved every frame of the sensor by this much, from `points`
     /// points on planes.
     PlanesApplied { angle: f64, shift: f64, points: usize },
+    /// JRMPC's correction tilted the frame's up axis by `angle` (rad), beyond `limit`, against
+    /// the ground levelling had fixed: left out, the refinement started from the levelled
+    /// pre-alignment.
+    StartTilted { angle: f64, limit: f64 },
     /// The plane adjustment found none of the sensor's points on planes; the refinement stays.
     PlanesWithoutPoints,
     /// The plane adjustment's motion went beyond `limit`; the refinement stays.

@@ -94,6 +94,7 @@ pub type PairCorrections = Vec<((usize, usize), Pose)>;
 
 /// A frame pair whose registration failed (the frame is left out of the average) or moved
 /// beyond the guard (the frame keeps its starting correction): what to note, on which view.
+#[derive(Clone, Debug)]
 pub struct PairFailure {
     /// Index of the sensor's view.
     pub view: usize,
@@ -164,17 +165,20 @@ pub struct FramePairs {
     reference: (usize, Vec<(usize, usize)>),
     sensors: usize,
     stopped: bool,
+    /// Starting corrections set aside before registering (noted with the failures).
+    set_aside: Vec<PairFailure>,
 }
 
 impl FramePairs {
     /// For each sensor and pair `(reference view, sensor view)` in `pairs`, a frame pair from
     /// its correction in `starts` (identity when `starts[s]` has none: the nominal
-    /// pre-alignment).
+    /// pre-alignment); `set_aside` notes the starts the caller replaced.
     pub fn new(
         icp: PairIcp,
         pairs: &[Vec<(usize, usize)>],
         reference: usize,
         starts: &[PairCorrections],
+        set_aside: Vec<PairFailure>,
     ) -> Self {
         let frame_pairs: Vec<FramePair> = pairs
             .iter()
@@ -200,6 +204,7 @@ impl FramePairs {
             reference: (reference, pairs[reference].clone()),
             sensors: pairs.len(),
             stopped: false,
+            set_aside,
         }
     }
 
@@ -322,7 +327,7 @@ impl FramePairs {
         let mut refined: Vec<PairCorrections> = vec![Vec::new(); self.sensors];
         let (r, reference_pairs) = &self.reference;
         refined[*r] = reference_pairs.iter().map(|&pair| (pair, Pose::identity())).collect();
-        let mut failures = Vec::new();
+        let mut failures = self.set_aside.clone();
         let settings = &self.icp.settings;
         for (pair, outcome) in self.pairs.iter().zip(&self.outcomes) {
             let views = (pair.reference_view, pair.view);

@@ -9,7 +9,7 @@ use super::bev;
 use super::global::{self, GlobalAlignment};
 use super::level::{self, points_in};
 use super::notes::{LevellingSkipped, Note, NoteKind};
-use super::pairs::{FramePairs, PairCorrections, PairIcp};
+use super::pairs::{FramePairs, PairCorrections, PairFailure, PairIcp};
 use super::region;
 use super::result::Levelling;
 use super::settings::{InitialSigma, Settings, Stages};
@@ -391,11 +391,29 @@ impl Views {
     pub fn frame_pairs(&self, registration: Option<&Registration>) -> Option<FramePairs> {
         let settings = self.stages.pairs.clone()?;
         let ground = self.reference_ground().filter(|_| self.stages.ground_normals);
-        let starts = match registration {
-            Some(registration) => jrmpc_per_pair(&self.pairs, registration),
-            None => vec![Vec::new(); self.sensors.len()],
-        };
-        Some(FramePairs::new(PairIcp { settings, ground }, &self.pairs, self.reference, &starts))
+        let (mut starts, mut set_aside) = (vec![Vec::new(); self.sensors.len()], Vec::new());
+        if let Some(registration) = registration {
+            starts = jrmpc_per_pair(&self.pairs, registration);
+            // JRMPC finds the basin in yaw and shift; the ground both sensors see has fixed
+            // the tilt already, to hundredths of a degree. On a wide ROI that is mostly ground
+            // JRMPC can fold a view over about an axis in the ground (the paper twin's scans
+            // without a ROI: 180 deg); such a start gives way to the levelling.
+            for (s, per_sensor) in starts.iter_mut().enumerate() {
+                if self.levelling.get(s).is_none_or(|l| l.ground.is_none()) {
+                    continue;
+                }
+                for ((_, view), start) in per_sensor.iter_mut() {
+                    let angle = (start.rotation * Vector3::z()).angle(&Vector3::z());
+                    if angle > MAX_START_TILT {
+                        let kind = NoteKind::StartTilted { angle, limit: MAX_START_TILT };
+                        set_aside.push(PairFailure { view: *view, kind });
+                        *start = Pose::identity();
+                    }
+                }
+            }
+        }
+        let icp = PairIcp { settings, ground };
+        Some(FramePairs::new(icp, &self.pairs, self.reference, &starts, set_aside))
     }
 
     /// The reference's levelled ground plane and the band whose points take its normal.
@@ -405,6 +423,10 @@ impl Views {
     }
 }
 
+/// The most a JRMPC start may tilt a levelled view's up axis (rad): levelling leaves the tilt
+/// between sensors at hundredths of a degree, and JRMPC's corrections after it stay below a
+/// degree on every twin study; a fold over is tens of degrees or more.
+const MAX_START_TILT: f64 = 5.0 * std::f64::consts::PI / 180.0;
 /// Per sensor, JRMPC's correction of each of its frame pairs: `T_ref,f^-1 T_s,f`.
 pub(super) fn jrmpc_per_pair(
     pairs: &[Vec<(usize, usize)>],
@@ -621,4 +643,59 @@ struct NearPlacements {
 fn mesh_size(mesh: &crate::io::mesh::Mesh) -> f64 {
     let b = mesh.bounds();
     (0..3).map(|i| b.max[i] - b.min[i]).fold(0.0, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Translation3, UnitQuaternion, Vector3};
+
+    use super::*;
+    use crate::jrmpc::Mixture;
+    use crate::twin::{Miscalibration, Model, Preset, Twin};
+
+    /// A JRMPC registration whose views of the second sensor are turned by `angle` about the
+    /// vehicle's x axis (through the ground).
+    fn turned(views: &Views, angle: f64) -> Registration {
+        let turn = Pose::from_parts(
+            Translation3::identity(),
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), angle),
+        );
+        let poses = views
+            .views
+            .iter()
+            .map(|v| if v.sensor == views.reference { Pose::identity() } else { turn })
+            .collect();
+        let mixture = Mixture { means: Vec::new(), variances: Vec::new(), priors: Vec::new() };
+        let (iterations, converged, cancelled) = (1, false, false);
+        Registration {
+            poses,
+            mixture,
+            iterations,
+            converged,
+            cancelled,
+            unsupported: Vec::new(),
+            history: Vec::new(),
+        }
+    }
+
+    /// A JRMPC start folded over about an axis in the levelled ground is set aside and noted
+    /// for every frame; a start within the tilt JRMPC corrects is kept.
+    #[test]
+    fn a_folded_jrmpc_start_gives_way_to_the_levelling() {
+        let twin = Twin::new(&Model::RayCast(Preset::paper()), 2, 1, &Miscalibration::default());
+        let settings = Settings { align_globally: Some(false), ..Settings::default() };
+        let views = Views::new(&twin.rig(), &settings).expect("views");
+        let notes = |angle: f64| {
+            let pairs = views.frame_pairs(Some(&turned(&views, angle))).expect("gmm pairs");
+            pairs.corrections().1
+        };
+        let folded = notes(std::f64::consts::PI);
+        assert_eq!(folded.len(), 2, "{folded:?}");
+        assert!(
+            folded
+                .iter()
+                .all(|f| matches!(f.kind, NoteKind::StartTilted { angle, .. } if angle > 3.1))
+        );
+        assert!(notes(1f64.to_radians()).is_empty());
+    }
 }

@@ -45,6 +45,13 @@ impl fmt::Display for NoteKind {
                  that instead",
                 angle.to_degrees()
             ),
+            NoteKind::StartTilted { angle, limit } => write!(
+                f,
+                "JRMPC's correction tilted the frame {:.1} deg against the levelled ground \
+                 (more than {:.0} deg): left out, the refinement started from the levelling",
+                angle.to_degrees(),
+                limit.to_degrees()
+            ),
             NoteKind::PlanesApplied { angle, shift, points } => write!(
                 f,
                 "plane adjustment: moved {:.4} deg / {:.2} mm ({points} points)",
@@ -74,6 +81,7 @@ impl NoteKind {
             NoteKind::FrameOutlier { .. } => "frameOutlier",
             NoteKind::PairFailed { .. } => "pairFailed",
             NoteKind::RefinementDeparted { .. } => "refinementDeparted",
+            NoteKind::StartTilted { .. } => "startTilted",
             NoteKind::PlanesApplied { .. } => "planesApplied",
             NoteKind::PlanesWithoutPoints => "planesWithoutPoints",
             NoteKind::PlanesRejected { .. } => "planesRejected",
