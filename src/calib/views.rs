@@ -113,9 +113,26 @@ impl Views {
             .map(|s| levelling.get(s).map_or_else(Pose::identity, |l| l.motion) * global_motion[s])
             .collect();
 
-        // Pre-align and crop.
+        // Without levelling, the reference's ground is found for the reconstruction's fit and
+        // the verdict's structure.
+        let ground = match levelling.get(r) {
+            Some(l) => l.ground,
+            None => sensor_ground(rig, &roi, &sensors, &starts, r, settings).1.map(|(g, _)| g),
+        };
+
+        // Pre-align and crop: to the user's ROI, else around the targets found in the
+        // reference's points, else to where the clouds overlap.
         let pre_aligned: Vec<Pose> = levelled.iter().zip(&nominals).map(|(l, n)| l * n).collect();
-        let (views, skipped) = crop(rig, &roi, &sensors, &pre_aligned, settings);
+        let (mut views, mut skipped) = crop(rig, &roi, &sensors, &pre_aligned, settings);
+        let mut roi = roi;
+        if rig.roi.is_none() {
+            if let Some(around) =
+                roi_around_targets(&settings.target, &views, r, ground.as_ref(), &roi)
+            {
+                roi = around;
+                (views, skipped) = crop(rig, &roi, &sensors, &pre_aligned, settings);
+            }
+        }
         for (s, name) in sensors.iter().enumerate() {
             if !views.iter().any(|v| v.sensor == s) {
                 return Err(CalibError::NoPointsInRoi(name.clone()));
@@ -127,12 +144,6 @@ impl Views {
                 return Err(CalibError::NoCommonFrames(name.clone()));
             }
         }
-        // Without levelling, the reference's ground is found for the reconstruction's fit and
-        // the verdict's structure.
-        let ground = match levelling.get(r) {
-            Some(l) => l.ground,
-            None => sensor_ground(rig, &roi, &sensors, &starts, r, settings).1.map(|(g, _)| g),
-        };
         let placements =
             place_targets(&settings.target, &stages, &views, r, ground.as_ref(), &roi)?;
         let same_scans = same_scans(rig);
@@ -633,6 +644,56 @@ fn place_targets(
     Ok(crate::target::place(&model, &points, ground.unwrap_or(&level), &settings))
 }
 
+/// Without a ROI from the user, a target of known shape found standing in the reference's
+/// points (every copy, as `cad` places them) gives the region: their boxes grown by a metre
+/// (at least the target's size) across and half a metre above and below, within the overlap.
+/// JRMPC and the refinement then see the targets and the ground around them, not tens of
+/// metres of mostly ground (the paper twin's full scans: an overlap of 77 m x 24 m, where the
+/// targets are a handful of the verdict's sampled points). `None` when nothing is found.
+fn roi_around_targets(
+    target: &Target,
+    views: &[View],
+    r: usize,
+    ground: Option<&Plane>,
+    overlap: &Aabb,
+) -> Option<Aabb> {
+    let mesh = target.model()?;
+    let settings = PlaceSettings::default();
+    let model = ModelCloud::new(&mesh, &settings)?;
+    let points: Vec<[f32; 3]> = views
+        .iter()
+        .filter(|v| v.sensor == r)
+        .flat_map(|v| v.cloud.points.iter().copied())
+        .collect();
+    let level = Plane { normal: Vector3::z(), offset: 0.0 };
+    let placements = crate::target::place(&model, &points, ground.unwrap_or(&level), &settings);
+    let b = mesh.bounds();
+    let corners = placements.iter().flat_map(|p| {
+        (0..8).map(move |i| {
+            let c = Point3::new(
+                if i & 1 == 0 { b.min[0] } else { b.max[0] },
+                if i & 2 == 0 { b.min[1] } else { b.max[1] },
+                if i & 4 == 0 { b.min[2] } else { b.max[2] },
+            );
+            p.pose * c
+        })
+    });
+    let (mut min, mut max) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
+    for c in corners {
+        min = min.inf(&c.coords);
+        max = max.sup(&c.coords);
+    }
+    if placements.is_empty() {
+        return None;
+    }
+    let across = mesh_size(&mesh).max(1.0);
+    let grow = Vector3::new(across, across, 0.5);
+    let (lo, hi) = (min - grow, max + grow);
+    let clip = |i: usize| (lo[i].max(overlap.min[i]), hi[i].min(overlap.max[i]));
+    let [(x0, x1), (y0, y1), (z0, z1)] = [0, 1, 2].map(clip);
+    (x0 < x1 && y0 < y1 && z0 < z1).then(|| Aabb::new([x0, y0, z0], [x1, y1, z1]))
+}
+
 /// One view's points as `cad` takes them: near each placed copy, and on the ground.
 struct NearPlacements {
     by_copy: Vec<Vec<[f32; 3]>>,
@@ -697,5 +758,25 @@ mod tests {
                 .all(|f| matches!(f.kind, NoteKind::StartTilted { angle, .. } if angle > 3.1))
         );
         assert!(notes(1f64.to_radians()).is_empty());
+    }
+
+    /// Without a ROI, the paper twin's full scans are cropped around the four cubes found
+    /// (the three calibration cubes at 12.3 m and the validation cube at 18.3 m), not to the
+    /// whole overlap; without a target, to the overlap.
+    #[test]
+    fn without_a_roi_the_region_is_around_the_targets_found() {
+        let twin = Twin::new(&Model::RayCast(Preset::paper()), 1, 1, &Miscalibration::default());
+        let mut rig = twin.rig();
+        rig.roi = None;
+        let settings = Settings { align_globally: Some(false), ..Settings::default() };
+        let roi = *Views::new(&rig, &settings).expect("views").roi();
+        let none = Settings { target: Target::None, ..settings };
+        let overlap = *Views::new(&rig, &none).expect("views").roi();
+        eprintln!("around the targets {roi:?}, overlap {overlap:?}");
+        let cubes = [[12.3, -1.5], [12.3, 0.0], [12.3, 1.5], [18.3, 0.0]];
+        assert!(cubes.iter().all(|c| roi.contains([c[0], c[1], 0.25])), "{roi:?}");
+        assert!(roi.max[0] - roi.min[0] < 10.0 && roi.max[1] - roi.min[1] < 8.0, "{roi:?}");
+        assert!(roi.min[2] > -1.0 && roi.max[2] < 1.5, "{roi:?}");
+        assert!(overlap.max[0] - overlap.min[0] > 30.0, "{overlap:?}");
     }
 }

@@ -27,7 +27,8 @@ pub const HELP: &str = "\
   initial_extrinsic.txt. Nominals come from CONFIG.yaml (6 numbers [roll, pitch, yaw, x, y,
   z], 7 [x, y, z, qx, qy, qz, qw] or 16, a 4x4 row-major), else from OpenCalib's guess, else
   identity for every sensor: the global alignment (on for gmm) finds the rest. Without a ROI
-  the region where the clouds overlap is used. Flags override CONFIG.yaml. --threads: threads
+  the region around the targets found is used (a target of known shape), else where the
+  clouds overlap. Flags override CONFIG.yaml. --threads: threads
   sharing JRMPC's E-step and the frame pairs (default: the available cores; the result does
   not depend on it).
   --bag: a recording (MCAP, ROS 1 .bag, rosbag2 .db3) instead of --data: sensors are its

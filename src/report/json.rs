@@ -35,7 +35,8 @@ pub struct Report {
     pub levelling: Vec<LevellingReport>,
     /// Per sensor, the global alignment from the nominal (`gmm`; empty when off).
     pub global: Vec<GlobalReport>,
-    /// The region cropped to (m, vehicle frame): the given one, or where the clouds overlap.
+    /// The region cropped to (m, vehicle frame): the given one, else around the targets found,
+    /// else where the clouds overlap.
     pub roi: RoiReport,
     pub history: HistoryReport,
 }

@@ -55,7 +55,7 @@ struct MeshInput {
 pub(super) struct CalibrateInput {
     scans: Vec<ScanInput>,
     nominal: BTreeMap<String, XyzRpy>,
-    /// Absent: where the sensors' clouds overlap.
+    /// Absent: around the targets found where the clouds overlap, else that overlap.
     roi: Option<Roi>,
     reference: Option<String>,
     /// A method's name, or `all`.

@@ -1,5 +1,5 @@
 // The rig panel: per sensor the nominal extrinsic (x, y, z in m; roll, pitch, yaw in deg) and
-// the reference choice; the ROI, 'auto' (null: where the clouds overlap) or bounds. Edits go
+// the reference choice; the ROI, 'auto' (null: the library's choice) or bounds. Edits go
 // straight into `rig` ({sensors, nominal, roi, reference}); `onChange(what)` tells the page to
 // update the view.
 import { degrees, radians } from './transforms.js';

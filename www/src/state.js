@@ -34,7 +34,7 @@ export function clearState(state) {
 
 // Sensors from the scans (natural order); nominal, ROI, reference and settings taken from
 // `config` (the library's config reader's shape) where it has them, else kept or defaulted. No
-// ROI (null) is 'auto': the library crops to where the sensors' clouds overlap.
+// ROI (null) is 'auto': the library crops around the targets it finds, else to the clouds' overlap.
 export function rebuildRig(state, config = {}) {
   const rig = state.rig;
   rig.sensors = [...new Set(state.scans.map((v) => v.sensor))].sort(natural);
