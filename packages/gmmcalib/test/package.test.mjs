@@ -83,12 +83,15 @@ test('recordings under Node: MCAP and ROS 1 bag calibrate to the native JSON, wi
     assert.equal(fromNode.stderr, fromNative.stderr, file);
     assert.match(fromNode.stdout, /<robot name="gmmcalib_calibration">/);
     const read = (f) => JSON.parse(fs.readFileSync(path.join(dir, f), 'utf8'));
-    // Bit for bit but the target's shape fit, an iterative fit on libm's trig: here a few
-    // micrometres apart (1e-5 of its size).
+    // Not bit for bit: the nominals come from /tf_static's quaternions through trig, libm's
+    // in wasm and the system's natively, so every later number may differ in its last digits;
+    // the target's shape fit, an iterative fit, by a few micrometres (1e-5 of its size).
     const fit = /^(\.reconstruction\.fits\[\d+\]|\.verdict\.reasons\[\d+\]\.values)\.(rms|size|extents|centre|rotation)/;
     const diff = differences(read(`${file}.node.json`), read(`${file}.native.json`));
-    assert.deepEqual(diff.filter(([at]) => !fit.test(at)), [], file);
-    for (const [at, a, b] of diff) assert.ok(Math.abs(a - b) <= 1e-4 * Math.max(1, Math.abs(b)), `${file} ${at}: ${a} vs ${b}`);
+    for (const [at, a, b] of diff) {
+      const bound = fit.test(at) ? 1e-4 : 1e-9;
+      assert.ok(typeof a === 'number' && Math.abs(a - b) <= bound * Math.max(1, Math.abs(b)), `${file} ${at}: ${a} vs ${b}`);
+    }
   }
 });
 
