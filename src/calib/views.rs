@@ -633,15 +633,26 @@ fn place_targets(
         let target = target.label();
         return Err(CalibError::TargetLargerThanRoi { target, size, roi: roi_size });
     }
+    Ok(find_targets(&mesh, views, r, ground))
+}
+
+/// Every copy of `mesh` standing in the reference's points of `views` (on `ground`, else on
+/// the vehicle's z = 0 plane).
+fn find_targets(
+    mesh: &crate::io::mesh::Mesh,
+    views: &[View],
+    r: usize,
+    ground: Option<&Plane>,
+) -> Vec<Placement> {
     let settings = PlaceSettings::default();
-    let Some(model) = ModelCloud::new(&mesh, &settings) else { return Ok(Vec::new()) };
+    let Some(model) = ModelCloud::new(mesh, &settings) else { return Vec::new() };
     let points: Vec<[f32; 3]> = views
         .iter()
         .filter(|v| v.sensor == r)
         .flat_map(|v| v.cloud.points.iter().copied())
         .collect();
-    let level = Plane { normal: nalgebra::Vector3::z(), offset: 0.0 };
-    Ok(crate::target::place(&model, &points, ground.unwrap_or(&level), &settings))
+    let level = Plane { normal: Vector3::z(), offset: 0.0 };
+    crate::target::place(&model, &points, ground.unwrap_or(&level), &settings)
 }
 
 /// Without a ROI from the user, a target of known shape found standing in the reference's
@@ -658,15 +669,10 @@ fn roi_around_targets(
     overlap: &Aabb,
 ) -> Option<Aabb> {
     let mesh = target.model()?;
-    let settings = PlaceSettings::default();
-    let model = ModelCloud::new(&mesh, &settings)?;
-    let points: Vec<[f32; 3]> = views
-        .iter()
-        .filter(|v| v.sensor == r)
-        .flat_map(|v| v.cloud.points.iter().copied())
-        .collect();
-    let level = Plane { normal: Vector3::z(), offset: 0.0 };
-    let placements = crate::target::place(&model, &points, ground.unwrap_or(&level), &settings);
+    let placements = find_targets(&mesh, views, r, ground);
+    if placements.is_empty() {
+        return None;
+    }
     let b = mesh.bounds();
     let corners = placements.iter().flat_map(|p| {
         (0..8).map(move |i| {
@@ -682,9 +688,6 @@ fn roi_around_targets(
     for c in corners {
         min = min.inf(&c.coords);
         max = max.sup(&c.coords);
-    }
-    if placements.is_empty() {
-        return None;
     }
     let across = mesh_size(&mesh).max(1.0);
     let grow = Vector3::new(across, across, 0.5);
