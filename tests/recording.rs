@@ -1,6 +1,7 @@
 //! Recordings against fixtures written by independent writers (tests/fixtures/recording/
 //! make.py: PyPI `rosbags` and `mcap`): every container and compression, every PointCloud2
-//! layout, the tf tree, the same calibration as from PCD files, and damaged files.
+//! layout, Livox's CustomMsg, the tf tree, the same calibration as from PCD files, and damaged
+//! files.
 
 // Native: reads fixtures from disk and compares with serde_json.
 #![cfg(not(target_arch = "wasm32"))]
@@ -11,7 +12,7 @@ use gmmcalib::calib::{self, Method, Rig, Scan, Settings};
 use gmmcalib::io::config::Config;
 use gmmcalib::io::parse_cloud;
 use gmmcalib::io::recording::select::Settings as Select;
-use gmmcalib::io::recording::{Container, Recording, RecordingError, Tree, nominals};
+use gmmcalib::io::recording::{Container, Kind, Recording, RecordingError, Tree, nominals};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::from_row_major;
 
@@ -143,7 +144,8 @@ fn settings() -> Settings {
 }
 
 /// The same scans calibrate to the same result from a recording (nominals from /tf_static) as
-/// from PCD files (nominals from config.yaml).
+/// from PCD files (nominals from config.yaml): as PointCloud2 and as Livox CustomMsg (whose
+/// scans carry a NaN and a zero return more, dropped).
 #[test]
 fn recording_calibrates_as_pcd_folders() {
     let config =
@@ -164,11 +166,13 @@ fn recording_calibrates_as_pcd_folders() {
     }
     let folder = Rig { scans, nominal: config.nominal_poses(), roi: config.roi, reference: None };
     let from_pcd = calib::calibrate(&folder, &settings(), |_| Control::Continue).unwrap();
-    for file in ["calib_zstd.mcap", "calib_bz2.bag"] {
+    for file in ["calib_zstd.mcap", "calib_bz2.bag", "livox.mcap", "livox.bag"] {
         let mut rec = open(file);
         let topics = ["/front_left/points", "/front_right/points"].map(|t| rec.topic(t).unwrap());
         let chosen = rec.choose(&topics, topics[0], &Select::default()).unwrap();
         assert_eq!(chosen.picks.len(), 3);
+        let dropped = if file.starts_with("livox") { 2 } else { 0 };
+        assert!(chosen.scans.iter().all(|s| s.cloud.dropped == dropped), "{file}");
         assert!(chosen.picks.iter().all(|p| p.others == vec![(p.reference, 5_000_000)]));
         assert!(!chosen.motion.moving, "{:?}", chosen.motion);
         let tree = Tree::new(rec.transforms(false).0);
@@ -197,6 +201,90 @@ fn recording_calibrates_as_pcd_folders() {
                 b.name
             );
         }
+    }
+}
+
+// --- Livox CustomMsg ---------------------------------------------------------------------------
+
+/// A Livox topic lists with its type, count, rate and frame id, and is a point cloud to a rig.
+#[test]
+fn livox_topics_list_as_point_clouds() {
+    let cases = [
+        ("livox.bag", "/front_left/points", "livox_ros_driver/CustomMsg", 3, 10.0, "front_left"),
+        ("livox.bag", "/front_right/points", "livox_ros_driver2/CustomMsg", 3, 10.0, "front_right"),
+        (
+            "livox.mcap",
+            "/front_right/points",
+            "livox_ros_driver2/msg/CustomMsg",
+            3,
+            10.0,
+            "front_right",
+        ),
+        ("livox.db3", "/livox/small", "livox_ros_driver2/msg/CustomMsg", 2, 20.0, "livox_frame"),
+        ("livox_small.bag", "/livox/small", "livox_ros_driver/CustomMsg", 2, 20.0, "livox_frame"),
+    ];
+    for (file, name, type_name, count, rate, frame) in cases {
+        let mut rec = open(file);
+        assert!(rec.problems().is_empty(), "{file}: {:?}", rec.problems());
+        let t = rec.topic(name).unwrap();
+        // An MCAP opened from its summary bounds a topic's times by its chunks' until it is used.
+        rec.times(t).unwrap();
+        let topic = &rec.topics()[t];
+        assert_eq!(
+            (topic.type_name.as_str(), topic.kind, topic.count),
+            (type_name, Kind::LivoxCustom, count),
+            "{file}"
+        );
+        assert!(topic.kind.is_point_cloud() && (topic.rate_hz() - rate).abs() < 1e-9, "{file}");
+        assert_eq!(rec.point_cloud(t, 0).unwrap().frame_id, frame, "{file}");
+    }
+}
+
+/// /livox/small's points as make.py wrote them, big-endian CDR included: NaN, infinite and
+/// zero returns dropped, reflectivity as intensity.
+#[test]
+fn livox_points_decode_in_every_container() {
+    let expected: serde_json::Value =
+        serde_json::from_slice(&bytes("expected_livox.json")).unwrap();
+    let want = &expected["/livox/small"];
+    let points: Vec<[f32; 3]> = want["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| std::array::from_fn(|i| p[i].as_f64().unwrap() as f32))
+        .collect();
+    let intensity: Vec<f32> =
+        want["intensity"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap() as f32).collect();
+    for file in ["livox.bag", "livox.mcap", "livox.db3", "livox_small.bag", "livox_small.mcap"] {
+        let mut rec = open(file);
+        let t = rec.topic("/livox/small").unwrap();
+        for m in 0..2 {
+            let pc = rec.point_cloud(t, m).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(pc.cloud.points, points, "{file} {m}");
+            assert_eq!(pc.cloud.intensity.as_ref(), Some(&intensity), "{file} {m}");
+            assert_eq!((pc.width, pc.height, pc.dropped), (7, 1, 3), "{file} {m}");
+            assert_eq!(pc.stamp_ns, 1_700_000_000_000_000_000 + m as i64 * 50_000_000);
+        }
+    }
+}
+
+/// A points sequence longer than the message is named, in CDR (.db3) and ROS 1 (a bag).
+#[test]
+fn livox_counts_beyond_the_message_are_named() {
+    // lidar_id 3, rsvd 0 0 0, then the sequence's length: 7 points, little endian.
+    let seven = [3, 0, 0, 0, 7, 0, 0, 0];
+    for (file, want) in [
+        ("livox.db3", "points: 8 points need 159 bytes, 139 left in the message"),
+        ("livox_small.bag", "points: 8 points need 152 bytes, 133 left in the message"),
+    ] {
+        let mut data = bytes(file);
+        let at = find(&data, &seven)[0] + 4;
+        data[at] = 8;
+        let mut rec = open_bytes(data, file).unwrap();
+        let t = rec.topic("/livox/small").unwrap();
+        let e = rec.point_cloud(t, 0).unwrap_err();
+        assert_eq!(e.to_string(), format!("{file}, topic /livox/small, message 0: {want}"));
+        assert!(rec.point_cloud(t, 1).is_ok(), "{file}");
     }
 }
 

@@ -2,7 +2,7 @@
 // forced, so the fuzzer explores past it), then read and decode every message. Nothing may
 // panic; every point returned must be finite.
 
-use gmmcalib::io::recording::{Kind, Recording};
+use gmmcalib::io::recording::Recording;
 
 pub fn exercise(data: &[u8], magic: &[u8]) {
     let mut bytes = data.to_vec();
@@ -13,7 +13,7 @@ pub fn exercise(data: &[u8], magic: &[u8]) {
         let topic = rec.topics()[t].clone();
         for m in 0..topic.count.min(16) {
             match topic.kind {
-                Kind::PointCloud2 => {
+                k if k.is_point_cloud() => {
                     if let Ok(pc) = rec.point_cloud(t, m) {
                         assert!(pc.cloud.points.iter().all(|p| p.iter().all(|c| c.is_finite())));
                     }

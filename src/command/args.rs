@@ -32,8 +32,9 @@ pub const HELP: &str = "\
   sharing JRMPC's E-step and the frame pairs (default: the available cores; the result does
   not depend on it).
   --bag: a recording (MCAP, ROS 1 .bag, rosbag2 .db3) instead of --data: sensors are its
-  PointCloud2 topics (default: all), frames are N instants (default 10) spread over it where
-  every topic has a scan within 20 ms of the reference's (the first topic unless --reference).
+  point-cloud topics (PointCloud2 or Livox CustomMsg; default: all), frames are N instants
+  (default 10) spread over it where every topic has a scan within 20 ms of the reference's
+  (the first topic unless --reference).
   Nominals T_base_frame come from --urdf (joint origins) or /tf_static, resolved for each
   topic's frame_id to --base-frame (default base_link, else the tree's root). --export prints
   the corrected extrinsics (parent the base frame, child each frame id) in that form; urdf

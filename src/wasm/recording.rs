@@ -125,7 +125,7 @@ impl RecordingFile {
                 name: t.name.clone(),
                 type_name: t.type_name.clone(),
                 kind: match t.kind {
-                    Kind::PointCloud2 => "pointCloud",
+                    Kind::PointCloud2 | Kind::LivoxCustom => "pointCloud",
                     Kind::TfMessage => "tf",
                     Kind::Other => "other",
                 },

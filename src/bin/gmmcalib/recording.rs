@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use gmmcalib::io::recording::{Kind, Recording, Tree};
+use gmmcalib::io::recording::{Recording, Tree};
 
 /// Opens `path`, with a progress line on stderr while a file without index is scanned.
 fn open(path: &Path) -> Result<Recording, String> {
@@ -31,7 +31,7 @@ pub fn inspect(path: &Path) -> Result<(), String> {
         let topic = rec.topics()[t].clone();
         // The frame id is in each message; the first one's is shown for point clouds.
         let frame = match topic.kind {
-            Kind::PointCloud2 if topic.count > 0 => {
+            k if k.is_point_cloud() && topic.count > 0 => {
                 rec.point_cloud(t, 0).map_or_else(|e| format!("({e})"), |pc| pc.frame_id)
             }
             _ => String::new(),

@@ -28,6 +28,8 @@ pub enum Encoding {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
     PointCloud2,
+    /// Livox's `CustomMsg` point cloud (`livox_ros_driver` in ROS 1, `livox_ros_driver2`).
+    LivoxCustom,
     TfMessage,
     Other,
 }
@@ -37,9 +39,18 @@ impl Kind {
     pub fn of(type_name: &str) -> Self {
         match type_name {
             "sensor_msgs/PointCloud2" | "sensor_msgs/msg/PointCloud2" => Self::PointCloud2,
+            "livox_ros_driver/CustomMsg"
+            | "livox_ros_driver/msg/CustomMsg"
+            | "livox_ros_driver2/CustomMsg"
+            | "livox_ros_driver2/msg/CustomMsg" => Self::LivoxCustom,
             "tf2_msgs/TFMessage" | "tf2_msgs/msg/TFMessage" => Self::TfMessage,
             _ => Self::Other,
         }
+    }
+
+    /// A point cloud that [`Recording::point_cloud`](super::Recording::point_cloud) decodes.
+    pub fn is_point_cloud(self) -> bool {
+        matches!(self, Self::PointCloud2 | Self::LivoxCustom)
     }
 }
 

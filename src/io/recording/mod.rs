@@ -1,6 +1,6 @@
 //! ROS recordings: MCAP, ROS 1 bags (v2.0) and rosbag2's SQLite `.db3`, read through
 //! [`ReadAt`] so only the summary, the index and the chunks holding the chosen messages are
-//! ever read; `sensor_msgs/PointCloud2` into [`Cloud`](crate::Cloud)s and
+//! ever read; `sensor_msgs/PointCloud2` and Livox's `CustomMsg` into [`Cloud`](crate::Cloud)s and
 //! `tf2_msgs/TFMessage` into a transform [`Tree`]; the instants to calibrate from
 //! ([`select`]); nominal extrinsics from `/tf_static` or a URDF ([`urdf`]).
 //!
@@ -15,6 +15,7 @@ mod compression;
 mod db3;
 mod error;
 mod index;
+mod livox;
 mod mcap;
 mod pointcloud2;
 mod rig;
@@ -28,6 +29,7 @@ pub use choose::{Chosen, ChosenScan, nominals};
 pub use compression::Compression;
 pub use error::RecordingError;
 pub use index::{Container, Encoding, Kind, Topic};
+pub use livox::decode as decode_livox;
 pub use pointcloud2::{PointCloud, decode as decode_point_cloud};
 pub use rig::{RecordingRig, RigError, RigRequest};
 #[cfg(not(target_arch = "wasm32"))]
@@ -224,7 +226,8 @@ impl Recording {
         })
     }
 
-    /// Message `message` of `topic` decoded as a PointCloud2.
+    /// Message `message` of `topic` decoded as a point cloud: a Livox `CustomMsg` on a topic
+    /// of that type, else a PointCloud2.
     pub fn point_cloud(
         &mut self,
         topic: usize,
@@ -232,7 +235,11 @@ impl Recording {
     ) -> Result<PointCloud, RecordingError> {
         let encoding = self.encoding(topic, message)?;
         let data = self.message(topic, message)?;
-        pointcloud2::decode(&data, encoding).map_err(|e| self.error(topic, message, Bad::new(e)))
+        let decoded = match self.topics.get(topic).map(|t| t.kind) {
+            Some(Kind::LivoxCustom) => livox::decode(&data, encoding),
+            _ => pointcloud2::decode(&data, encoding),
+        };
+        decoded.map_err(|e| self.error(topic, message, Bad::new(e)))
     }
 
     /// Every transform on `/tf_static` (and on `/tf` too with `dynamic`), in time order per

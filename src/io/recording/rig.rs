@@ -5,7 +5,7 @@
 use super::select::{Motion, Pick, Settings as Select};
 use super::tf::{Tree, TreeError};
 use super::urdf::Urdf;
-use super::{Kind, Recording, RecordingError, nominals};
+use super::{Recording, RecordingError, nominals};
 use crate::calib::Scan;
 use crate::se3::Pose;
 
@@ -113,7 +113,7 @@ impl Recording {
             Some(list) => list.clone(),
             None => {
                 let clouds: Vec<usize> = (0..self.topics().len())
-                    .filter(|&t| self.topics()[t].kind == Kind::PointCloud2)
+                    .filter(|&t| self.topics()[t].kind.is_point_cloud())
                     .filter(|&t| self.topics()[t].count > 0)
                     .collect();
                 // Topics the user did not name are left out when the tree cannot place them

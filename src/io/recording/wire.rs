@@ -41,8 +41,18 @@ impl<'a> Wire<'a> {
         }
     }
 
+    /// Bytes not read yet.
+    pub fn left(&self) -> usize {
+        self.data.len().saturating_sub(self.pos)
+    }
+
+    /// Whether multi-byte values are big-endian (a big-endian CDR message).
+    pub fn big_endian(&self) -> bool {
+        self.big_endian
+    }
+
     pub fn bytes(&mut self, n: usize, what: &str) -> Result<&'a [u8], String> {
-        let left = self.data.len().saturating_sub(self.pos);
+        let left = self.left();
         if n > left {
             return Err(format!("{what}: {n} bytes declared, {left} left in the message"));
         }
@@ -66,6 +76,10 @@ impl<'a> Wire<'a> {
 
     pub fn u32(&mut self, what: &str) -> Result<u32, String> {
         Ok(u32::from_le_bytes(self.array(what)?))
+    }
+
+    pub fn u64(&mut self, what: &str) -> Result<u64, String> {
+        Ok(u64::from_le_bytes(self.array(what)?))
     }
 
     pub fn i32(&mut self, what: &str) -> Result<i32, String> {
