@@ -238,14 +238,61 @@ fn threads_give_identical_results() {
         .map(|j| cube_points(800, 10 + j, if j % 2 == 0 { &offset } else { &identity }))
         .collect();
     let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
-    let one = EmSettings { initial_sigma: Some(0.5), max_iterations: 40, ..EmSettings::default() };
-    let a = jrmpc::register(&refs, &prior_means(150), &one, |_| Control::Continue).unwrap();
-    for threads in [2, 3, 8] {
-        let s = EmSettings { threads, ..one.clone() };
-        let b = jrmpc::register(&refs, &prior_means(150), &s, |_| Control::Continue).unwrap();
-        assert_eq!(a.poses, b.poses, "{threads} threads");
-        assert_eq!(a.mixture, b.mixture);
-        assert_eq!(a.history, b.history);
+    for multiresolution in [false, true] {
+        let one = EmSettings {
+            initial_sigma: Some(0.5),
+            max_iterations: 40,
+            multiresolution,
+            ..EmSettings::default()
+        };
+        let a = jrmpc::register(&refs, &prior_means(150), &one, |_| Control::Continue).unwrap();
+        for threads in [2, 3, 8] {
+            let s = EmSettings { threads, ..one.clone() };
+            let b = jrmpc::register(&refs, &prior_means(150), &s, |_| Control::Continue).unwrap();
+            assert_eq!(a.poses, b.poses, "{threads} threads");
+            assert_eq!(a.mixture, b.mixture);
+            assert_eq!(a.history, b.history);
+        }
+    }
+}
+
+/// Multi-resolution EM (each view's points merged in cubes while sigma is large) lands where
+/// every point does, for a fraction of the terms; off, nothing is merged.
+#[test]
+fn multiresolution_registers_as_every_point_does() {
+    let offsets = [
+        Pose::identity(),
+        pose_from_xyz_rpy([0.05, -0.08, 0.03], [0.04, -0.03, 0.05]),
+        pose_from_xyz_rpy([-0.1, 0.02, -0.06], [-0.05, 0.05, -0.02]),
+    ];
+    let views: Vec<Vec<[f32; 3]>> =
+        offsets.iter().enumerate().map(|(j, o)| cube_points(4000, 20 + j as u64, o)).collect();
+    let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
+    let every =
+        EmSettings { initial_sigma: Some(0.5), max_iterations: 100, ..EmSettings::default() };
+    let merged = EmSettings { multiresolution: true, ..every.clone() };
+    let run = |s: &EmSettings| {
+        jrmpc::register(&refs, &prior_means(300), s, |_| Control::Continue).unwrap()
+    };
+    let (a, b) = (run(&every), run(&merged));
+    let terms = |r: &jrmpc::Registration| r.history.iter().map(|h| h.terms).sum::<u64>();
+    let first = |r: &jrmpc::Registration| r.history[0].terms;
+    assert_eq!(first(&a), 3 * 4000 * 300, "sigma 0.5 reaches every component: dense");
+    assert!(first(&b) * 10 < first(&a), "merged: {} terms of {}", first(&b), first(&a));
+    // Both against the truth: the views' own offsets (T_model_view maps view j onto view 0's
+    // frame as offsets[j]^-1 does).
+    for (j, offset) in offsets.iter().enumerate().skip(1) {
+        let error = |r: &jrmpc::Registration| {
+            let e = r.poses[0].inverse() * r.poses[j] * offset;
+            (e.rotation.angle(), e.translation.vector.norm())
+        };
+        let ((ra, ta), (rb, tb)) = (error(&a), error(&b));
+        println!(
+            "view {j}: every point {ra:.1e} rad / {ta:.1e} m off, merged {rb:.1e} rad / {tb:.1e} \
+             m; terms {:.1} % of every point's",
+            100.0 * terms(&b) as f64 / terms(&a) as f64
+        );
+        assert!(rb < ra.max(1e-3) * 1.5 && tb < ta.max(1e-3) * 1.5, "view {j}");
     }
 }
 
@@ -292,7 +339,8 @@ fn em_driven_over_uneven_shards_matches_register() {
             .collect();
         for (shard, range) in shards.iter_mut().zip(&ranges).rev() {
             let transforms = &em.transforms()[range.clone()];
-            terms += shard.e_step(em.mixture(), em.beta(), transforms, &mut stats[range.clone()]);
+            let (mixture, beta, cell) = (em.mixture(), em.beta(), em.cell());
+            terms += shard.e_step(mixture, beta, cell, transforms, &mut stats[range.clone()]);
         }
         em.m_step(&stats, terms);
         iterations += 1;

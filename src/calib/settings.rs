@@ -154,6 +154,11 @@ pub struct Settings {
     /// the page's recording test rig moved by 4.7 cm at 1e-4, so the early stop waits for a
     /// rule that holds there too.
     pub gmm_em_tolerance: f64,
+    /// Multi-resolution EM inside `gmm` ([`jrmpc::EmSettings::multiresolution`]): the coarse
+    /// iterations take a subsample of each view. Plain `jrmpc` keeps
+    /// `jrmpc.multiresolution` (off: the reference). Default on (docs/benchmarks.md gives what
+    /// it moves and saves).
+    pub gmm_multiresolution: bool,
 }
 
 impl Default for Settings {
@@ -176,6 +181,7 @@ impl Default for Settings {
             global: GlobalSettings::default(),
             cad: CadSettings::default(),
             gmm_em_tolerance: 1e-8,
+            gmm_multiresolution: true,
         }
     }
 }
@@ -208,6 +214,9 @@ pub struct Stages {
     pub cad: Option<CadSettings>,
     /// JRMPC's convergence test: `gmm_em_tolerance` for `gmm`, else `jrmpc.tolerance`.
     pub em_tolerance: f64,
+    /// JRMPC's multi-resolution: `gmm_multiresolution` for `gmm`, else
+    /// `jrmpc.multiresolution`.
+    pub em_multiresolution: bool,
     /// Register each frame pair by ICP: from JRMPC's corrections (`gmm`) or the nominal.
     pub pairs: Option<PairSettings>,
     /// The frame pairs' reference points near its ground take the ground's normal (`gmm`).
@@ -244,6 +253,10 @@ impl Stages {
             em_tolerance: match method {
                 Method::Gmm => settings.gmm_em_tolerance,
                 _ => settings.jrmpc.tolerance,
+            },
+            em_multiresolution: match method {
+                Method::Gmm => settings.gmm_multiresolution,
+                _ => settings.jrmpc.multiresolution,
             },
             // One knob for the most EM iterations, JRMPC's or cad's.
             cad: (method == Method::Cad).then(|| CadSettings {

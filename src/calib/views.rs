@@ -228,6 +228,7 @@ impl Views {
                 InitialSigma::Fixed(sigma) => Some(sigma),
             },
             tolerance: self.stages.em_tolerance,
+            multiresolution: self.stages.em_multiresolution,
             ..settings.jrmpc.clone()
         };
         JrmpcInput { clouds, means, settings: jrmpc_settings }

@@ -22,7 +22,13 @@ pub struct Em {
     unsupported: Vec<usize>,
     converged: bool,
     cancelled: bool,
+    /// The next E-step's cube edge (m): each view's points merged in cubes; 0: every point.
+    cell: f64,
 }
+
+/// The cubes' edge stays within this fraction of the mean sigma: a Gaussian that wide sees the
+/// cubes' means, counts and spreads as it sees their points.
+const EDGE_PER_SIGMA: f64 = 0.5;
 
 impl Em {
     /// Checks the input and initialises (as jrmpc.m): identity transforms, every variance the
@@ -56,7 +62,7 @@ impl Em {
             priors: vec![1.0 / (k as f64 * (1.0 + settings.gamma)); k],
         };
         let h = 2.0 * variance; // 2 / mean(Q)
-        let em = Self {
+        let mut em = Self {
             settings: settings.clone(),
             centre,
             mixture,
@@ -66,7 +72,9 @@ impl Em {
             unsupported: Vec::new(),
             converged: false,
             cancelled: false,
+            cell: f64::INFINITY,
         };
+        em.cell = em.next_cell();
         Ok((em, points))
     }
 
@@ -83,6 +91,22 @@ impl Em {
     /// Each view's current transform (rotation, translation) in the centred frame.
     pub fn transforms(&self) -> &[(Matrix3<f64>, Vector3<f64>)] {
         &self.transforms
+    }
+
+    /// The next E-step merges each view's points in cubes of this edge (m; 0: every point).
+    /// With [`EmSettings::multiresolution`], the largest power of two (in metres) within half
+    /// the mean sigma, never larger than the last; the shards take smaller cubes where a view
+    /// would keep too few, and its own points where merging would not halve them.
+    pub fn cell(&self) -> f64 {
+        self.cell
+    }
+
+    fn next_cell(&self) -> f64 {
+        if !self.settings.multiresolution {
+            return 0.0;
+        }
+        let edge = (EDGE_PER_SIGMA * self.mixture.mean_sigma()).log2().floor().exp2();
+        edge.min(self.cell)
     }
 
     /// Zeroed statistics for every view, for the E-step to fill.
@@ -124,6 +148,7 @@ impl Em {
         let mean_sigma = self.mixture.mean_sigma();
         self.history.push(IterationStats { mean_sigma, max_change, terms });
         self.converged = max_change <= s.tolerance;
+        self.cell = self.next_cell();
     }
 
     /// The last iteration, with the views' poses in the caller's frame.

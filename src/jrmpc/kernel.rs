@@ -175,11 +175,15 @@ impl Accumulators {
     }
 
     /// Adds `N` points at `p` (block coordinates) whose terms are `a`, with their posterior
-    /// normalisers `norm`; each accumulator is loaded and stored once for all of them.
+    /// normalisers `norm`; each accumulator is loaded and stored once for all of them. A
+    /// point that stands for a cell of points (multi-resolution) is their mean, with their
+    /// count folded into `norm` and their mean squared distance from it in `spread` (0 for a
+    /// point).
     pub fn add<const N: usize>(
         &mut self,
         block: &Block,
         p: [[f64; 3]; N],
+        spread: [f64; N],
         a: &[Vec<f32>; N],
         norm: [f64; N],
     ) {
@@ -188,7 +192,9 @@ impl Accumulators {
             (&mut self.lambda[..n], &mut self.x[..n], &mut self.y[..n], &mut self.z[..n]);
         let p2 = &mut self.p2[..n];
         let a = a.each_ref().map(|a| &a[..n]);
-        let squares = p.map(|p| p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        let squares: [f64; N] = std::array::from_fn(|j| {
+            p[j][0] * p[j][0] + p[j][1] * p[j][1] + p[j][2] * p[j][2] + spread[j]
+        });
         for i in 0..n {
             let (mut sl, mut sx, mut sy, mut sz, mut sp2) = (l[i], x[i], y[i], z[i], p2[i]);
             for j in 0..N {

@@ -52,6 +52,12 @@ pub struct EmSettings {
     /// Threads sharing the E-step's views (native only; wasm runs one). Each view's sums are
     /// computed by one thread and combined in view order, so results do not depend on it.
     pub threads: usize,
+    /// Multi-resolution EM: while the mixture is wide, each view's points are merged in cubes
+    /// (each cube's mean standing for its points, with their count and spread; [`Em::cell`]).
+    /// A Gaussian many cubes wide sees the cubes as it sees the points, and the first
+    /// iterations, where every component reaches every point, are the costly ones. Off: every
+    /// point every iteration (the reference).
+    pub multiresolution: bool,
 }
 
 impl Default for EmSettings {
@@ -65,6 +71,7 @@ impl Default for EmSettings {
             initial_sigma: None,
             dense: false,
             threads: 1,
+            multiresolution: false,
         }
     }
 }
@@ -204,16 +211,18 @@ impl Shards {
         if self.stats.len() != em.transforms().len() {
             self.stats = em.empty_stats();
         }
-        let (mixture, beta, transforms) = (em.mixture(), em.beta(), em.transforms());
+        let (mixture, beta, cell) = (em.mixture(), em.beta(), em.cell());
         let per = self.per.max(1);
         let jobs =
-            self.shards.iter_mut().zip(self.stats.chunks_mut(per)).zip(transforms.chunks(per));
+            self.shards.iter_mut().zip(self.stats.chunks_mut(per)).zip(em.transforms().chunks(per));
         let terms = if jobs.len() == 1 {
-            jobs.map(|((shard, st), t)| shard.e_step(mixture, beta, t, st)).sum()
+            jobs.map(|((shard, st), t)| shard.e_step(mixture, beta, cell, t, st)).sum()
         } else {
             std::thread::scope(|scope| {
                 let handles: Vec<_> = jobs
-                    .map(|((shard, st), t)| scope.spawn(move || shard.e_step(mixture, beta, t, st)))
+                    .map(|((shard, st), t)| {
+                        scope.spawn(move || shard.e_step(mixture, beta, cell, t, st))
+                    })
                     .collect();
                 handles.into_iter().map(|h| h.join().expect("E-step thread")).sum()
             })
@@ -229,15 +238,65 @@ pub type CentredViews = Vec<Vec<Vector3<f64>>>;
 /// or worker. Its statistics depend only on its own views and the mixture, never on the split.
 pub struct Shard {
     views: Vec<Vec<Vector3<f64>>>,
+    /// The coarse iterations' cube edge, and each view's points merged in cubes (`None`:
+    /// the view's own points, when merging would not halve them).
+    coarse: Option<(f64, Vec<Option<Cells>>)>,
     dense: bool,
     scratch: estep::Scratch,
     dense_terms: Vec<f64>,
 }
 
+/// A view's points merged in cubes (multi-resolution): each cube's mean, with the points it
+/// stands for ([`estep::Weight`]).
+struct Cells {
+    means: Vec<Vector3<f64>>,
+    weights: Vec<estep::Weight>,
+}
+
+/// A merged view keeps at least this many cubes (its transform's M-step): the edge halves
+/// until it does.
+const MIN_VIEW_CELLS: usize = 64;
+
+impl Cells {
+    /// `points` merged in cubes of at most `edge`, or `None` when that would not halve them.
+    fn merged(points: &[Vector3<f64>], mut edge: f64) -> Option<Self> {
+        loop {
+            let cells = Self::of(points, edge);
+            if 2 * cells.means.len() > points.len() {
+                return None;
+            }
+            if cells.means.len() >= MIN_VIEW_CELLS {
+                return Some(cells);
+            }
+            edge /= 2.0;
+        }
+    }
+
+    /// `points` merged in the cubes of edge `edge` (aligned on the centred frame's origin),
+    /// in the cubes' order: the same on every run.
+    fn of(points: &[Vector3<f64>], edge: f64) -> Self {
+        let mut keyed: Vec<([i64; 3], usize)> = points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (std::array::from_fn(|a| (p[a] / edge).floor() as i64), i))
+            .collect();
+        keyed.sort_unstable();
+        let (mut means, mut weights) = (Vec::new(), Vec::new());
+        for cube in keyed.chunk_by(|a, b| a.0 == b.0) {
+            let n = cube.len() as f64;
+            let mean = cube.iter().map(|&(_, i)| points[i]).sum::<Vector3<f64>>() / n;
+            let spread = cube.iter().map(|&(_, i)| (points[i] - mean).norm_squared()).sum::<f64>();
+            means.push(mean);
+            weights.push([n, spread / n]);
+        }
+        Self { means, weights }
+    }
+}
+
 impl Shard {
     /// `dense`: the exact reference E-step ([`EmSettings::dense`]).
     pub fn new(views: Vec<Vec<Vector3<f64>>>, dense: bool) -> Self {
-        Self { views, dense, scratch: estep::Scratch::new(), dense_terms: Vec::new() }
+        Self { views, coarse: None, dense, scratch: estep::Scratch::new(), dense_terms: Vec::new() }
     }
 
     pub fn len(&self) -> usize {
@@ -248,25 +307,46 @@ impl Shard {
         self.views.is_empty()
     }
 
-    /// Fills `stats` (one per view of the shard) from the views under `transforms` (likewise);
-    /// returns the Gaussian terms evaluated.
+    /// Fills `stats` (one per view of the shard) from the views under `transforms` (likewise),
+    /// with each view's points merged in cubes of edge `cell` when it is positive
+    /// ([`Em::cell`]; smaller where a view would keep too few cubes, and none where merging
+    /// would not halve its points); returns the Gaussian terms evaluated. Each view's cubes
+    /// depend on its points alone, so the result does not depend on the split.
     pub fn e_step(
         &mut self,
         mixture: &Mixture,
         beta: f64,
+        cell: f64,
         transforms: &[(Matrix3<f64>, Vector3<f64>)],
         stats: &mut [ViewStats],
     ) -> u64 {
         stats.iter_mut().for_each(ViewStats::clear);
+        if cell <= 0.0 {
+            self.coarse = None;
+        } else if self.coarse.as_ref().is_none_or(|(edge, _)| *edge != cell) {
+            // A view left whole at a larger edge stays whole: smaller cubes merge less.
+            let before = self.coarse.take().map(|(_, cells)| cells);
+            let cells = self.views.iter().enumerate().map(|(v, points)| {
+                let whole = before.as_ref().is_some_and(|b| b[v].is_none());
+                if whole { None } else { Cells::merged(points, cell) }
+            });
+            self.coarse = Some((cell, cells.collect()));
+        }
+        let views: Vec<estep::Points> = (0..self.views.len())
+            .map(|v| match self.coarse.as_ref().and_then(|(_, cells)| cells[v].as_ref()) {
+                Some(cells) => estep::Points { at: &cells.means, weights: Some(&cells.weights) },
+                None => estep::Points::plain(&self.views[v]),
+            })
+            .collect();
         if self.dense {
-            let views = self.views.iter().zip(stats).zip(transforms);
+            let views = views.iter().zip(stats.iter_mut()).zip(transforms);
             return views
                 .map(|((view, st), (r, t))| {
-                    estep::dense(view, r, t, mixture, beta, st, &mut self.dense_terms)
+                    estep::dense(*view, r, t, mixture, beta, st, &mut self.dense_terms)
                 })
                 .sum();
         }
         let grid = grid::Grid::new(mixture, beta);
-        estep::accumulate(&self.views, transforms, mixture, &grid, beta, stats, &mut self.scratch)
+        estep::accumulate(&views, transforms, mixture, &grid, beta, stats, &mut self.scratch)
     }
 }

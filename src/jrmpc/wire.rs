@@ -2,8 +2,8 @@
 //! `Float64Array`s, which transfer without copies). Native code, tested natively; the wasm
 //! layer only converts typed arrays.
 //!
-//! - E-step input: `[beta, K, means (3K), variances (K), priors (K), then per view its rotation
-//!   (9, row-major) and translation (3)]`;
+//! - E-step input: `[beta, K, cell, means (3K), variances (K), priors (K), then per view its
+//!   rotation (9, row-major) and translation (3)]`;
 //! - E-step output: `[terms, then per view lambda (K), s1 (3K), s2 (K)]`;
 //! - a shard's points: `x, y, z` of each view's centred points, one view after another, with
 //!   the views' sizes beside them.
@@ -68,8 +68,8 @@ pub type Transform = (Matrix3<f64>, Vector3<f64>);
 pub fn e_step_input(em: &Em) -> Vec<f64> {
     let mixture = em.mixture();
     let k = mixture.len();
-    let mut flat = Vec::with_capacity(2 + 5 * k + TRANSFORM * em.transforms().len());
-    flat.extend([em.beta(), k as f64]);
+    let mut flat = Vec::with_capacity(3 + 5 * k + TRANSFORM * em.transforms().len());
+    flat.extend([em.beta(), k as f64, em.cell()]);
     flat.extend(mixture.means.iter().flat_map(|m| [m.x, m.y, m.z]));
     flat.extend(&mixture.variances);
     flat.extend(&mixture.priors);
@@ -80,17 +80,28 @@ pub fn e_step_input(em: &Em) -> Vec<f64> {
     flat
 }
 
-/// An E-step input for views `first..first + views`: the mixture, beta and those views'
+/// What a shard's E-step takes: [`Em::mixture`], [`Em::beta`], [`Em::cell`] and its views'
 /// transforms.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EStepInput {
+    pub mixture: Mixture,
+    pub beta: f64,
+    pub cell: f64,
+    pub transforms: Vec<Transform>,
+}
+
+/// An E-step input for views `first..first + views`.
 pub fn read_e_step_input(
     flat: &[f64],
     first: usize,
     views: usize,
-) -> Result<(Mixture, f64, Vec<Transform>), WireError> {
+) -> Result<EStepInput, WireError> {
     let (&beta, rest) = flat.split_first().ok_or(WireError::MalformedInput)?;
     let (&k, rest) = rest.split_first().ok_or(WireError::MalformedInput)?;
+    let (&cell, rest) = rest.split_first().ok_or(WireError::MalformedInput)?;
     let k = k as usize; // saturating; NaN -> 0
-    if k == 0 || k > rest.len() / 5 || !(beta.is_finite() && beta > 0.0) {
+    let plausible = beta.is_finite() && beta > 0.0 && cell.is_finite() && cell >= 0.0;
+    if k == 0 || k > rest.len() / 5 || !plausible {
         return Err(WireError::MalformedInput);
     }
     let (mixture, transforms) = rest.split_at(5 * k);
@@ -114,7 +125,7 @@ pub fn read_e_step_input(
     if transforms.len() != views {
         return Err(WireError::MissingTransforms { first });
     }
-    Ok((mixture, beta, transforms))
+    Ok(EStepInput { mixture, beta, cell, transforms })
 }
 
 /// A shard's E-step output: the terms it evaluated, then its views' statistics.
@@ -213,12 +224,12 @@ mod tests {
         assert!(shard_points(&points, 2, 5).is_none());
 
         let input = e_step_input(&em);
-        let (mixture, beta, transforms) = read_e_step_input(&input, 0, 3).unwrap();
-        assert_eq!((&mixture, beta), (em.mixture(), em.beta()));
-        assert_eq!(transforms, em.transforms().to_vec());
+        let read = read_e_step_input(&input, 0, 3).unwrap();
+        assert_eq!((&read.mixture, read.beta, read.cell), (em.mixture(), em.beta(), 0.0));
+        assert_eq!(read.transforms, em.transforms().to_vec());
         let mut shard = Shard::new(points.clone(), false);
         let mut stats = em.empty_stats();
-        let terms = shard.e_step(&mixture, beta, &transforms, &mut stats);
+        let terms = shard.e_step(&read.mixture, read.beta, 0.0, &read.transforms, &mut stats);
         let output = e_step_output(terms, &stats);
         let (back_terms, back) = read_e_step_outputs([output.as_slice()], 20, 3).unwrap();
         assert_eq!(back_terms, terms);

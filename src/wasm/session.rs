@@ -312,13 +312,14 @@ impl JrmpcShard {
     #[wasm_bindgen(js_name = eStep)]
     pub fn e_step(&mut self, input: &[f64], first: usize) -> Result<Float64Array, JsError> {
         let views = self.shard.len();
-        let (mixture, beta, transforms) = wire::read_e_step_input(input, first, views)
+        let input = wire::read_e_step_input(input, first, views)
             .map_err(|e| JsError::new(&e.to_string()))?;
-        let k = mixture.len();
+        let k = input.mixture.len();
         if self.stats.len() != views || self.stats.first().is_some_and(|s| s.lambda.len() != k) {
             self.stats = vec![ViewStats::zeros(k); views];
         }
-        let terms = self.shard.e_step(&mixture, beta, &transforms, &mut self.stats);
+        let wire::EStepInput { mixture, beta, cell, transforms } = &input;
+        let terms = self.shard.e_step(mixture, *beta, *cell, transforms, &mut self.stats);
         Ok(Float64Array::from(wire::e_step_output(terms, &self.stats).as_slice()))
     }
 }

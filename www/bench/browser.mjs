@@ -4,18 +4,26 @@
 // EM, then the frame pairs' GICP and the plane adjustment). Prints the page's own wall time
 // (click to result, views copied to the worker included), the Gaussian terms evaluated and
 // dense-equivalent terms per second. Run `make bench-browser` (builds www/dist first).
-// Pass --quick for the sample scale only.
+// Pass --quick for the sample scale only. `--estep gpu` times the E-step on WebGPU instead (one
+// CPU worker beside it; Chromium started with WebGPU on, a hardware adapter where the machine has
+// one: add `--swiftshader` to force the software adapter, whose speed says nothing about a GPU)
+// and prints the GPU's own E-step seconds.
 import { serveDist, launch, openPage, waitForStatus } from '../e2e/harness.js';
 import { gmmcalibFolder, syntheticRig } from '../e2e/rigfiles.js';
 
 const quick = process.argv.includes('--quick');
+const arg = (name) => process.argv[process.argv.indexOf(name) + 1];
+const gpu = process.argv.includes('--estep') && arg('--estep') === 'gpu';
+const swiftshader = process.argv.includes('--swiftshader');
+const webgpu = ['--enable-unsafe-webgpu', '--enable-features=Vulkan', '--ignore-gpu-blocklist',
+  ...(swiftshader ? ['--use-webgpu-adapter=swiftshader'] : [])];
 const jobs = [
   { name: 'sample scale: 10 views x 1300 points, K=444', frames: 5, pointsPerView: 1300, components: 444 },
   { name: 'paper scale: 212 views x 1850 points, K=400', frames: 106, pointsPerView: 1850, components: 400 },
 ];
 
 const server = await serveDist();
-const browser = await launch();
+const browser = await launch(gpu ? webgpu : [], { hardwareGpu: gpu && !swiftshader });
 console.log(`gmmcalib browser bench (${browser.version()}, headless; the machine may be shared)`);
 try {
   for (const [job, method] of (quick ? jobs.slice(0, 1) : jobs).flatMap((j) => [[j, 'jrmpc'], [j, 'gmm']])) {
@@ -24,8 +32,9 @@ try {
     const points = rig.views.reduce((n, v) => n + v.points.length / 3, 0);
     console.log(`${method} ${job.name} (${points} points)`);
     const seconds = {};
-    for (const workers of [1, 2]) {
-      const { page, problems } = await openPage(browser, `${server.url}#workers=${workers}`);
+    for (const workers of gpu ? [1] : [1, 2]) {
+      const estep = gpu ? '&estep=gpu' : '&estep=cpu';
+      const { page, problems } = await openPage(browser, `${server.url}#workers=${workers}${estep}`);
       await page.getByTestId('file-input').setInputFiles(files);
       await waitForStatus(page, /scans of 2 sensors loaded/, 120_000);
       await page.getByTestId('calibrate').click();
@@ -40,9 +49,14 @@ try {
       console.log(`  ${workers} worker${workers > 1 ? 's' : ' '} ${seconds[workers].toFixed(1).padStart(7)} s  ` +
         `${(terms / 1e6).toFixed(1).padStart(7)} M terms evaluated (${(100 * terms / dense).toFixed(1)} % of dense, ` +
         `${result.iterations} iterations)  ${(dense / seconds[workers] / 1e6).toFixed(0).padStart(5)} M dense-equivalent terms/s`);
+      if (gpu) {
+        if (result.estep !== 'gpu') throw new Error(`the E-step ran on ${result.estep}, asked for the GPU`);
+        console.log(`  E-step on ${result.gpu}: ${result.gpuEStepSeconds.toFixed(2)} s over ${result.gpuIterations} iterations ` +
+          `(${(1000 * result.gpuEStepSeconds / result.gpuIterations).toFixed(1)} ms each)`);
+      }
       await page.close();
     }
-    console.log(`  2 workers over 1: ${(seconds[1] / seconds[2]).toFixed(2)}x`);
+    if (!gpu) console.log(`  2 workers over 1: ${(seconds[1] / seconds[2]).toFixed(2)}x`);
   }
 } finally {
   await browser.close();

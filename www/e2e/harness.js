@@ -31,11 +31,12 @@ export async function serveDist() {
 
 // playwright-core gives every launch a fresh, empty profile directory of its own. `extra`:
 // more switches (gpu.test.js: WebGPU on SwiftShader).
-export async function launch(extra = []) {
+// `hardwareGpu`: leave the machine's GPU on (the GPU bench); tests run without it.
+export async function launch(extra = [], { hardwareGpu = false } = {}) {
   return chromium.launch({
     executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
     args: [
-      '--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--disable-quic',
+      '--no-sandbox', ...(hardwareGpu ? [] : ['--disable-gpu']), '--enable-unsafe-swiftshader', '--disable-quic',
       '--no-first-run', '--disable-background-networking', '--disable-component-update',
       '--disable-sync', ...extra,
     ],

@@ -24,7 +24,7 @@ const OWN_USAGE: &str = "\
                           [--max-angle-deg 3] [--max-yaw-deg DEG] [--max-translation 0.1]
                           [--method gmm] [--target cube:0.5|...|mesh:PATH|none] [--components K]
                           [--iterations N] [--tolerance T]
-                          [--bev on|off] [--planes on|off] [--level on|off] [--global on|off] [--noise M]
+                          [--bev on|off] [--planes on|off] [--multiresolution on|off] [--level on|off] [--global on|off] [--noise M]
                           [--columns N] [--threads T] [--notes] [--poses]
 ";
 
@@ -117,6 +117,8 @@ pub struct StudyArgs {
     pub tolerance: Option<f64>,
     pub bev: bool,
     pub planes: bool,
+    /// `gmm`'s multi-resolution EM (`Settings::gmm_multiresolution`).
+    pub multiresolution: bool,
     /// Ground levelling on or off; default: the method's.
     pub level: Option<bool>,
     /// Global alignment first: `None`, the method's default.
@@ -151,6 +153,7 @@ impl Default for StudyArgs {
             tolerance: None,
             bev: true,
             planes: true,
+            multiresolution: true,
             level: None,
             global: None,
             target: None,
@@ -278,6 +281,7 @@ fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
             "--tolerance" => out.tolerance = Some(number(&value)?),
             "--bev" => out.bev = on_off(&flag, &value)?,
             "--planes" => out.planes = on_off(&flag, &value)?,
+            "--multiresolution" => out.multiresolution = on_off(&flag, &value)?,
             "--level" => out.level = Some(on_off(&flag, &value)?),
             "--global" => out.global = Some(on_off(&flag, &value)?),
             "--target" => out.target = Some(value),

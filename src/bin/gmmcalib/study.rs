@@ -105,6 +105,7 @@ fn settings(a: &StudyArgs) -> Result<Settings, String> {
     if !a.planes {
         settings.planes = None;
     }
+    settings.gmm_multiresolution = a.multiresolution;
     settings.level_ground = a.level;
     settings.align_globally = a.global;
     if let Some(target) = &a.target {
@@ -136,6 +137,14 @@ fn trial(
     if notes {
         for note in result.plane_adjustment.iter().chain(&result.kept_jrmpc) {
             said.push(format!("{}: {}", note.sensor, note.kind));
+        }
+        // Why a trial is not good: the reasons at its level.
+        let level = result.verdict.level;
+        let sensors = result.verdict.sensors.iter().map(|s| (s.sensor.as_str(), &s.reasons));
+        for (sensor, reasons) in std::iter::once(("all", &result.verdict.reasons)).chain(sensors) {
+            for r in reasons.iter().filter(|r| r.level == level && level != Level::Good) {
+                said.push(format!("{sensor}: verdict {}: {}", level.name(), r.kind));
+            }
         }
         for l in &result.levelling {
             if let Some(b) = &l.bev {
