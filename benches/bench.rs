@@ -200,10 +200,12 @@ mod native {
     /// progress).
     fn gmm(job: &Job) {
         let rig = jrmpc::rig(job);
-        for threads in [1, 2] {
+        // Every point (the default) on 1 and 2 threads, then multi-resolution EM on 1.
+        for (threads, multiresolution) in [(1, false), (2, false), (1, true)] {
             let mut settings = calib::Settings {
                 method: calib::Method::Gmm,
                 components: job.components,
+                gmm_multiresolution: multiresolution,
                 ..Default::default()
             };
             settings.jrmpc.threads = threads;
@@ -217,14 +219,17 @@ mod native {
             })
             .expect("calibration");
             let (em, rest) = (em_ended - started, em_ended.elapsed());
+            let terms: u64 = result.history.iter().map(|h| h.terms).sum();
             println!(
-                "gmm {} on {threads} thread{}: {:.2} s; JRMPC {:.2} s ({} iterations), then {:.2} \
-                 s (frame pairs, plane adjustment, target fit)",
+                "gmm {} on {threads} thread{}{}: {:.2} s; JRMPC {:.2} s ({} iterations, {:.0} M \
+                 terms), then {:.2} s (frame pairs, plane adjustment, target fit)",
                 job.name,
                 if threads > 1 { "s" } else { "" },
+                if multiresolution { ", multi-resolution" } else { "" },
                 (em + rest).as_secs_f64(),
                 em.as_secs_f64(),
                 result.iterations,
+                terms as f64 / 1e6,
                 rest.as_secs_f64()
             );
         }

@@ -66,6 +66,8 @@ pub(super) struct CalibrateInput {
     components: Option<usize>,
     iterations: Option<usize>,
     tolerance: Option<f64>,
+    /// Multi-resolution EM (`gmm` on by default, `jrmpc` off).
+    multiresolution: Option<bool>,
     /// Initial component width (m), or "prior" / "bbox".
     initial_sigma: Option<InitialSigmaInput>,
     seed: Option<u64>,
@@ -234,6 +236,9 @@ pub(super) fn rig_and_settings(
     settings.jrmpc.max_iterations = input.iterations.unwrap_or(settings.jrmpc.max_iterations);
     if let Some(tolerance) = input.tolerance {
         (settings.jrmpc.tolerance, settings.gmm_em_tolerance) = (tolerance, tolerance);
+    }
+    if let Some(on) = input.multiresolution {
+        (settings.jrmpc.multiresolution, settings.gmm_multiresolution) = (on, on);
     }
     settings.seed = input.seed.unwrap_or(settings.seed);
     settings.align_globally = input.align_globally;

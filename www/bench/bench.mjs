@@ -65,15 +65,20 @@ for (const [index, job] of (targetsOnly ? [] : quick ? jobs.slice(0, 1) : jobs).
 // adjustment and the target fit (their share is the time after EM's last progress).
 for (const job of targetsOnly ? [] : quick ? jobs.slice(0, 1) : jobs) {
   const rig = sampledRig({ frames: job.frames, pointsPerView: job.pointsPerView, partial: true, seed: 1 });
-  let emEnded = 0;
-  const started = performance.now();
-  const result = calibrate(rigInput(rig, { method: 'gmm', components: job.components }), (p) => {
-    if (p.meanSigma > 0) emEnded = performance.now();
-    return true;
-  });
-  const ended = performance.now();
-  console.log(`gmm ${job.name}: ${((ended - started) / 1000).toFixed(2)} s; JRMPC ${((emEnded - started) / 1000).toFixed(2)} s (${result.iterations} iterations), ` +
-    `then ${((ended - emEnded) / 1000).toFixed(2)} s (frame pairs, plane adjustment, target fit)`);
+  // Every point every iteration (the default) and multi-resolution EM, side by side.
+  for (const multiresolution of [false, true]) {
+    let emEnded = 0;
+    const started = performance.now();
+    const result = calibrate(rigInput(rig, { method: 'gmm', components: job.components, multiresolution }), (p) => {
+      if (p.meanSigma > 0) emEnded = performance.now();
+      return true;
+    });
+    const ended = performance.now();
+    const terms = result.history.terms.reduce((a, b) => a + b, 0);
+    console.log(`gmm ${job.name}${multiresolution ? ', multi-resolution' : ''}: ${((ended - started) / 1000).toFixed(2)} s; ` +
+      `JRMPC ${((emEnded - started) / 1000).toFixed(2)} s (${result.iterations} iterations, ${(terms / 1e6).toFixed(0)} M terms), ` +
+      `then ${((ended - emEnded) / 1000).toFixed(2)} s (frame pairs, plane adjustment, target fit)`);
+  }
 }
 
 // ICP baselines: per frame pair, on partial views of the synthetic rig.

@@ -153,7 +153,7 @@ impl Default for StudyArgs {
             tolerance: None,
             bev: true,
             planes: true,
-            multiresolution: true,
+            multiresolution: false,
             level: None,
             global: None,
             target: None,
@@ -372,12 +372,14 @@ mod tests {
 
     #[test]
     fn parses_study() {
-        let Ok(Command::Study(s)) =
-            parse(args("study --preset paper-roof --seeds 3 --max-yaw-deg 8 --planes off --notes"))
-        else {
+        let Ok(Command::Study(s)) = parse(args(
+            "study --preset paper-roof --seeds 3 --max-yaw-deg 8 --planes off --notes \
+                        --multiresolution on",
+        )) else {
             panic!("expected study");
         };
         assert_eq!((s.preset.as_str(), s.seeds, s.starts), ("paper-roof", 3, 5));
         assert_eq!((s.max_yaw_deg, s.planes, s.bev, s.notes), (Some(8.0), false, true, true));
+        assert!(s.multiresolution);
     }
 }
