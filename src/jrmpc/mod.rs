@@ -256,20 +256,24 @@ struct Cells {
 /// A merged view keeps at least this many cubes (its transform's M-step): the edge halves
 /// until it does.
 const MIN_VIEW_CELLS: usize = 64;
+/// Halvings of the edge tried before a view keeps its own points.
+const MAX_HALVINGS: u32 = 20;
 
 impl Cells {
-    /// `points` merged in cubes of at most `edge`, or `None` when that would not halve them.
-    fn merged(points: &[Vector3<f64>], mut edge: f64) -> Option<Self> {
-        loop {
-            let cells = Self::of(points, edge);
-            if 2 * cells.means.len() > points.len() {
-                return None;
-            }
-            if cells.means.len() >= MIN_VIEW_CELLS {
-                return Some(cells);
-            }
-            edge /= 2.0;
+    /// `points` merged in cubes of at most `edge`, or `None` when that would not halve them
+    /// while keeping [`MIN_VIEW_CELLS`] (as with a view of fewer distinct places than that:
+    /// no edge gives it enough cubes, so the halving stops after a millionth of `edge`).
+    fn merged(points: &[Vector3<f64>], edge: f64) -> Option<Self> {
+        if points.len() < 2 * MIN_VIEW_CELLS {
+            return None;
         }
+        (0..MAX_HALVINGS).find_map(|h| {
+            let cells = Self::of(points, edge / f64::from(1u32 << h));
+            if 2 * cells.means.len() > points.len() {
+                return Some(None);
+            }
+            (cells.means.len() >= MIN_VIEW_CELLS).then_some(Some(cells))
+        })?
     }
 
     /// `points` merged in the cubes of edge `edge` (aligned on the centred frame's origin),
@@ -348,5 +352,28 @@ impl Shard {
         }
         let grid = grid::Grid::new(mixture, beta);
         estep::accumulate(&views, transforms, mixture, &grid, beta, stats, &mut self.scratch)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A view of many points at few places has no edge that gives it enough cubes: it keeps
+    /// its own points (the halving once ran for ever here). One of many places merges.
+    #[test]
+    fn a_view_of_few_places_keeps_its_points() {
+        let few: Vec<Vector3<f64>> =
+            (0..400).map(|i| Vector3::new((i % 2) as f64, 0.0, 0.0)).collect();
+        assert!(Cells::merged(&few, 0.5).is_none());
+        let many: Vec<Vector3<f64>> = (0..4000)
+            .map(|i| Vector3::new((i % 100) as f64 * 0.01, (i / 100) as f64 * 0.01, 0.0))
+            .collect();
+        let cells = Cells::merged(&many, 0.04).expect("merges");
+        // 4 cm cubes over a 1 m x 0.4 m sheet of 1 cm spacing: about 250, 16 points each.
+        let n = cells.means.len();
+        assert!((MIN_VIEW_CELLS..=2000).contains(&n) && n.abs_diff(250) < 30, "{n} cubes");
+        let count: f64 = cells.weights.iter().map(|w| w[0]).sum();
+        assert_eq!(count, 4000.0);
     }
 }
