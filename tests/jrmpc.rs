@@ -22,15 +22,20 @@ fn prior_means(k: usize) -> Vec<[f64; 3]> {
     cube_surface(0.5, k, 99).iter().map(|p| [p[0] + 4.0, p[1], p[2] + 0.25]).collect()
 }
 
+/// Three views' offsets from the first: a few centimetres and degrees.
+fn known_offsets() -> [Pose; 3] {
+    [
+        Pose::identity(),
+        pose_from_xyz_rpy([0.05, -0.08, 0.03], [0.04, -0.03, 0.05]),
+        pose_from_xyz_rpy([-0.1, 0.02, -0.06], [-0.05, 0.05, -0.02]),
+    ]
+}
+
 /// Views holding the same sample positions under known offsets leave the method nothing to
 /// blur: the relative transforms must come back exactly, forward and inverse.
 #[test]
 fn recovers_known_offsets_exactly_when_views_share_samples() {
-    let offsets = [
-        Pose::identity(),
-        pose_from_xyz_rpy([0.05, -0.08, 0.03], [0.04, -0.03, 0.05]),
-        pose_from_xyz_rpy([-0.1, 0.02, -0.06], [-0.05, 0.05, -0.02]),
-    ];
+    let offsets = known_offsets();
     let views: Vec<Vec<[f32; 3]>> = offsets.iter().map(|o| cube_points(1500, 1, o)).collect();
     let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();
     let settings =
@@ -260,11 +265,7 @@ fn threads_give_identical_results() {
 /// every point does, for a fraction of the terms; off, nothing is merged.
 #[test]
 fn multiresolution_registers_as_every_point_does() {
-    let offsets = [
-        Pose::identity(),
-        pose_from_xyz_rpy([0.05, -0.08, 0.03], [0.04, -0.03, 0.05]),
-        pose_from_xyz_rpy([-0.1, 0.02, -0.06], [-0.05, 0.05, -0.02]),
-    ];
+    let offsets = known_offsets();
     let views: Vec<Vec<[f32; 3]>> =
         offsets.iter().enumerate().map(|(j, o)| cube_points(4000, 20 + j as u64, o)).collect();
     let refs: Vec<&[[f32; 3]]> = views.iter().map(|v| v.as_slice()).collect();

@@ -47,6 +47,20 @@ const LAYOUTS: [&str; 8] = [
     "layouts.db3",
 ];
 
+/// A cloud as make.py wrote it to the expected JSON: its points and its intensity, if any.
+fn expected_cloud(want: &serde_json::Value) -> (Vec<[f32; 3]>, Option<Vec<f32>>) {
+    let points = want["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| std::array::from_fn(|i| p[i].as_f64().unwrap() as f32))
+        .collect();
+    let intensity = want["intensity"]
+        .as_array()
+        .map(|v| v.iter().map(|x| x.as_f64().unwrap() as f32).collect());
+    (points, intensity)
+}
+
 #[test]
 fn every_container_decodes_every_layout() {
     let expected = expected();
@@ -59,16 +73,8 @@ fn every_container_decodes_every_layout() {
             for m in 0..2 {
                 let pc = rec.point_cloud(t, m).unwrap_or_else(|e| panic!("{e}"));
                 assert_eq!(pc.frame_id, want["frame_id"].as_str().unwrap(), "{file} {topic}");
-                let points: Vec<[f32; 3]> = want["points"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|p| std::array::from_fn(|i| p[i].as_f64().unwrap() as f32))
-                    .collect();
+                let (points, intensity) = expected_cloud(want);
                 assert_eq!(pc.cloud.points, points, "{file} {topic}");
-                let intensity: Option<Vec<f32>> = want["intensity"]
-                    .as_array()
-                    .map(|v| v.iter().map(|x| x.as_f64().unwrap() as f32).collect());
                 assert_eq!(pc.cloud.intensity, intensity, "{file} {topic}");
                 assert_eq!(pc.stamp_ns, 1_700_000_000_000_000_000 + m as i64 * 50_000_000);
             }
@@ -247,14 +253,8 @@ fn livox_points_decode_in_every_container() {
     let expected: serde_json::Value =
         serde_json::from_slice(&bytes("expected_livox.json")).unwrap();
     let want = &expected["/livox/small"];
-    let points: Vec<[f32; 3]> = want["points"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| std::array::from_fn(|i| p[i].as_f64().unwrap() as f32))
-        .collect();
-    let intensity: Vec<f32> =
-        want["intensity"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap() as f32).collect();
+    let (points, intensity) = expected_cloud(want);
+    let intensity = intensity.expect("/livox/small has intensity");
     for file in ["livox.bag", "livox.mcap", "livox.db3", "livox_small.bag", "livox_small.mcap"] {
         let mut rec = open(file);
         let t = rec.topic("/livox/small").unwrap();

@@ -25,6 +25,8 @@ struct Trial {
     iterations: usize,
     warnings: usize,
     notes: Vec<String>,
+    /// The largest reconstructed target's fit: RMS (m) and size (m).
+    target: Option<(f64, f64)>,
 }
 
 pub fn run(a: &StudyArgs) -> Result<(), String> {
@@ -163,6 +165,7 @@ fn trial(
         iterations: result.iterations,
         warnings: result.levelling.iter().filter(|l| l.warning.is_some()).count(),
         notes: said,
+        target: result.reconstruction.fits.first().map(|f| (f.rms, f.size)),
     })
 }
 
@@ -222,6 +225,13 @@ fn report(jobs: &[(u64, u64)], trials: &[Trial], poses: bool) {
                     r.x, r.y, r.z, p.x, p.y, p.z
                 );
             }
+            if let Some((rms, size)) = t.target {
+                println!(
+                    "seed {seed} start {start} target: rms {:.3} mm, size {:.4} m",
+                    rms * 1e3,
+                    size
+                );
+            }
         }
     }
     let all: Vec<(f64, f64)> = errors.iter().map(|e| e.deg_m()).collect();
@@ -260,6 +270,12 @@ fn report(jobs: &[(u64, u64)], trials: &[Trial], poses: bool) {
     let iterations = trials.iter().map(|t| t.iterations).sum::<usize>() as f64;
     println!("JRMPC iterations: {:.1} each", iterations / count);
     println!("levelling warnings: {}", trials.iter().map(|t| t.warnings).sum::<usize>());
+    // The reconstruction's convergence: its largest target's fit.
+    let (rms, sizes): (Vec<f64>, Vec<f64>) =
+        trials.iter().filter_map(|t| t.target).map(|(r, s)| (r * 1e3, s)).unzip();
+    if !rms.is_empty() {
+        println!("largest target's fit: rms (mm) {}; size (m) {}", summary(&rms), summary(&sizes));
+    }
 }
 
 /// Median and maximum.
