@@ -16,6 +16,7 @@
 use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 
 use super::notes::{BevWarning, SearchRange};
+use super::shifts::{Rows, shift_scores};
 use crate::plane::{GroundFrame, Plane};
 use crate::se3::{Pose, rotation_about};
 
@@ -131,6 +132,13 @@ impl Occupancy {
         self.values[i as usize * self.size[1] + j as usize]
     }
 
+    /// The score of every shift within `steps` cells either way (see [`shift_scores`]).
+    fn correlate(&self, counted: &[([i64; 2], f64)], steps: i64, scores: &mut Vec<f64>) {
+        let [rows, columns] = self.size;
+        let grid = Rows { values: &self.values, rows, columns };
+        shift_scores(&grid, counted, [0, 0], steps, scores);
+    }
+
     /// Index of the cell holding `p` (unbounded).
     fn cell_of(&self, p: &Vector2<f64>) -> [i64; 2] {
         [0, 1].map(|a| ((p[a] - self.origin[a]) / self.cell).floor() as i64)
@@ -189,6 +197,7 @@ pub fn search(
     let mut best = (unchanged, 0, [0i64; 2]);
     let mut cells: Vec<[i64; 2]> = Vec::with_capacity(source.len());
     let mut counted: Vec<([i64; 2], f64)> = Vec::with_capacity(source.len());
+    let mut scores = Vec::new();
     for k in std::iter::once(0).chain((-yaw_steps..=yaw_steps).filter(|&k| k != 0)) {
         let (sin, cos) = (k as f64 * settings.yaw_step).sin_cos();
         cells.clear();
@@ -206,13 +215,12 @@ pub fn search(
                 _ => counted.push((*cell, 1.0)),
             }
         }
-        for a in -shift_steps..=shift_steps {
-            for b in -shift_steps..=shift_steps {
-                let score: f64 =
-                    counted.iter().map(|([i, j], n)| n * target.at(i + a, j + b)).sum();
-                if score > best.0 {
-                    best = (score, k, [a, b]);
-                }
+        target.correlate(&counted, shift_steps, &mut scores);
+        let shifts = || -shift_steps..=shift_steps;
+        let candidates = shifts().flat_map(|a| shifts().map(move |b| [a, b]));
+        for (&score, shift) in scores.iter().zip(candidates) {
+            if score > best.0 {
+                best = (score, k, shift);
             }
         }
     }

@@ -23,6 +23,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 use rustfft::num_complex::Complex32;
 use rustfft::{Fft, FftPlanner};
 
+use super::shifts::{Rows, shift_scores};
 use crate::plane::{GroundFrame, Plane};
 use crate::se3::{Pose, rotation_about};
 
@@ -211,14 +212,6 @@ impl Grid {
         [(p.x / self.cell).floor() as i64 + half, (p.y / self.cell).floor() as i64 + half]
     }
 
-    fn at(&self, [i, j]: [i64; 2]) -> f32 {
-        let n = self.size as i64;
-        if i < 0 || j < 0 || i >= n || j >= n {
-            return 0.0;
-        }
-        self.values[(i * n + j) as usize]
-    }
-
     /// Each cell's closeness to the nearest cell holding one of `points`: `exp(-d^2/2 blur^2)`,
     /// 1 on it. A maximum rather than a sum, so that a densely sampled surface weighs no more
     /// than a sparsely sampled one.
@@ -402,6 +395,9 @@ fn refine(
     let base = [shift.x, shift.y].map(|c| (c / fine.cell).round() as i64);
     let mut best = (f64::NEG_INFINITY, yaw, shift);
     let mut cells: Vec<[i64; 2]> = Vec::with_capacity(source.len());
+    let mut weighted: Vec<([i64; 2], f32)> = Vec::with_capacity(source.len());
+    let mut scores = Vec::new();
+    let grid = Rows { values: &fine.values, rows: fine.size, columns: fine.size };
     for k in -yaw_steps..=yaw_steps {
         let candidate = yaw + k as f64 * settings.fine_yaw_step;
         let (sin, cos) = candidate.sin_cos();
@@ -414,14 +410,16 @@ fn refine(
         cells.sort_unstable();
         cells.dedup();
         let norm = 1.0 / cells.len().max(1) as f64;
-        for a in base[0] - window..=base[0] + window {
-            for b in base[1] - window..=base[1] + window {
-                let score: f32 = cells.iter().map(|[i, j]| fine.at([i + a, j + b])).sum();
-                let score = score as f64 * norm;
-                if score > best.0 {
-                    let shift = Vector2::new(a as f64, b as f64) * fine.cell;
-                    best = (score, crate::se3::wrap_angle(candidate), shift);
-                }
+        weighted.clear();
+        weighted.extend(cells.iter().map(|&c| (c, 1.0)));
+        shift_scores(&grid, &weighted, base, window, &mut scores);
+        let shifts = |c: i64| c - window..=c + window;
+        let candidates = shifts(base[0]).flat_map(|a| shifts(base[1]).map(move |b| [a, b]));
+        for (&score, [a, b]) in scores.iter().zip(candidates) {
+            let score = score as f64 * norm;
+            if score > best.0 {
+                let shift = Vector2::new(a as f64, b as f64) * fine.cell;
+                best = (score, crate::se3::wrap_angle(candidate), shift);
             }
         }
     }

@@ -35,6 +35,7 @@ mod result;
 mod rig;
 mod run;
 mod settings;
+mod shifts;
 pub mod up;
 pub mod verdict;
 mod views;
