@@ -282,6 +282,11 @@ function setRunning(running) {
   updateCalibrate();
 }
 
+// During a run the moving clouds take at most this share of the time to draw: on a GPU a frame
+// takes a few ms and every progress message (ten a second) redraws; with software rendering
+// (SwiftShader here: 50-300 ms a frame) redrawing on each took the workers' cores.
+const PREVIEW_SHARE = 0.2;
+
 async function calibrate() {
   showError(null);
   forgetResults();
@@ -290,10 +295,14 @@ async function calibrate() {
   const started = performance.now();
   setStatus('starting…');
   try {
+    let drawnAt = -Infinity;
     const { results, failures, json } = await runCalibration(client, state, ({ fraction, text, progress }) => {
       $('progress').value = fraction;
       setStatus(text);
-      redraw(livePoses(progress, nominal), { preview: true });
+      if (performance.now() - drawnAt >= mainViewer.frameMs / PREVIEW_SHARE) {
+        drawnAt = performance.now();
+        redraw(livePoses(progress, nominal), { preview: true });
+      }
     });
     $('progress').value = 1;
     await showResults(results, failures, json);

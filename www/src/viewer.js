@@ -13,6 +13,7 @@ export class Viewer {
   #camera = new PerspectiveCamera(50, 1, 0.05, 500);
   #controls;
   #frames = 0;
+  #frameMs = 0;
   #replies = new Map(); // request id -> resolve, for pick and snapshot
   #nextId = 1;
   #onScale;
@@ -60,9 +61,15 @@ export class Viewer {
   // Test and bench hook: `data-frames` counts the frames drawn, `data-points` the points in the
   // last one, `data-frame-ms` the time it took in the worker.
   #drawn({ points, ms }) {
+    this.#frameMs = ms;
     this.#canvas.dataset.points = points;
     this.#canvas.dataset.frameMs = ms.toFixed(1);
     this.#canvas.dataset.frames = ++this.#frames;
+  }
+
+  // How long the last frame took to draw (ms, in the render worker).
+  get frameMs() {
+    return this.#frameMs;
   }
 
   #post(message, transfer = []) {
