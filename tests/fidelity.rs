@@ -7,9 +7,8 @@
 
 #![cfg(not(target_arch = "wasm32"))]
 
-use gmmcalib::calib::{self, Calibration, Rig, Scan, Settings};
-use gmmcalib::io::recording::select::Settings as Select;
-use gmmcalib::io::recording::{Recording, Tree, nominals};
+use gmmcalib::calib::{self, Calibration, Rig, Settings};
+use gmmcalib::io::recording::{Recording, RigRequest};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::twin::{Miscalibration, Model, Preset, Twin};
 
@@ -33,29 +32,16 @@ fn rigs() -> Vec<(String, Rig)> {
     rigs
 }
 
-/// A recording fixture's two front LiDARs at every instant they share.
+/// A recording fixture's two front LiDARs, as the CLI's `calibrate --bag` and the page build
+/// the rig (`Recording::rig`): every instant they share, nominals from /tf_static, no ROI.
 fn recording_rig(file: &str) -> Rig {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/recording/").to_owned() + file;
     let mut rec = Recording::open_path(std::path::Path::new(&path), &mut |_, _| {})
         .unwrap_or_else(|e| panic!("{e}"));
-    let topics = ["/front_left/points", "/front_right/points"].map(|t| rec.topic(t).unwrap());
-    let chosen = rec.choose(&topics, topics[0], &Select::default()).unwrap();
-    let tree = Tree::new(rec.transforms(false).0);
-    let frames: Vec<(String, String)> =
-        chosen.scans.iter().map(|s| (s.topic.clone(), s.cloud.frame_id.clone())).collect();
-    let mut nominal = nominals(&tree, "base_link", &frames).unwrap();
-    nominal.dedup_by(|a, b| a.0 == b.0);
-    let scans = chosen
-        .scans
-        .into_iter()
-        .map(|s| Scan {
-            sensor: s.topic,
-            frame: s.frame,
-            points: s.cloud.cloud.points,
-            source: None,
-        })
-        .collect();
-    Rig { scans, nominal, roi: None, reference: None }
+    let topics = ["/front_left/points", "/front_right/points"].map(String::from);
+    let request = RigRequest { topics: Some(topics.to_vec()), ..RigRequest::default() };
+    let made = rec.rig(&request).unwrap_or_else(|e| panic!("{file}: {e}"));
+    Rig { scans: made.scans, nominal: made.nominal, roi: None, reference: Some(made.reference) }
 }
 
 /// Calibrates every rig with `exact` and `approximate` settings and holds the rule; returns
