@@ -16,7 +16,7 @@
 use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 
 use super::notes::{BevWarning, SearchRange};
-use super::shifts::{Rows, shift_scores};
+use super::shifts::{Rows, shift_scores, shifts};
 use crate::plane::{GroundFrame, Plane};
 use crate::se3::{Pose, rotation_about};
 
@@ -216,9 +216,7 @@ pub fn search(
             }
         }
         target.correlate(&counted, shift_steps, &mut scores);
-        let shifts = || -shift_steps..=shift_steps;
-        let candidates = shifts().flat_map(|a| shifts().map(move |b| [a, b]));
-        for (&score, shift) in scores.iter().zip(candidates) {
+        for (&score, shift) in scores.iter().zip(shifts([0, 0], shift_steps)) {
             if score > best.0 {
                 best = (score, k, shift);
             }

@@ -23,7 +23,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 use rustfft::num_complex::Complex32;
 use rustfft::{Fft, FftPlanner};
 
-use super::shifts::{Rows, shift_scores};
+use super::shifts::{Rows, shift_scores, shifts};
 use crate::plane::{GroundFrame, Plane};
 use crate::se3::{Pose, rotation_about};
 
@@ -394,28 +394,22 @@ fn refine(
     let window = (settings.coarse_cell / settings.fine_cell).ceil() as i64 + 1;
     let base = [shift.x, shift.y].map(|c| (c / fine.cell).round() as i64);
     let mut best = (f64::NEG_INFINITY, yaw, shift);
-    let mut cells: Vec<[i64; 2]> = Vec::with_capacity(source.len());
-    let mut weighted: Vec<([i64; 2], f32)> = Vec::with_capacity(source.len());
+    // Each occupied cell once, weighted 1 (the score is the share of them on the reference).
+    let mut cells: Vec<([i64; 2], f32)> = Vec::with_capacity(source.len());
     let mut scores = Vec::new();
     let grid = Rows { values: &fine.values, rows: fine.size, columns: fine.size };
     for k in -yaw_steps..=yaw_steps {
         let candidate = yaw + k as f64 * settings.fine_yaw_step;
         let (sin, cos) = candidate.sin_cos();
         cells.clear();
-        cells.extend(
-            source
-                .iter()
-                .map(|p| fine.cell_of(&Vector2::new(cos * p.x - sin * p.y, sin * p.x + cos * p.y))),
-        );
-        cells.sort_unstable();
-        cells.dedup();
+        cells.extend(source.iter().map(|p| {
+            (fine.cell_of(&Vector2::new(cos * p.x - sin * p.y, sin * p.x + cos * p.y)), 1.0)
+        }));
+        cells.sort_unstable_by_key(|c| c.0);
+        cells.dedup_by_key(|c| c.0);
         let norm = 1.0 / cells.len().max(1) as f64;
-        weighted.clear();
-        weighted.extend(cells.iter().map(|&c| (c, 1.0)));
-        shift_scores(&grid, &weighted, base, window, &mut scores);
-        let shifts = |c: i64| c - window..=c + window;
-        let candidates = shifts(base[0]).flat_map(|a| shifts(base[1]).map(move |b| [a, b]));
-        for (&score, [a, b]) in scores.iter().zip(candidates) {
+        shift_scores(&grid, &cells, base, window, &mut scores);
+        for (&score, [a, b]) in scores.iter().zip(shifts(base, window)) {
             let score = score as f64 * norm;
             if score > best.0 {
                 let shift = Vector2::new(a as f64, b as f64) * fine.cell;

@@ -10,6 +10,13 @@ pub(super) struct Rows<'a, T> {
     pub columns: usize,
 }
 
+/// The shifts [`shift_scores`] scores, in its order: `a` within `steps` of `centre[0]` (outer),
+/// `b` within `steps` of `centre[1]`.
+pub(super) fn shifts(centre: [i64; 2], steps: i64) -> impl Iterator<Item = [i64; 2]> {
+    let around = move |c: i64| c - steps..=c + steps;
+    around(centre[0]).flat_map(move |a| around(centre[1]).map(move |b| [a, b]))
+}
+
 /// Writes to `scores` the score of every shift `[a, b]` with `a` within `steps` of
 /// `centre[0]` and `b` of `centre[1]`, row by row (`a` outer): `sum w * grid[i + a][j + b]`
 /// over `cells`' `([i, j], w)`, off the grid 0. Each cell adds its weight times a row of the
