@@ -10,9 +10,8 @@
 // and prints the GPU's own E-step seconds. Last, a real targetless scene (issue 22: at most
 // 2 s in the browser): OpenCalib's road scene 0001 dropped as its folder, target none, on 1
 // and 2 workers; `--real` runs that alone.
-import { readFileSync, readdirSync } from 'node:fs';
 import { serveDist, launch, openPage, waitForStatus } from '../e2e/harness.js';
-import { gmmcalibFolder, sampledRig } from '../e2e/rigfiles.js';
+import { gmmcalibFolder, opencalibFolder, sampledRig } from '../e2e/rigfiles.js';
 
 const quick = process.argv.includes('--quick');
 const realOnly = process.argv.includes('--real');
@@ -72,8 +71,7 @@ try {
 // guess, target none: the global stage, the overlap region, levelling, the frame pairs' GICP,
 // the plane adjustment and the verdict, click to result.
 async function realScene() {
-  const dir = new URL('../../tests/fixtures/opencalib/0001/', import.meta.url).pathname;
-  const files = readdirSync(dir).map((name) => ({ name: `0001/${name}`, mimeType: 'application/octet-stream', buffer: readFileSync(dir + name) }));
+  const files = opencalibFolder('0001');
   console.log('gmm OpenCalib 0001, target none (real scans: 3 sensors, global alignment from its guess)');
   for (const workers of [1, 2]) {
     const { page, problems } = await openPage(browser, `${server.url}#workers=${workers}&estep=cpu`);

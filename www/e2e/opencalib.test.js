@@ -5,8 +5,9 @@
 // with a verdict; a screenshot of the aligned clouds is kept.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { readFileSync, readdirSync } from 'node:fs';
+import { readFileSync } from 'node:fs';
 import { browserSession, waitForStatus } from './harness.js';
+import { opencalibFolder } from './rigfiles.js';
 import { calibrate, initSync, parseCloud, parseOpenCalib } from '../pkg/gmmcalib.js';
 
 initSync({ module: readFileSync(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
@@ -14,15 +15,6 @@ initSync({ module: readFileSync(new URL('../pkg/gmmcalib_bg.wasm', import.meta.u
 const DATA = new URL('../../tests/fixtures/opencalib/', import.meta.url).pathname;
 
 const session = browserSession();
-
-// The scene folder as a drop gives it: `0001/<file>` for every file in it.
-function sceneFiles(scene) {
-  return readdirSync(`${DATA}${scene}`).map((name) => ({
-    name: `${scene}/${name}`,
-    mimeType: 'application/octet-stream',
-    buffer: readFileSync(`${DATA}${scene}/${name}`),
-  }));
-}
 
 // The same scene calibrated by the wasm package in Node, as the page's input would be.
 function inNode(scene) {
@@ -43,7 +35,7 @@ function difference(a, b) {
 
 test('OpenCalib\'s road scene dropped as its folder calibrates from its own guess, no target', async () => {
   const { page, problems } = await session.open();
-  await page.locator('#view').drop({ files: sceneFiles('0001') });
+  await page.locator('#view').drop({ files: opencalibFolder('0001') });
   await waitForStatus(page, /^3 scans of 3 sensors loaded\.$/);
   const rows = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => [...tr.querySelectorAll('input')].map((i) => i.value).join('/')));
   assert.deepEqual(rows, ['left/0001', 'right/0001', 'top/0001']);
@@ -83,7 +75,7 @@ test('OpenCalib\'s road scene dropped as its folder calibrates from its own gues
 
 test('OpenCalib\'s guess without its path list is named, and the scans still load', async () => {
   const { page, problems } = await session.open();
-  const files = sceneFiles('0002').filter((f) => !f.name.endsWith('lidar_cloud_path.txt'));
+  const files = opencalibFolder('0002').filter((f) => !f.name.endsWith('lidar_cloud_path.txt'));
   await page.getByTestId('file-input').setInputFiles(files);
   await waitForStatus(page, /^3 scans of .* loaded/);
   assert.match(await page.getByTestId('error').textContent(), /initial_extrinsic\.txt: ignored: OpenCalib's guess needs its lidar_cloud_path\.txt/);

@@ -1,7 +1,7 @@
 // Test data for the browser tests, made in Node from the wasm package (independent of the page
 // and of any CLI): a synthetic rig with its truth, written in GMMCalib's layout as PCD (ascii)
 // and PLY (binary little-endian) files plus config.yaml, as file payloads for setInputFiles.
-import { readFileSync } from 'node:fs';
+import { readFileSync, readdirSync } from 'node:fs';
 import { initSync, simulateRig } from '../pkg/gmmcalib.js';
 
 initSync({ module: readFileSync(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
@@ -61,4 +61,11 @@ export function errorOf(m, { xyz, rpy }) {
   const deg = (Math.acos(Math.min(1, Math.max(-1, (trace - 1) / 2))) * 180) / Math.PI;
   const mm = Math.hypot(m[3] - xyz[0], m[7] - xyz[1], m[11] - xyz[2]) * 1000;
   return { deg, mm };
+}
+
+// An OpenCalib scene (tests/fixtures/opencalib/<scene>) as a folder drop gives it: `<scene>/<file>`
+// for every file in it.
+export function opencalibFolder(scene) {
+  const dir = new URL(`../../tests/fixtures/opencalib/${scene}/`, import.meta.url).pathname;
+  return readdirSync(dir).map((name) => ({ name: `${scene}/${name}`, mimeType: 'application/octet-stream', buffer: readFileSync(dir + name) }));
 }
