@@ -150,13 +150,18 @@ impl Occupancy {
 /// densely it weighs no more than where it samples sparsely.
 fn blur(grid: &[f64], size: [usize; 2], sigma_cells: f64) -> Vec<f64> {
     let radius = (3.0 * sigma_cells).ceil() as i64;
+    // The weights by offset, once (not an exp per cell and occupied cell).
+    let width = 2 * radius + 1;
+    let kernel: Vec<f64> = (-radius..=radius)
+        .flat_map(|a| (-radius..=radius).map(move |b| (a, b)))
+        .map(|(a, b)| (-0.5 * (a * a + b * b) as f64 / (sigma_cells * sigma_cells)).exp())
+        .collect();
     let mut out = vec![0.0f64; grid.len()];
     for (index, _) in grid.iter().enumerate().filter(|(_, v)| **v > 0.0) {
         let (i, j) = ((index / size[1]) as i64, (index % size[1]) as i64);
         for a in (i - radius).max(0)..=(i + radius).min(size[0] as i64 - 1) {
             for b in (j - radius).max(0)..=(j + radius).min(size[1] as i64 - 1) {
-                let d2 = ((a - i).pow(2) + (b - j).pow(2)) as f64;
-                let w = (-0.5 * d2 / (sigma_cells * sigma_cells)).exp();
+                let w = kernel[((a - i + radius) * width + (b - j + radius)) as usize];
                 let cell = &mut out[a as usize * size[1] + b as usize];
                 *cell = cell.max(w);
             }
