@@ -113,7 +113,7 @@ async function shareEm(wasm, session, remotes, onProgress, gpu = null) {
 // so each group builds its ICP target once, and handed out a group at a time to whichever
 // worker is free, this one included. The session keeps the outcomes in pair order, so who
 // registered what does not change the result.
-async function shareFramePairs(session, remotes, onProgress) {
+async function shareFramePairs(session, pool, onProgress) {
   const work = session.framePairs();
   const groups = new Map(); // reference view -> pair indices
   for (let job = 0; job < work.pairs.length / 2; job++) {
@@ -121,6 +121,8 @@ async function shareFramePairs(session, remotes, onProgress) {
     if (!groups.has(reference)) groups.set(reference, []);
     groups.get(reference).push(job);
   }
+  // One group (a targetless scene of one frame) is this worker's alone: no remote is started.
+  const remotes = groups.size > 1 ? pool() : [];
   const queue = [...groups];
   let stopped = false;
   const heed = (progress) => {
@@ -157,7 +159,9 @@ async function shareFramePairs(session, remotes, onProgress) {
   if (stopped) session.cancel(); // no later method starts
 }
 
-// `calibrate(input, onProgress)` with the work shared by `workers` workers (this one included):
+// `calibrate(input, onProgress)` with the work shared by `workers` workers (this one included,
+// the others started when a phase first has work for them: each loads its own wasm, which on a
+// targetless scene of one frame would only take cores from the work):
 // each method's phases as the session asks for them; with `method: 'all'`, a method whose
 // workers fail is noted as failed and the next one runs. `wasm` is the initialised module;
 // `spawn()` makes a remote worker (tests pass an in-process one). `eStep` ('cpu' | 'auto' |
@@ -180,15 +184,18 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
       const adapter = await gpuAdapter(eStep);
       if (adapter) gpu = await GpuEStep.create(adapter);
     }
-    for (let i = 1; i < workers; i++) remotes.push(spawn());
+    const pool = () => {
+      while (remotes.length < workers - 1) remotes.push(spawn());
+      return remotes;
+    };
     for (let phase = session.phase(); phase !== 'done'; phase = session.phase()) {
       try {
         if (phase === 'em') {
           const method = session.method();
-          const timing = await shareEm(wasm, session, remotes, heed, gpu);
+          const timing = await shareEm(wasm, session, gpu ? [] : pool(), heed, gpu);
           emRan.set(method, timing ? { estep: 'gpu', gpu: gpu.name, gpuEStepSeconds: timing.seconds, gpuIterations: timing.iterations } : { estep: 'cpu' });
         } else if (phase === 'cad') session.registerCad(heed); // one call: fast, not shared
-        else await shareFramePairs(session, remotes, heed);
+        else await shareFramePairs(session, pool, heed);
         session.advance();
       } catch (error) {
         if (input.method !== 'all') throw error;
@@ -196,7 +203,9 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
       }
     }
     const result = session.result();
-    for (const r of Array.isArray(result) ? result : [result]) if (!r.error) Object.assign(r, { workers }, emRan.get(r.method));
+    // The workers that took part: a remote never started did none of the work.
+    const took = remotes.length + 1;
+    for (const r of Array.isArray(result) ? result : [result]) if (!r.error) Object.assign(r, { workers: took }, emRan.get(r.method));
     return result;
   } finally {
     for (const remote of remotes) remote.terminate();

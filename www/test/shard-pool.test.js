@@ -91,6 +91,20 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   const icpDriven = await calibrateSharded(wasm, icp(), 2, () => true, inProcess);
   assert.deepEqual(icpDriven.sensors, wasm.calibrate(icp()).sensors);
   assert.equal(icpDriven.workers, 2);
+  // Without a target and with one frame there is no EM and one group of frame pairs: the
+  // remote is never started (it would only take a core to load its wasm), and the result says
+  // one worker did the work.
+  const lone = wasm.simulateRig({ preset: 'sampled', sensors: 2, frames: 1, pointsPerView: 800, seed: 5 });
+  const loneInput = () => ({ scans: lone.scans, nominal: lone.nominal, target: { kind: 'none' } });
+  let spawned = 0;
+  const counted = () => {
+    spawned += 1;
+    return inProcess();
+  };
+  const loneDriven = await calibrateSharded(wasm, loneInput(), 2, () => true, counted);
+  assert.deepEqual(loneDriven.sensors, wasm.calibrate(loneInput()).sensors);
+  assert.equal(spawned, 0);
+  assert.equal(loneDriven.workers, 1);
   // Compare all through the pool: the session runs every method in turn, as `calibrate` does.
   const all = () => ({ ...input(), method: 'all', iterations: 10 });
   const compared = await calibrateSharded(wasm, all(), 2, () => true, inProcess);
