@@ -23,7 +23,7 @@ const MAX_EXPONENT_F32: f32 = 87.0;
 /// The exponent written for a term past the cutoff, which [`exps`] turns into 0. Not
 /// infinity: its exp would be clamped to `exp(-87)`, which times `p_k Q_k^1.5` is subnormal,
 /// and x86 takes a microcode assist of about a hundred cycles for each subnormal product
-/// (natively and under wasm, which keeps subnormals): a third of the sample job's time.
+/// (natively and under wasm, which keeps subnormals): half of the sample job's native time.
 const OUTSIDE: f32 = -1.0;
 
 /// Posteriors below this are dropped: products with them could be subnormal, which costs x86
