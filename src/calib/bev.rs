@@ -16,7 +16,7 @@
 use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 
 use super::notes::{BevWarning, SearchRange};
-use super::shifts::{Rows, shift_scores, shifts};
+use super::shifts::{Rows, raise_closeness, shift_scores, shifts};
 use crate::plane::{GroundFrame, Plane};
 use crate::se3::{Pose, rotation_about};
 
@@ -117,11 +117,9 @@ impl Occupancy {
             return None;
         }
         let mut grid = Self { origin, cell, size, values: vec![0.0; size[0] * size[1]] };
-        for p in points {
-            let [i, j] = grid.cell_of(p).map(|c| c as usize); // in range: the grid pads the points
-            grid.values[i * size[1] + j] = 1.0;
-        }
-        grid.values = blur(&grid.values, size, settings.blur / cell);
+        // In range: the grid pads the points.
+        let occupied = points.iter().map(|p| grid.cell_of(p)).collect();
+        raise_closeness(&mut grid.values, size, occupied, settings.blur / cell, |w| w);
         Some(grid)
     }
 
@@ -143,31 +141,6 @@ impl Occupancy {
     fn cell_of(&self, p: &Vector2<f64>) -> [i64; 2] {
         [0, 1].map(|a| ((p[a] - self.origin[a]) / self.cell).floor() as i64)
     }
-}
-
-/// Each cell's closeness to the nearest occupied cell: `exp(-d^2 / 2 sigma^2)`, 1 on an
-/// occupied cell. A maximum rather than a sum, so that where the reference samples a surface
-/// densely it weighs no more than where it samples sparsely.
-fn blur(grid: &[f64], size: [usize; 2], sigma_cells: f64) -> Vec<f64> {
-    let radius = (3.0 * sigma_cells).ceil() as i64;
-    // The weights by offset, once (not an exp per cell and occupied cell).
-    let width = 2 * radius + 1;
-    let kernel: Vec<f64> = (-radius..=radius)
-        .flat_map(|a| (-radius..=radius).map(move |b| (a, b)))
-        .map(|(a, b)| (-0.5 * (a * a + b * b) as f64 / (sigma_cells * sigma_cells)).exp())
-        .collect();
-    let mut out = vec![0.0f64; grid.len()];
-    for (index, _) in grid.iter().enumerate().filter(|(_, v)| **v > 0.0) {
-        let (i, j) = ((index / size[1]) as i64, (index % size[1]) as i64);
-        for a in (i - radius).max(0)..=(i + radius).min(size[0] as i64 - 1) {
-            for b in (j - radius).max(0)..=(j + radius).min(size[1] as i64 - 1) {
-                let w = kernel[((a - i + radius) * width + (b - j + radius)) as usize];
-                let cell = &mut out[a as usize * size[1] + b as usize];
-                *cell = cell.max(w);
-            }
-        }
-    }
-    out
 }
 
 /// The yaw about the ground normal through `pivot` (the sensor's position) and the shift along

@@ -23,7 +23,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 use rustfft::num_complex::Complex32;
 use rustfft::{Fft, FftPlanner};
 
-use super::shifts::{Rows, shift_scores, shifts};
+use super::shifts::{Rows, raise_closeness, shift_scores, shifts};
 use crate::plane::{GroundFrame, Plane};
 use crate::se3::{Pose, rotation_about};
 
@@ -212,31 +212,13 @@ impl Grid {
         [(p.x / self.cell).floor() as i64 + half, (p.y / self.cell).floor() as i64 + half]
     }
 
-    /// Each cell's closeness to the nearest cell holding one of `points`: `exp(-d^2/2 blur^2)`,
-    /// 1 on it. A maximum rather than a sum, so that a densely sampled surface weighs no more
-    /// than a sparsely sampled one.
+    /// Each cell's closeness to the nearest cell holding one of `points` ([`raise_closeness`],
+    /// sigma `blur`): 1 on it.
     fn closeness(points: &[Vector2<f64>], reach: f64, cell: f64, blur: f64) -> Self {
         let mut grid = Self::new(reach, cell);
-        let n = grid.size as i64;
-        let mut occupied: Vec<[i64; 2]> = points.iter().map(|p| grid.cell_of(p)).collect();
-        occupied.sort_unstable();
-        occupied.dedup();
-        let sigma = blur / cell;
-        let radius = (3.0 * sigma).ceil() as i64;
-        let kernel: Vec<f32> = (-radius..=radius)
-            .flat_map(|a| (-radius..=radius).map(move |b| (a, b)))
-            .map(|(a, b)| (-0.5 * (a * a + b * b) as f64 / (sigma * sigma)).exp() as f32)
-            .collect();
-        let width = 2 * radius + 1;
-        for [i, j] in occupied {
-            for a in (i - radius).max(0)..=(i + radius).min(n - 1) {
-                for b in (j - radius).max(0)..=(j + radius).min(n - 1) {
-                    let w = kernel[((a - i + radius) * width + (b - j + radius)) as usize];
-                    let cell = &mut grid.values[(a * n + b) as usize];
-                    *cell = cell.max(w);
-                }
-            }
-        }
+        let occupied = points.iter().map(|p| grid.cell_of(p)).collect();
+        let size = [grid.size; 2];
+        raise_closeness(&mut grid.values, size, occupied, blur / cell, |w| w as f32);
         grid
     }
 }

@@ -1,5 +1,6 @@
-//! Scores of every shift in a window of a bird's-eye grid: the inner loop of the bird's-eye
-//! search (`bev`) and of the global stage's fine step (`correlate`).
+//! What the bird's-eye search (`bev`) and the global stage (`correlate`) do alike on their
+//! bird's-eye grids: each cell's closeness to the occupied cells, and the scores of every
+//! shift in a window (the inner loop of the search and of the stage's fine step).
 
 use std::ops::{AddAssign, Mul};
 
@@ -8,6 +9,40 @@ pub(super) struct Rows<'a, T> {
     pub values: &'a [T],
     pub rows: usize,
     pub columns: usize,
+}
+
+/// Raises each cell of `values` (`size[0]` rows × `size[1]` columns, row-major) to its
+/// closeness to every cell of `occupied` (repeats allowed): `weight(exp(-d^2 / 2 sigma^2))`
+/// at `d` cells, out to 3 sigma, so 1 on an occupied cell. A maximum rather than a sum, so that where a surface
+/// is sampled densely it weighs no more than where it is sampled sparsely. The weights come
+/// from a table by offset, computed once.
+pub(super) fn raise_closeness<T: Copy + PartialOrd>(
+    values: &mut [T],
+    size: [usize; 2],
+    mut occupied: Vec<[i64; 2]>,
+    sigma_cells: f64,
+    weight: impl Fn(f64) -> T,
+) {
+    let radius = (3.0 * sigma_cells).ceil() as i64;
+    let width = 2 * radius + 1;
+    let kernel: Vec<T> = (-radius..=radius)
+        .flat_map(|a| (-radius..=radius).map(move |b| (a, b)))
+        .map(|(a, b)| weight((-0.5 * (a * a + b * b) as f64 / (sigma_cells * sigma_cells)).exp()))
+        .collect();
+    occupied.sort_unstable();
+    occupied.dedup();
+    let [rows, columns] = size.map(|n| n as i64);
+    for [i, j] in occupied {
+        for a in (i - radius).max(0)..=(i + radius).min(rows - 1) {
+            for b in (j - radius).max(0)..=(j + radius).min(columns - 1) {
+                let w = kernel[((a - i + radius) * width + (b - j + radius)) as usize];
+                let cell = &mut values[(a * columns + b) as usize];
+                if w > *cell {
+                    *cell = w;
+                }
+            }
+        }
+    }
 }
 
 /// The shifts [`shift_scores`] scores, in its order: `a` within `steps` of `centre[0]` (outer),
@@ -60,6 +95,26 @@ pub(super) fn shift_scores<T>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A maximum of Gaussian weights out to 3 sigma, clipped at the grid's edges: 1 on an
+    /// occupied cell, the nearer one's weight between two, a repeated cell no heavier.
+    #[test]
+    fn closeness_is_the_nearest_occupied_cells_weight() {
+        let (size, sigma) = ([3, 9], 1.0);
+        let mut values = vec![0.0f64; 27];
+        raise_closeness(&mut values, size, vec![[1, 0], [1, 5], [1, 5]], sigma, |w| w);
+        let weight = |d2: f64| (-0.5 * d2 / (sigma * sigma)).exp();
+        assert_eq!(values[9], 1.0);
+        assert_eq!(values[14], 1.0);
+        assert_eq!(values[10], weight(1.0));
+        assert_eq!(values[12], weight(4.0)); // 3 from [1, 0], 2 from [1, 5]
+        assert_eq!(values[0], weight(1.0));
+        assert_eq!(values[8], weight(1.0 + 9.0));
+        let mut f32s = vec![0.0f32; 27];
+        raise_closeness(&mut f32s, size, vec![[1, 5]], sigma, |w| w as f32);
+        assert_eq!(f32s[9], 0.0); // 5 cells away: beyond 3 sigma
+        assert_eq!(f32s[15], weight(1.0) as f32);
+    }
 
     /// Every shift's score is the sum for that shift alone, bit for bit: cells off the grid,
     /// at its corners and windows reaching past its edges included, in f64 and f32.
