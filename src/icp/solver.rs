@@ -90,16 +90,37 @@ impl<F: Factor> Step for LevenbergMarquardt<F> {
 
 /// Nearest-neighbour matching of source points into the target, warm-started: a point's
 /// previous match, at its distance under the new pose, bounds the search, which then only
-/// looks where a nearer point can be. The result is the same as an unbounded search.
+/// looks where a nearer point can be. A point left unmatched remembers how far the target was
+/// (searched out to `FAR_REACH` times the match distance) and is not searched again until the
+/// pose has moved it that far: converging ICP moves points by micrometres, and on a scene
+/// that only partly overlaps most points are unmatched in every iteration. The result is the
+/// same as an unbounded search.
 struct Matcher<'a> {
     tree: &'a KdTree,
     target: &'a [[f32; 3]],
-    previous: Vec<Option<usize>>,
+    previous: Vec<Previous>,
 }
+
+/// What the last search found for one source point.
+#[derive(Clone, Copy)]
+enum Previous {
+    Unknown,
+    /// Its nearest target point.
+    Matched(usize),
+    /// No target point lies within `clear` (m) of where the point was, `at`.
+    Far {
+        at: [f64; 3],
+        clear: f64,
+    },
+}
+
+/// An unmatched point's search reaches this many match distances, to learn how far it may
+/// move before it can match.
+const FAR_REACH: f64 = 2.0;
 
 impl<'a> Matcher<'a> {
     fn new(tree: &'a KdTree, target: &'a [[f32; 3]], source_len: usize) -> Self {
-        Self { tree, target, previous: vec![None; source_len] }
+        Self { tree, target, previous: vec![Previous::Unknown; source_len] }
     }
 
     /// Matches each source point, mapped by `t`, to its nearest target point within
@@ -113,20 +134,43 @@ impl<'a> Matcher<'a> {
     ) -> f64 {
         pairs.clear();
         let max_sq = max_distance * max_distance;
+        let reach = FAR_REACH * max_distance;
+        // Relative slack: `clear` and the step are square roots of rounded sums.
+        let unreachable = max_distance * (1.0 + 1e-9);
         let mut sum_sq = 0.0;
         for (i, p) in source.iter().enumerate() {
             let q = t * Point3::from(*p);
             let q = [q.x, q.y, q.z];
-            let bound =
-                self.previous[i].map_or(max_sq, |j| sq_distance(q, self.target[j]).min(max_sq));
-            self.previous[i] = self.tree.nearest_within_sq(q, bound).map(|nb| {
-                pairs.push(Pair { source: i, target: nb.index });
-                sum_sq += nb.sq_distance;
-                nb.index
-            });
+            let bound = match self.previous[i] {
+                Previous::Far { at, clear } => {
+                    if clear - distance(at, q) > unreachable {
+                        continue;
+                    }
+                    reach * reach
+                }
+                Previous::Matched(j) => sq_distance(q, self.target[j]),
+                Previous::Unknown => reach * reach,
+            };
+            // A bound within the match distance holds the previous match, so a point is found;
+            // beyond it, the nearest point within the reach says how far the target is.
+            let bound = if bound <= max_sq { bound } else { bound.min(reach * reach) };
+            self.previous[i] = match self.tree.nearest_within_sq(q, bound) {
+                Some(nb) if nb.sq_distance <= max_sq => {
+                    pairs.push(Pair { source: i, target: nb.index });
+                    sum_sq += nb.sq_distance;
+                    Previous::Matched(nb.index)
+                }
+                Some(nb) => Previous::Far { at: q, clear: nb.sq_distance.sqrt() },
+                None => Previous::Far { at: q, clear: reach },
+            };
         }
         sum_sq
     }
+}
+
+/// Euclidean distance (m) between two points.
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
 /// Fewest correspondences that determine a rigid transform.
@@ -204,13 +248,20 @@ mod tests {
             (0..n).map(|_| std::array::from_fn(|_| rng.random_range(0..40) as f32 * 0.1)).collect()
         };
         let target = cloud(500);
-        let source: Vec<Vector3<f64>> =
-            cloud(300).iter().map(|p| Vector3::from(p.map(f64::from))).collect();
+        // Half the source lies beyond the target's edge, some within the unmatched points'
+        // reach (twice the match distance), some beyond it.
+        let source: Vec<Vector3<f64>> = cloud(300)
+            .iter()
+            .enumerate()
+            .map(|(i, p)| Vector3::from(p.map(f64::from)) + Vector3::x() * (i % 2) as f64 * 4.1)
+            .collect();
         let tree = KdTree::new(&target);
         let mut matcher = Matcher::new(&tree, &target, source.len());
         let mut pairs = Vec::new();
-        for step in 0..6 {
-            let s = step as f64;
+        // Large steps, then steps of micrometres to millimetres (where unmatched points are not
+        // searched again), then a jump.
+        let steps = [0.0, 1.0, 2.0, 2.0001, 2.001, 2.01, 2.0101, 2.5, 5.0, 5.00001];
+        for (step, s) in steps.into_iter().enumerate() {
             let t =
                 crate::se3::pose_from_xyz_rpy([0.05 * s, -0.1 * s, 0.0], [0.0, 0.01 * s, -0.1 * s]);
             let sum = matcher.correspond(&source, &t, 0.3, &mut pairs);
