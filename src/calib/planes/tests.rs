@@ -1,6 +1,6 @@
 //! The plane adjustment on scenes of cubes with known motions.
 
-use super::detect::frame_observations;
+use super::detect::{clusters, frame_observations};
 use super::*;
 use crate::se3::pose_from_xyz_rpy;
 use rand::SeedableRng;
@@ -139,4 +139,48 @@ fn a_motion_beyond_the_limit_is_rejected() {
     assert!(!outcomes[0].accepted, "{outcomes:?}");
     assert!((outcomes[0].motion.rotation.angle() - 0.001).abs() < 1e-4, "{outcomes:?}");
     assert_eq!(corrections[1][0].1, Pose::identity());
+}
+
+#[test]
+fn clusters_are_the_connected_groups_of_occupied_cells() {
+    use rand::RngExt;
+    let mut rng = Pcg64::seed_from_u64(7);
+    let gap = 0.15;
+    // Sparse points, so groups of one cell, chains and blobs all occur, negative cells too.
+    let points: Vec<(usize, Vector3<f64>)> =
+        (0..600).map(|i| (i % 3, Vector3::from_fn(|_, _| rng.random_range(-1.5..1.5)))).collect();
+    let indices: Vec<usize> = (0..points.len()).filter(|i| i % 5 != 0).collect();
+    let groups = clusters(&points, &indices, gap);
+    // Brute force: two points share a group when a chain of cells, each within one step of
+    // the next on every axis, joins theirs.
+    let cell = |i: usize| points[i].1.map(|c| (c / gap).floor() as i64);
+    let mut label: Vec<Option<usize>> = vec![None; points.len()];
+    let mut expected = 0;
+    for &start in &indices {
+        if label[start].is_some() {
+            continue;
+        }
+        let mut stack = vec![start];
+        label[start] = Some(expected);
+        while let Some(i) = stack.pop() {
+            for &j in &indices {
+                if label[j].is_none() && (cell(i) - cell(j)).amax() <= 1 {
+                    label[j] = Some(expected);
+                    stack.push(j);
+                }
+            }
+        }
+        expected += 1;
+    }
+    assert_eq!(groups.len(), expected);
+    assert!(expected > 20 && groups.iter().any(|g| g.len() > 10), "{expected} groups");
+    let mut seen = vec![false; points.len()];
+    for group in &groups {
+        let first = label[group[0]];
+        for &i in group {
+            assert_eq!(label[i], first);
+            assert!(!std::mem::replace(&mut seen[i], true), "point {i} twice");
+        }
+    }
+    assert!(indices.iter().all(|&i| seen[i]));
 }
