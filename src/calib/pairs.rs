@@ -142,14 +142,20 @@ pub fn align(
     let settings = &icp.settings;
     let source = icp::SourceCloud::new(cloud, settings.metric, &settings.icp)?;
     let last = settings.match_distances.len().saturating_sub(1);
-    settings.match_distances.iter().enumerate().try_fold(*start, |pose, (i, &distance)| {
-        let mut stage =
-            IcpSettings { max_correspondence_distance: distance, ..settings.icp.clone() };
-        if let Some(tolerance) = settings.early_tolerance.filter(|_| i < last) {
-            (stage.rotation_tolerance, stage.translation_tolerance) = (tolerance, tolerance);
-        }
-        target.align_prepared(&source, &pose, &stage).map(|a| a.target_from_source)
-    })
+    let stages: Vec<IcpSettings> = (settings.match_distances.iter().enumerate())
+        .map(|(i, &distance)| {
+            let mut stage =
+                IcpSettings { max_correspondence_distance: distance, ..settings.icp.clone() };
+            if let Some(tolerance) = settings.early_tolerance.filter(|_| i < last) {
+                (stage.rotation_tolerance, stage.translation_tolerance) = (tolerance, tolerance);
+            }
+            stage
+        })
+        .collect();
+    if stages.is_empty() {
+        return Ok(*start);
+    }
+    target.align_stages(&source, start, &stages).map(|a| a.target_from_source)
 }
 
 /// The frame pairs of a calibration and their outcomes so far. The pairs may be registered

@@ -94,8 +94,9 @@ impl<F: Factor> Step for LevenbergMarquardt<F> {
 /// (searched out to `FAR_REACH` times the match distance) and is not searched again until the
 /// pose has moved it that far: converging ICP moves points by micrometres, and on a scene
 /// that only partly overlaps most points are unmatched in every iteration. The result is the
-/// same as an unbounded search.
-struct Matcher<'a> {
+/// same as an unbounded search. One matcher may serve several runs on the same clouds (the
+/// stages of a staged registration): what it remembers holds whatever the match distance.
+pub(crate) struct Matcher<'a> {
     tree: &'a KdTree,
     target: &'a [[f32; 3]],
     previous: Vec<Previous>,
@@ -119,7 +120,7 @@ enum Previous {
 const FAR_REACH: f64 = 2.0;
 
 impl<'a> Matcher<'a> {
-    fn new(tree: &'a KdTree, target: &'a [[f32; 3]], source_len: usize) -> Self {
+    pub(crate) fn new(tree: &'a KdTree, target: &'a [[f32; 3]], source_len: usize) -> Self {
         Self { tree, target, previous: vec![Previous::Unknown; source_len] }
     }
 
@@ -176,11 +177,10 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// Fewest correspondences that determine a rigid transform.
 pub(crate) const MIN_PAIRS: usize = 3;
 
-/// Runs ICP from `init` (`tree` is built over `target`) until the update is below both
-/// tolerances or `max_iterations` is reached.
+/// Runs ICP from `init` until the update is below both tolerances or `max_iterations` is
+/// reached; `matcher` matches `source` into the target.
 pub(crate) fn run(
-    tree: &KdTree,
-    target: &[[f32; 3]],
+    matcher: &mut Matcher,
     source: &[Vector3<f64>],
     step: &mut dyn Step,
     init: &Pose,
@@ -189,7 +189,6 @@ pub(crate) fn run(
     let max_distance = settings.max_correspondence_distance;
     let mut t = *init;
     let mut pairs = Vec::with_capacity(source.len());
-    let mut matcher = Matcher::new(tree, target, source.len());
     let mut converged = false;
     let mut iterations = 0;
     while iterations < settings.max_iterations && !converged {
@@ -264,12 +263,14 @@ mod tests {
         for (step, s) in steps.into_iter().enumerate() {
             let t =
                 crate::se3::pose_from_xyz_rpy([0.05 * s, -0.1 * s, 0.0], [0.0, 0.01 * s, -0.1 * s]);
-            let sum = matcher.correspond(&source, &t, 0.3, &mut pairs);
+            // The match distance changes too, as between the stages of a staged registration.
+            let max_distance = [0.3, 0.6, 0.1, 0.05][step % 4];
+            let sum = matcher.correspond(&source, &t, max_distance, &mut pairs);
             let mut expected = Vec::new();
             let mut expected_sum = 0.0;
             for (i, p) in source.iter().enumerate() {
                 let q = t * Point3::from(*p);
-                if let Some(nb) = tree.nearest_within([q.x, q.y, q.z], 0.3) {
+                if let Some(nb) = tree.nearest_within([q.x, q.y, q.z], max_distance) {
                     expected.push(Pair { source: i, target: nb.index });
                     expected_sum += nb.sq_distance;
                 }

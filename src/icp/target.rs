@@ -10,7 +10,7 @@ use super::kdtree::KdTree;
 use super::normals::{normals, plane_covariance, plane_covariances};
 use super::plane::PointToPlane;
 use super::point::PointToPoint;
-use super::solver::{self, LevenbergMarquardt};
+use super::solver::{self, LevenbergMarquardt, Matcher};
 use super::{Alignment, IcpError, IcpSettings, Metric, Role};
 use crate::cloud::Cloud;
 use crate::se3::Pose;
@@ -117,31 +117,55 @@ impl TargetCloud {
         init: &Pose,
         settings: &IcpSettings,
     ) -> Result<Alignment, IcpError> {
-        settings.validate()?;
+        self.align_stages(source, init, std::slice::from_ref(settings))
+    }
+
+    /// Registers a prepared source in stages (typically shrinking match distances), each from
+    /// the pose the last one reached; the last stage's alignment. The matching carries from one
+    /// stage to the next: a source point far from the target stays known as far.
+    pub fn align_stages(
+        &self,
+        source: &SourceCloud,
+        init: &Pose,
+        stages: &[IcpSettings],
+    ) -> Result<Alignment, IcpError> {
+        stages.iter().try_for_each(IcpSettings::validate)?;
         if !solver::is_finite(init) {
             return Err(IcpError::InvalidInitialPose);
         }
         if source.metric != self.metric {
             return Err(IcpError::InvalidSettings("the source was prepared for another metric"));
         }
+        let mut matcher = Matcher::new(&self.tree, &self.points, source.points.len());
+        let mut pose = *init;
+        let mut last = Err(IcpError::InvalidSettings("no stages"));
+        for settings in stages {
+            let alignment = self.run(&mut matcher, source, &pose, settings)?;
+            pose = alignment.target_from_source;
+            last = Ok(alignment);
+        }
+        last
+    }
+
+    /// One ICP run of `source` from `init` under this target's metric.
+    fn run(
+        &self,
+        matcher: &mut Matcher,
+        source: &SourceCloud,
+        init: &Pose,
+        settings: &IcpSettings,
+    ) -> Result<Alignment, IcpError> {
         let SourceCloud { points: source, covariances: source_covariances, .. } = source;
-        let (tree, target) = (&self.tree, &self.points[..]);
+        let target = &self.points[..];
         match self.metric {
             Metric::PointToPoint => {
                 let mut step = PointToPoint { target, source };
-                solver::run(tree, target, source, &mut step, init, settings)
+                solver::run(matcher, source, &mut step, init, settings)
             }
             Metric::PointToPlane => {
                 let factor =
                     PointToPlane::new(target, &self.normals, source, settings.robust_scale);
-                solver::run(
-                    tree,
-                    target,
-                    source,
-                    &mut LevenbergMarquardt::new(factor),
-                    init,
-                    settings,
-                )
+                solver::run(matcher, source, &mut LevenbergMarquardt::new(factor), init, settings)
             }
             Metric::Gicp => {
                 let factor = Gicp::new(
@@ -151,14 +175,7 @@ impl TargetCloud {
                     source_covariances,
                     settings.robust_scale,
                 );
-                solver::run(
-                    tree,
-                    target,
-                    source,
-                    &mut LevenbergMarquardt::new(factor),
-                    init,
-                    settings,
-                )
+                solver::run(matcher, source, &mut LevenbergMarquardt::new(factor), init, settings)
             }
         }
     }
