@@ -378,6 +378,7 @@ fn refine(
     let mut best = (f64::NEG_INFINITY, yaw, shift);
     // Each occupied cell once, weighted 1 (the score is the share of them on the reference).
     let mut cells: Vec<([i64; 2], f32)> = Vec::with_capacity(source.len());
+    let mut marks = Vec::new();
     let mut scores = Vec::new();
     let grid = Rows { values: &fine.values, rows: fine.size, columns: fine.size };
     for k in -yaw_steps..=yaw_steps {
@@ -387,8 +388,7 @@ fn refine(
         cells.extend(source.iter().map(|p| {
             (fine.cell_of(&Vector2::new(cos * p.x - sin * p.y, sin * p.x + cos * p.y)), 1.0)
         }));
-        cells.sort_unstable_by_key(|c| c.0);
-        cells.dedup_by_key(|c| c.0);
+        sort_unique(&mut cells, fine.size, &mut marks);
         let norm = 1.0 / cells.len().max(1) as f64;
         shift_scores(&grid, &cells, base, window, &mut scores);
         for (&score, [a, b]) in scores.iter().zip(shifts(base, window)) {
@@ -402,12 +402,63 @@ fn refine(
     best
 }
 
+/// Sorts `cells` (each weighted 1) and drops repeats. Where every cell lies on the `size` x
+/// `size` grid, through a bitmap of it instead of a sort; `marks` is the bitmap, reused and
+/// left cleared.
+fn sort_unique(cells: &mut Vec<([i64; 2], f32)>, size: usize, marks: &mut Vec<u64>) {
+    let on_grid = |c: &[i64; 2]| c.iter().all(|&x| (0..size as i64).contains(&x));
+    if !cells.iter().all(|c| on_grid(&c.0)) {
+        cells.sort_unstable_by_key(|c| c.0);
+        cells.dedup_by_key(|c| c.0);
+        return;
+    }
+    marks.resize((size * size).div_ceil(64), 0);
+    let (mut first, mut last) = (usize::MAX, 0);
+    for (c, _) in cells.iter() {
+        let k = c[0] as usize * size + c[1] as usize;
+        marks[k / 64] |= 1 << (k % 64);
+        (first, last) = (first.min(k / 64), last.max(k / 64));
+    }
+    cells.clear();
+    for (w, word) in marks.iter_mut().enumerate().take(last + 1).skip(first) {
+        let mut bits = std::mem::take(word);
+        while bits != 0 {
+            let k = w * 64 + bits.trailing_zeros() as usize;
+            cells.push(([(k / size) as i64, (k % size) as i64], 1.0));
+            bits &= bits - 1;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use nalgebra::Point3;
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg64;
+
+    #[test]
+    fn unique_cells_come_sorted_with_or_without_the_bitmap() {
+        let mut rng = Pcg64::seed_from_u64(5);
+        let size = 70;
+        let mut marks = Vec::new();
+        // On the grid (the bitmap), then with one cell off it (the sort), repeats in both.
+        for range in [0..size as i64, -1..size as i64] {
+            for _ in 0..3 {
+                let mut cells: Vec<([i64; 2], f32)> = (0..900)
+                    .map(|_| {
+                        ([rng.random_range(range.clone()), rng.random_range(0..size as i64)], 1.0)
+                    })
+                    .collect();
+                let mut expected = cells.clone();
+                expected.sort_unstable_by_key(|c| c.0);
+                expected.dedup_by_key(|c| c.0);
+                sort_unique(&mut cells, size, &mut marks);
+                assert_eq!(cells, expected);
+                assert!(marks.iter().all(|&w| w == 0), "the bitmap is left cleared");
+            }
+        }
+    }
 
     /// A yard seen from above: a wall, an L-shaped building, poles and parked cars (outlines at
     /// several heights) and ground, around the origin; seeded clutter.
