@@ -142,19 +142,16 @@ impl<'a> Matcher<'a> {
         for (i, p) in source.iter().enumerate() {
             let q = t * Point3::from(*p);
             let q = [q.x, q.y, q.z];
-            let bound = match self.previous[i] {
-                Previous::Far { at, clear } => {
-                    if clear - distance(at, q) > unreachable {
-                        continue;
-                    }
-                    reach * reach
-                }
-                Previous::Matched(j) => sq_distance(q, self.target[j]),
-                Previous::Unknown => reach * reach,
-            };
             // A bound within the match distance holds the previous match, so a point is found;
             // beyond it, the nearest point within the reach says how far the target is.
-            let bound = if bound <= max_sq { bound } else { bound.min(reach * reach) };
+            let bound = match self.previous[i] {
+                Previous::Far { at, clear } if clear - distance(at, q) > unreachable => continue,
+                Previous::Matched(j) => {
+                    let d = sq_distance(q, self.target[j]);
+                    if d <= max_sq { d } else { d.min(reach * reach) }
+                }
+                Previous::Far { .. } | Previous::Unknown => reach * reach,
+            };
             self.previous[i] = match self.tree.nearest_within_sq(q, bound) {
                 Some(nb) if nb.sq_distance <= max_sq => {
                     pairs.push(Pair { source: i, target: nb.index });
@@ -171,7 +168,7 @@ impl<'a> Matcher<'a> {
 
 /// Euclidean distance (m) between two points.
 fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    nalgebra::distance(&Point3::from(a), &Point3::from(b))
 }
 
 /// Fewest correspondences that determine a rigid transform.

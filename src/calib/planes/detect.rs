@@ -237,11 +237,12 @@ pub(super) fn clusters(
     }
     // The cells at [x + dx, y + dy, z - 1..=z + 1] lie together in the sorted order, and where
     // they start grows with the cell's place in it: one walk through the cells per (dx, dy).
+    let offsets: [[i64; 2]; 9] = std::array::from_fn(|o| [o as i64 / 3 - 1, o as i64 % 3 - 1]);
     let mut starts = vec![[0usize; 9]; cells.len()];
-    for (o, start) in (0..9).map(|o| (o, [o as i64 / 3 - 1, o as i64 % 3 - 1])) {
+    for (o, [dx, dy]) in offsets.into_iter().enumerate() {
         let mut at = 0;
         for (c, (k, _, _)) in cells.iter().enumerate() {
-            let key = [k[0] + start[0], k[1] + start[1], k[2] - 1];
+            let key = [k[0] + dx, k[1] + dy, k[2] - 1];
             while at < cells.len() && cells[at].0 < key {
                 at += 1;
             }
@@ -260,8 +261,8 @@ pub(super) fn clusters(
         while let Some(c) = stack.pop() {
             let (k, start, end) = cells[c];
             group.extend(members[start..end].iter().map(|m| m.1));
-            for (o, &first) in starts[c].iter().enumerate() {
-                let column = [k[0] + o as i64 / 3 - 1, k[1] + o as i64 % 3 - 1];
+            for (&first, [dx, dy]) in starts[c].iter().zip(offsets) {
+                let column = [k[0] + dx, k[1] + dy];
                 let end = (first + 3).min(cells.len());
                 for n in first..end {
                     if cells[n].0[..2] == column && cells[n].0[2] <= k[2] + 1 && !seen[n] {
