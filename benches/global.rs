@@ -39,8 +39,8 @@ pub fn scene() -> Scene {
 /// The global stage on `scene`, reference device 0; returns the sensors it aligned.
 pub fn run(scene: &Scene) -> usize {
     let seeds: Vec<u64> = (0..scene.scans.len() as u64).collect();
-    let aligned =
-        global::align(&scene.scans, &scene.nominals, 0, &GlobalSettings::default(), &seeds);
+    let scans = scene.scans.clone();
+    let aligned = global::align(scans, &scene.nominals, 0, &GlobalSettings::default(), &seeds);
     aligned.iter().filter(|a| a.overlay.is_some()).count()
 }
 

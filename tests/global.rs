@@ -3,6 +3,7 @@
 //! off); and the real OpenCalib road rig (`tests/fixtures/opencalib`), from its own guess and
 //! from random wrong starts.
 
+use std::borrow::Cow;
 use std::f64::consts::PI;
 
 use gmmcalib::calib::{self, Rig, Scan, verdict::Level};
@@ -173,4 +174,39 @@ fn opencalib_from_random_wrong_starts_ends_at_the_same_extrinsic() {
         "OpenCalib 0001 from 6 random wrong starts: worst {:.3} deg / {:.1} mm",
         worst.0, worst.1
     );
+}
+
+/// The global stage driven as the page drives it: its sensors aligned one by one, one "in
+/// another worker" (its job run on its own, then recorded) and out of order, and natively on
+/// two threads. Every way gives `calibrate`'s calibration, to the last bit.
+#[test]
+fn the_global_stage_gives_the_same_calibration_however_its_sensors_are_shared() {
+    let rig = opencalib_scene("0001");
+    let settings = targetless();
+    let one_thread = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibrate");
+    let expected = format!("{one_thread:?}");
+
+    let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[settings.method]);
+    assert_eq!(run.phase(), calib::Phase::Global);
+    let stage = run.global_stage().expect("the global stage");
+    assert_eq!(stage.pending(), [1, 2]);
+    assert!(stage.job(0).is_none(), "the reference is not aligned");
+    let elsewhere = stage.job(2).expect("a pending sensor's job").run();
+    stage.record(2, elsewhere);
+    assert_eq!(stage.pending(), [1]);
+    assert!(stage.job(2).is_none(), "a recorded sensor is done");
+    stage.align(&[1], 1);
+    assert!(stage.pending().is_empty());
+    run.advance();
+    assert_ne!(run.phase(), calib::Phase::Global);
+    run.drive(1, &mut |_, _| Control::Continue);
+    let (_, shared) = run.into_outcomes().pop().expect("an outcome");
+    assert_eq!(format!("{:?}", shared.expect("shared")), expected);
+
+    let threaded = calib::Settings {
+        jrmpc: gmmcalib::jrmpc::EmSettings { threads: 2, ..settings.jrmpc.clone() },
+        ..settings
+    };
+    let two = calib::calibrate(&rig, &threaded, |_| Control::Continue).expect("two threads");
+    assert_eq!(format!("{two:?}"), expected);
 }

@@ -22,13 +22,14 @@ use std::sync::Arc;
 use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
 use rustfft::num_complex::Complex32;
 use rustfft::{Fft, FftPlanner};
+use serde::{Deserialize, Serialize};
 
 use super::shifts::{Rows, raise_closeness, shift_scores, shifts};
 use crate::plane::{GroundFrame, Plane};
 use crate::se3::{Pose, rotation_about};
 
 /// The search range and resolution.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CorrelateSettings {
     /// Points between these heights above the reference's ground (m) count as structure.
     pub heights: [f64; 2],
@@ -79,7 +80,7 @@ impl Default for CorrelateSettings {
 }
 
 /// One candidate overlay.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Candidate {
     /// Yaw about the ground normal through the sensor (rad, in (-pi, pi]).
     pub yaw: f64,
@@ -93,7 +94,7 @@ pub struct Candidate {
 }
 
 /// What the search found: the best and the distinct runners-up, best first.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct YawShift {
     pub best: Candidate,
     pub runners_up: Vec<Candidate>,

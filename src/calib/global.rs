@@ -15,6 +15,7 @@
 //! the registration start from it.
 
 use nalgebra::{Point3, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
 
 use super::correlate::{self, CorrelateSettings, YawShift};
 use super::up::{self, GroundCandidate, NoGround, UpHint, UpSettings};
@@ -23,7 +24,7 @@ use crate::plane::Plane;
 use crate::se3::{Pose, rotation_about};
 
 /// The global stage's settings.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GlobalSettings {
     pub up: UpSettings,
     pub correlate: CorrelateSettings,
@@ -58,7 +59,7 @@ impl Default for GlobalSettings {
 }
 
 /// Why a sensor's global alignment was not applied.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum GlobalSkip {
     /// The reference sensor shows no ground.
     ReferenceGround(NoGround),
@@ -69,7 +70,7 @@ pub enum GlobalSkip {
 }
 
 /// One sensor's global alignment.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GlobalAlignment {
     /// On top of the nominal: `applied * T_vehicle_sensor_nominal` is the new start. Identity
     /// for the reference and for a skipped sensor.
@@ -93,44 +94,162 @@ impl GlobalAlignment {
 /// frame (all frames), `nominals[s]` its nominal `T_vehicle_sensor`, `seeds[s]` the seed of its
 /// searches.
 pub fn align(
-    scans: &[Vec<[f32; 3]>],
+    scans: Vec<Vec<[f32; 3]>>,
     nominals: &[Pose],
     r: usize,
     settings: &GlobalSettings,
     seeds: &[u64],
 ) -> Vec<GlobalAlignment> {
-    let reference_hint = UpHint {
-        up: nominals[r].rotation.inverse() * Vector3::z(),
-        tilt_sigma: settings.reference_tilt_sigma,
-        height: None,
-    };
-    let reference_up = up::find_up(&scans[r], &reference_hint, &settings.up, seeds[r]);
-    let reference_up = match reference_up {
-        Ok(found) => found.candidates[0],
-        Err(why) => {
-            let skip = GlobalAlignment::skipped(None, Some(GlobalSkip::ReferenceGround(why)));
-            return vec![skip; scans.len()];
+    GlobalStage::new(scans, nominals, r, settings, seeds).into_alignments()
+}
+
+/// The reference's part of the global stage, found once: its ground and its thinned points,
+/// both in the vehicle frame, which every other sensor is overlaid on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GlobalReference {
+    pub ground: Plane,
+    pub points: Vec<Vector3<f64>>,
+}
+
+/// One sensor's alignment onto the reference (steps 1-4), all it needs: it depends on no other
+/// sensor's, so a driver may run the sensors anywhere, in any order.
+pub struct GlobalJob<'a> {
+    /// The sensor's points in its own frame (all frames).
+    pub scan: &'a [[f32; 3]],
+    pub nominal: Pose,
+    pub reference: &'a GlobalReference,
+    pub settings: &'a GlobalSettings,
+    pub seed: u64,
+}
+
+impl GlobalJob<'_> {
+    pub fn run(&self) -> GlobalAlignment {
+        align_sensor(self.scan, &self.nominal, self.reference, self.settings, self.seed)
+    }
+}
+
+/// The global stage under way: the reference's ground found, the other sensors aligned here
+/// ([`GlobalStage::align`]) or elsewhere ([`GlobalStage::job`], then [`GlobalStage::record`]).
+pub struct GlobalStage {
+    settings: GlobalSettings,
+    scans: Vec<Vec<[f32; 3]>>,
+    nominals: Vec<Pose>,
+    seeds: Vec<u64>,
+    r: usize,
+    /// The reference's ground and points, or why it has no ground (then nothing is aligned).
+    reference: Result<(GroundCandidate, GlobalReference), NoGround>,
+    found: Vec<Option<GlobalAlignment>>,
+}
+
+impl GlobalStage {
+    /// Finds the reference's ground (the stage's serial part); see [`align`] for the inputs.
+    pub fn new(
+        scans: Vec<Vec<[f32; 3]>>,
+        nominals: &[Pose],
+        r: usize,
+        settings: &GlobalSettings,
+        seeds: &[u64],
+    ) -> Self {
+        let hint = UpHint {
+            up: nominals[r].rotation.inverse() * Vector3::z(),
+            tilt_sigma: settings.reference_tilt_sigma,
+            height: None,
+        };
+        let reference = up::find_up(&scans[r], &hint, &settings.up, seeds[r]).map(|found| {
+            let own = found.candidates[0];
+            let ground = in_vehicle(&own.plane, &nominals[r]);
+            (
+                own,
+                GlobalReference {
+                    ground,
+                    points: thinned(&scans[r], &nominals[r], settings.voxel),
+                },
+            )
+        });
+        let found = match &reference {
+            Ok((own, _)) => (0..scans.len())
+                .map(|s| (s == r).then(|| GlobalAlignment::skipped(Some(*own), None)))
+                .collect(),
+            Err(why) => {
+                let skip = GlobalAlignment::skipped(None, Some(GlobalSkip::ReferenceGround(*why)));
+                vec![Some(skip); scans.len()]
+            }
+        };
+        Self {
+            settings: settings.clone(),
+            scans,
+            nominals: nominals.to_vec(),
+            seeds: seeds.to_vec(),
+            r,
+            reference,
+            found,
         }
-    };
-    let ground = in_vehicle(&reference_up.plane, &nominals[r]);
-    let reference = thinned(&scans[r], &nominals[r], settings.voxel);
-    (0..scans.len())
-        .map(|s| match s == r {
-            true => GlobalAlignment::skipped(Some(reference_up), None),
-            false => align_sensor(&scans[s], &nominals[s], &reference, &ground, settings, seeds[s]),
+    }
+
+    pub fn settings(&self) -> &GlobalSettings {
+        &self.settings
+    }
+
+    /// The sensors still to align, in order.
+    pub fn pending(&self) -> Vec<usize> {
+        (0..self.found.len()).filter(|&s| self.found[s].is_none()).collect()
+    }
+
+    /// Sensor `s`'s alignment, to run anywhere; `None` unless it is pending.
+    pub fn job(&self, s: usize) -> Option<GlobalJob<'_>> {
+        let (_, reference) = self.reference.as_ref().ok()?;
+        (self.found.get(s)?.is_none() && s != self.r).then(|| GlobalJob {
+            scan: &self.scans[s],
+            nominal: self.nominals[s],
+            reference,
+            settings: &self.settings,
+            seed: self.seeds[s],
         })
-        .collect()
+    }
+
+    /// Records pending sensor `s`'s alignment, run elsewhere (ignored for any other sensor).
+    pub fn record(&mut self, s: usize, alignment: GlobalAlignment) {
+        if let Some(slot @ None) = self.found.get_mut(s) {
+            *slot = Some(alignment);
+        }
+    }
+
+    /// Aligns pending sensors `which` here, on up to `threads` threads (native only).
+    pub fn align(&mut self, which: &[usize], threads: usize) {
+        let jobs: Vec<(usize, GlobalJob)> =
+            which.iter().filter_map(|&s| Some((s, self.job(s)?))).collect();
+        let threads = crate::threads_here(threads).min(jobs.len());
+        let done: Vec<(usize, GlobalAlignment)> = if threads <= 1 {
+            jobs.iter().map(|(s, job)| (*s, job.run())).collect()
+        } else {
+            std::thread::scope(|scope| {
+                let handles: Vec<_> =
+                    jobs.iter().map(|(s, job)| scope.spawn(move || (*s, job.run()))).collect();
+                let joined = handles.into_iter().map(|h| h.join());
+                joined.map(|r| r.expect("a global alignment thread panicked")).collect()
+            })
+        };
+        for (s, alignment) in done {
+            self.record(s, alignment);
+        }
+    }
+
+    /// Every sensor's alignment, in sensor order; the pending ones are aligned here first.
+    pub fn into_alignments(mut self) -> Vec<GlobalAlignment> {
+        self.align(&self.pending(), 1);
+        self.found.into_iter().map(|f| f.expect("every sensor aligned")).collect()
+    }
 }
 
 /// Steps 1-4 for one sensor against the reference's thinned points and ground (vehicle frame).
 fn align_sensor(
     scan: &[[f32; 3]],
     nominal: &Pose,
-    reference: &[Vector3<f64>],
-    ground: &Plane,
+    reference: &GlobalReference,
     settings: &GlobalSettings,
     seed: u64,
 ) -> GlobalAlignment {
+    let GlobalReference { ground, points: reference } = reference;
     let position = nominal.translation.vector;
     let hint = UpHint {
         up: nominal.rotation.inverse() * Vector3::z(),
@@ -240,7 +359,8 @@ mod tests {
             .map(|i| [5.0, -10.0 + 0.1 * (i % 200) as f32, -1.0 + 0.1 * (i / 200) as f32])
             .collect();
         let nominals = [Pose::identity(), pose_from_xyz_rpy([0.0, 1.0, 0.0], [0.0; 3])];
-        let found = align(&[wall.clone(), wall], &nominals, 0, &GlobalSettings::default(), &[1, 2]);
+        let found =
+            align(vec![wall.clone(), wall], &nominals, 0, &GlobalSettings::default(), &[1, 2]);
         for g in &found {
             assert_eq!(g.applied, Pose::identity());
             assert!(

@@ -43,7 +43,9 @@ mod views;
 pub use bev::{BevAlignment, BevSettings};
 pub use error::CalibError;
 pub use evidence::{Agreement, Observability, SensorEvidence};
-pub use global::{GlobalAlignment, GlobalSettings, GlobalSkip};
+pub use global::{
+    GlobalAlignment, GlobalJob, GlobalReference, GlobalSettings, GlobalSkip, GlobalStage,
+};
 pub use level::GroundSettings;
 pub use notes::{BevWarning, LevellingSkipped, Note, NoteKind, SearchRange};
 pub use pairs::{

@@ -8,10 +8,11 @@
 use std::borrow::Cow;
 
 use super::finish::finish;
+use super::global::{GlobalAlignment, GlobalSettings, GlobalStage};
 use super::pairs::FramePairs;
 use super::progress::{Progress, Stage};
 use super::result::Calibration;
-use super::settings::{Method, Settings};
+use super::settings::{Method, Settings, Stages};
 use super::views::Views;
 use super::{CalibError, Rig};
 use crate::jrmpc::{CentredViews, Control, Em, Registration, Shards};
@@ -20,6 +21,9 @@ use crate::se3::Pose;
 /// What the current method needs next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Phase {
+    /// The global stage: align each pending sensor of [`Run::global_stage`], here or
+    /// elsewhere.
+    Global,
     /// JRMPC's EM: E-steps of every view, then [`Em::m_step`], until [`Em::finished`].
     Em,
     /// The frame pairs' ICP: register every pair of [`Run::frame_pairs`].
@@ -39,6 +43,11 @@ pub struct Run<'r> {
     methods: Vec<Method>,
     /// The method under way: its index in `methods`, its views and its state.
     current: Option<(usize, Views, State)>,
+    /// The method whose views wait for the global stage under way, and the stage.
+    aligning: Option<(usize, GlobalStage)>,
+    /// The last global stage's settings and alignments: a later method asking for the same
+    /// stage (`gmm`, then `cad`) takes them instead of aligning again.
+    aligned: Option<(GlobalSettings, Vec<GlobalAlignment>)>,
     outcomes: Vec<MethodOutcome>,
     cancelled: bool,
 }
@@ -61,6 +70,8 @@ impl<'r> Run<'r> {
             settings: settings.clone(),
             methods: methods.to_vec(),
             current: None,
+            aligning: None,
+            aligned: None,
             outcomes: Vec::with_capacity(methods.len()),
             cancelled: false,
         };
@@ -69,6 +80,9 @@ impl<'r> Run<'r> {
     }
 
     pub fn phase(&self) -> Phase {
+        if self.aligning.is_some() {
+            return Phase::Global;
+        }
         match &self.current {
             Some((_, _, State::Em(..))) => Phase::Em,
             Some((_, _, State::Pairs(..))) => Phase::FramePairs,
@@ -79,7 +93,13 @@ impl<'r> Run<'r> {
 
     /// The method under way and its index among the run's methods.
     pub fn method(&self) -> Option<(usize, Method)> {
-        self.current.as_ref().map(|(i, _, _)| (*i, self.methods[*i]))
+        let index = self.aligning.as_ref().map(|(i, _)| *i);
+        index.or(self.current.as_ref().map(|(i, _, _)| *i)).map(|i| (i, self.methods[i]))
+    }
+
+    /// The global stage, in [`Phase::Global`].
+    pub fn global_stage(&mut self) -> Option<&mut GlobalStage> {
+        self.aligning.as_mut().map(|(_, stage)| stage)
     }
 
     pub fn methods(&self) -> &[Method] {
@@ -181,6 +201,10 @@ impl<'r> Run<'r> {
     /// Ends the current phase (EM even if unfinished; the frame pairs as far as registered)
     /// and moves on: to the frame pairs, to the method's result, to the next method.
     pub fn advance(&mut self) {
+        if let Some((index, stage)) = self.aligning.take() {
+            let alignments = self.keep_alignments(stage);
+            return self.begin(index, alignments);
+        }
         let Some((index, views, state)) = self.current.take() else { return };
         match state {
             State::Em(em, _) => {
@@ -216,7 +240,8 @@ impl<'r> Run<'r> {
     /// Ends the current method with `error` (its work failed elsewhere, say a worker crashed)
     /// and moves on to the next.
     pub fn fail(&mut self, error: CalibError) {
-        if let Some((index, _, _)) = self.current.take() {
+        let index = self.aligning.take().map(|(i, _)| i);
+        if let Some(index) = index.or(self.current.take().map(|(i, _, _)| i)) {
             self.done(index, Err(error));
         }
     }
@@ -243,6 +268,11 @@ impl<'r> Run<'r> {
         while let Some((_, method)) = self.method() {
             let progress = &mut |p: &Progress| progress(method, p);
             match self.phase() {
+                Phase::Global => {
+                    if let Some(stage) = self.global_stage() {
+                        stage.align(&stage.pending(), threads);
+                    }
+                }
                 Phase::Em => self.drive_em(threads, progress),
                 Phase::FramePairs => {
                     let count = self.frame_pairs().map_or(0, |p| p.pairs().len());
@@ -285,11 +315,42 @@ impl<'r> Run<'r> {
         }
     }
 
-    /// Prepares method `index` (and, if it fails at once, the ones after it).
+    /// Prepares method `index` (and, if it fails at once, the ones after it): its global
+    /// stage, when it asks for one that has not run yet, else its views.
     fn start(&mut self, index: usize) {
         let Some(&method) = self.methods.get(index) else { return };
         let settings = Settings { method, ..self.settings.clone() };
-        let started = Views::new(&self.rig, &settings).and_then(|views| {
+        let wanted = Stages::of(&settings).global;
+        let alignments = match (&wanted, &self.aligned) {
+            (None, _) => Vec::new(),
+            (Some(wanted), Some((settings, alignments))) if settings == wanted => {
+                alignments.clone()
+            }
+            (Some(_), _) => match Views::global_stage(&self.rig, &settings) {
+                // Nothing to align (the reference shows no ground): no phase to drive.
+                Ok(Some(stage)) if stage.pending().is_empty() => self.keep_alignments(stage),
+                Ok(Some(stage)) => return self.aligning = Some((index, stage)),
+                Ok(None) => Vec::new(),
+                Err(e) => return self.done(index, Err(e)),
+            },
+        };
+        self.begin(index, alignments);
+    }
+
+    /// The global stage's alignments, kept for later methods too.
+    fn keep_alignments(&mut self, stage: GlobalStage) -> Vec<GlobalAlignment> {
+        let settings = stage.settings().clone();
+        let alignments = stage.into_alignments();
+        self.aligned = Some((settings, alignments.clone()));
+        alignments
+    }
+
+    /// Prepares method `index`'s views, its global stage's `alignments` found (empty when it
+    /// has none), and its first phase.
+    fn begin(&mut self, index: usize, alignments: Vec<GlobalAlignment>) {
+        let method = self.methods[index];
+        let settings = Settings { method, ..self.settings.clone() };
+        let started = Views::with_global(&self.rig, &settings, alignments).and_then(|views| {
             if views.stages().cad.is_some() {
                 return Ok((views, Some(State::Cad(None))));
             }

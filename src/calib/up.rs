@@ -17,13 +17,14 @@
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
+use serde::{Deserialize, Serialize};
 use std::collections::HashSet;
 
 use crate::cloud::is_valid_point;
 use crate::plane::{Plane, least_squares_plane};
 
 /// How the ground is searched for in a sensor's own frame.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct UpSettings {
     /// Voxel edge (m) the scan is thinned to before the plane search.
     pub voxel: f64,
@@ -75,7 +76,7 @@ pub struct UpHint {
 }
 
 /// One plane of the scan, weighed as the ground.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GroundCandidate {
     /// In the sensor frame, the normal pointing towards the sensor (the sensor's up if this is
     /// the ground).
@@ -95,7 +96,7 @@ pub struct GroundCandidate {
 }
 
 /// Why no ground was found.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum NoGround {
     /// Fewer points within range than a plane needs.
     TooFewPoints { points: usize },

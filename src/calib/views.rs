@@ -6,7 +6,7 @@
 use nalgebra::{Point3, Vector3};
 
 use super::bev;
-use super::global::{self, GlobalAlignment};
+use super::global::{GlobalAlignment, GlobalStage};
 use super::level::{self, points_in};
 use super::notes::{LevellingSkipped, Note, NoteKind};
 use super::pairs::{FramePairs, PairCorrections, PairFailure, PairIcp};
@@ -72,35 +72,45 @@ pub struct JrmpcInput<'a> {
 impl Views {
     /// Levels, searches, crops and pairs `rig`'s scans as `settings` ask.
     pub fn new(rig: &Rig, settings: &Settings) -> Result<Self, CalibError> {
+        let global =
+            Self::global_stage(rig, settings)?.map_or_else(Vec::new, |g| g.into_alignments());
+        Self::with_global(rig, settings, global)
+    }
+
+    /// The global stage `settings` ask for on `rig`, its reference's ground found; `None` when
+    /// they ask for none.
+    pub fn global_stage(rig: &Rig, settings: &Settings) -> Result<Option<GlobalStage>, CalibError> {
+        let (sensors, r) = rig.checked()?;
+        settings.check()?;
+        let Some(global_settings) = Stages::of(settings).global else { return Ok(None) };
+        let nominals: Vec<Pose> = sensors.iter().map(|s| rig.nominal_of(s)).collect();
+        let seeds: Vec<u64> = (0..sensors.len())
+            .map(|s| if s == r { settings.seed } else { sensor_seed(settings.seed, &sensors, s) })
+            .collect();
+        let scans = sensor_scans(rig, &sensors);
+        Ok(Some(GlobalStage::new(scans, &nominals, r, &global_settings, &seeds)))
+    }
+
+    /// [`Views::new`] with the global stage's alignments, per sensor, already found (empty
+    /// when it is off): from then on each sensor starts from `global * nominal` as if that
+    /// were its nominal.
+    pub fn with_global(
+        rig: &Rig,
+        settings: &Settings,
+        global: Vec<GlobalAlignment>,
+    ) -> Result<Self, CalibError> {
         let (sensors, r) = rig.checked()?;
         settings.check()?;
         let stages = Stages::of(settings);
         let nominals: Vec<Pose> = sensors.iter().map(|s| rig.nominal_of(s)).collect();
-
-        // Each sensor's points over all its scans, gathered once for the stages that need them.
-        let scans = std::cell::OnceCell::new();
-        let all_scans = || scans.get_or_init(|| sensor_scans(rig, &sensors));
-
-        // Align globally, when the stages say so: from then on each sensor starts from
-        // `global * nominal` as if that were its nominal.
-        let global = match &stages.global {
-            Some(global_settings) => {
-                let seeds: Vec<u64> = (0..sensors.len())
-                    .map(|s| {
-                        if s == r { settings.seed } else { sensor_seed(settings.seed, &sensors, s) }
-                    })
-                    .collect();
-                global::align(all_scans(), &nominals, r, global_settings, &seeds)
-            }
-            None => Vec::new(),
-        };
         let global_motion: Vec<Pose> = (0..sensors.len())
             .map(|s| global.get(s).map_or_else(Pose::identity, |g| g.applied))
             .collect();
         let starts: Vec<Pose> = global_motion.iter().zip(&nominals).map(|(g, n)| g * n).collect();
         let roi = match rig.roi {
             Some(roi) => roi,
-            None => region::overlap_region(all_scans(), &starts, r).ok_or(CalibError::NoOverlap)?,
+            None => region::overlap_region(&sensor_scans(rig, &sensors), &starts, r)
+                .ok_or(CalibError::NoOverlap)?,
         };
 
         // Level, then search from above, when the stages say so.

@@ -29,7 +29,7 @@ pub use config::{parse_config, parse_open_calib};
 pub use exports::ros_exports;
 pub use files::{parse_cloud, parse_mesh};
 pub use recording::RecordingFile;
-pub use session::{CalibrationSession, JrmpcShard, align_pairs};
+pub use session::{CalibrationSession, JrmpcShard, align_global, align_pairs};
 pub use simulate::simulate_rig;
 
 /// A pose as JS sees it: translation (m) and roll, pitch, yaw (rad).

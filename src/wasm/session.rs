@@ -1,20 +1,27 @@
-//! `CalibrationSession`, `JrmpcShard` and `alignPairs`: the library's [`Run`] driven step by
-//! step from JS, so a pool of workers can share JRMPC's E-step and the frame pairs' ICP
-//! (docs/api.md). The session forwards to the run, which owns the control flow (phases,
+//! `CalibrationSession`, `JrmpcShard`, `alignGlobal` and `alignPairs`: the library's [`Run`]
+//! driven step by step from JS, so a pool of workers can share the global stage's sensors,
+//! JRMPC's E-step and the frame pairs' ICP (docs/api.md). The session forwards to the run, which owns the control flow (phases,
 //! methods, failures); the flat formats are `jrmpc::wire`'s and `se3::to_quaternion_xyz`'s.
-//! The M-step takes every view's statistics in view order, and the frame pairs' outcomes are
-//! kept in pair order, so the result is `calibrate`'s, bit for bit, however the work is split.
+//! The M-step takes every view's statistics in view order, and the global alignments and the
+//! frame pairs' outcomes are kept by sensor and pair, so the result is `calibrate`'s, bit for
+//! bit, however the work is split.
 
 use std::borrow::Cow;
 
 use js_sys::{Array, Float32Array, Float64Array, Function, Uint32Array};
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
 use super::calibrate::{ProgressSink, outcomes, rig_and_settings};
 use super::to_js;
-use crate::calib::{self, CalibError, PairIcp, Phase, Run};
+use crate::calib::{
+    self, CalibError, GlobalAlignment, GlobalJob, GlobalReference, GlobalSettings, PairIcp, Phase,
+    Run,
+};
 use crate::cloud::Cloud;
 use crate::jrmpc::{Shard, ViewStats, wire};
+use crate::plane::Plane;
 use crate::se3::{from_quaternion_xyz, to_quaternion_xyz};
 
 #[wasm_bindgen]
@@ -37,10 +44,12 @@ impl CalibrationSession {
         Ok(Self { run: Some(run), sensors, compared: methods.len() > 1 })
     }
 
-    /// `"em"`, `"framePairs"`, `"cad"` or `"done"`: what the current method needs next.
+    /// `"global"`, `"em"`, `"framePairs"`, `"cad"` or `"done"`: what the current method
+    /// needs next.
     pub fn phase(&self) -> String {
         let phase = self.run.as_ref().map_or(Phase::Done, Run::phase);
         match phase {
+            Phase::Global => "global",
             Phase::Em => "em",
             Phase::FramePairs => "framePairs",
             Phase::Cad => "cad",
@@ -53,6 +62,58 @@ impl CalibrationSession {
     pub fn method(&self) -> Option<String> {
         let (_, method) = self.run.as_ref()?.method()?;
         Some(method.name().into())
+    }
+
+    /// The sensors (indices in result order) still to align in `"global"`. Align them here
+    /// (`alignGlobally`) or elsewhere (`globalJob`, `alignGlobal` in another worker, then
+    /// `recordGlobal`), in any order.
+    #[wasm_bindgen(js_name = globalJobs)]
+    pub fn global_jobs(&mut self) -> Result<Uint32Array, JsError> {
+        let stage = self.run_mut()?.global_stage().ok_or_else(no_global)?;
+        let pending: Vec<u32> = stage.pending().iter().map(|&s| s as u32).collect();
+        Ok(Uint32Array::from(pending.as_slice()))
+    }
+
+    /// Aligns the pending sensors `sensors` here.
+    #[wasm_bindgen(js_name = alignGlobally)]
+    pub fn align_globally(&mut self, sensors: &[u32]) -> Result<(), JsError> {
+        let stage = self.run_mut()?.global_stage().ok_or_else(no_global)?;
+        let which: Vec<usize> = sensors.iter().map(|&s| s as usize).collect();
+        let pending = stage.pending();
+        which.iter().try_for_each(|s| check_pending(&pending, *s))?;
+        stage.align(&which, 1);
+        Ok(())
+    }
+
+    /// Pending sensor `sensor`'s alignment as `alignGlobal` takes it.
+    #[wasm_bindgen(js_name = globalJob)]
+    pub fn global_job(&mut self, sensor: usize) -> Result<JsValue, JsError> {
+        let stage = self.run_mut()?.global_stage().ok_or_else(no_global)?;
+        check_pending(&stage.pending(), sensor)?;
+        let job = stage.job(sensor).ok_or_else(|| not_pending(sensor))?;
+        let reference: Vec<f64> =
+            job.reference.points.iter().flat_map(|p| p.iter().copied()).collect();
+        let wire = GlobalJobWire {
+            scan: Float32Array::from(job.scan.as_flattened()),
+            nominal: to_quaternion_xyz(&job.nominal),
+            reference: Float64Array::from(reference.as_slice()),
+            ground: job.reference.ground,
+            settings: job.settings.clone(),
+            seed: job.seed,
+        };
+        wire.serialize(&bigints())
+            .map_err(|e| JsError::new(&format!("internal: cannot convert a global job: {e}")))
+    }
+
+    /// Records pending sensor `sensor`'s alignment, found by `alignGlobal` elsewhere.
+    #[wasm_bindgen(js_name = recordGlobal)]
+    pub fn record_global(&mut self, sensor: usize, alignment: JsValue) -> Result<(), JsError> {
+        let alignment: GlobalAlignment = serde_wasm_bindgen::from_value(alignment)
+            .map_err(|e| JsError::new(&format!("recordGlobal: not a global alignment: {e}")))?;
+        let stage = self.run_mut()?.global_stage().ok_or_else(no_global)?;
+        check_pending(&stage.pending(), sensor)?;
+        stage.record(sensor, alignment);
+        Ok(())
     }
 
     /// Points per view of EM's views, for splitting them among shards (empty outside EM).
@@ -228,6 +289,15 @@ impl CalibrationSession {
     }
 }
 
+/// An error unless `sensor` is waiting for its global alignment.
+fn check_pending(pending: &[usize], sensor: usize) -> Result<(), JsError> {
+    if pending.contains(&sensor) { Ok(()) } else { Err(not_pending(sensor)) }
+}
+
+fn not_pending(sensor: usize) -> JsError {
+    JsError::new(&format!("sensor {sensor} is not waiting for its global alignment"))
+}
+
 /// An error unless `pair` is one of `count` frame pairs.
 fn check_pair(count: usize, pair: usize) -> Result<(), JsError> {
     if pair < count {
@@ -235,6 +305,64 @@ fn check_pair(count: usize, pair: usize) -> Result<(), JsError> {
     } else {
         Err(JsError::new(&format!("no frame pair {pair} of {count}")))
     }
+}
+
+/// One sensor's global alignment as it crosses between workers: the flat formats of
+/// `viewPoints` and `recordPair`; the seed a BigInt.
+#[derive(Serialize, Deserialize)]
+struct GlobalJobWire {
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    scan: Float32Array,
+    nominal: [f64; 7],
+    /// The reference's thinned points in the vehicle frame, flat.
+    #[serde(with = "serde_wasm_bindgen::preserve")]
+    reference: Float64Array,
+    ground: Plane,
+    settings: GlobalSettings,
+    seed: u64,
+}
+
+/// A serializer that writes 64-bit integers (seeds) as BigInts, so none is rounded.
+fn bigints() -> serde_wasm_bindgen::Serializer {
+    serde_wasm_bindgen::Serializer::new().serialize_large_number_types_as_bigints(true)
+}
+
+/// Runs one sensor's global alignment, `job` as a session's `globalJob` gave it: the
+/// alignment, for that session's `recordGlobal`.
+#[wasm_bindgen(js_name = alignGlobal)]
+pub fn align_global(job: JsValue) -> Result<JsValue, JsError> {
+    let wire: GlobalJobWire = serde_wasm_bindgen::from_value(job)
+        .map_err(|e| JsError::new(&format!("alignGlobal: invalid job: {e}")))?;
+    let scan = Cloud::from_flat(&wire.scan.to_vec()).ok_or_else(|| {
+        JsError::new(&format!(
+            "alignGlobal: the scan's {} numbers are not points",
+            wire.scan.length()
+        ))
+    })?;
+    let flat = wire.reference.to_vec();
+    if flat.len() % 3 != 0 {
+        let what = format!("alignGlobal: the reference's {} numbers are not points", flat.len());
+        return Err(JsError::new(&what));
+    }
+    let points = flat.chunks_exact(3).map(|p| Vector3::new(p[0], p[1], p[2])).collect();
+    let reference = GlobalReference { ground: wire.ground, points };
+    let nominal = from_quaternion_xyz(&wire.nominal).ok_or_else(bad_pose)?;
+    let job = GlobalJob {
+        scan: &scan.points,
+        nominal,
+        reference: &reference,
+        settings: &wire.settings,
+        seed: wire.seed,
+    };
+    wire_alignment(&job.run())
+}
+
+/// A global alignment for `recordGlobal`: every number as it is, so the session records
+/// what an alignment here would have found.
+fn wire_alignment(alignment: &GlobalAlignment) -> Result<JsValue, JsError> {
+    alignment
+        .serialize(&bigints())
+        .map_err(|e| JsError::new(&format!("internal: cannot convert a global alignment: {e}")))
 }
 
 /// Registers each of `sources` (flat points, like `viewPoints`) onto `target` from its pose in
@@ -326,6 +454,10 @@ impl JrmpcShard {
 
 fn bad_pose() -> JsError {
     JsError::new("a pose is 7 finite numbers: a unit quaternion and a translation")
+}
+
+fn no_global() -> JsError {
+    JsError::new("the current method is not in its global stage")
 }
 
 fn no_em() -> JsError {

@@ -1,8 +1,8 @@
 // Real scans from someone else's rig: OpenCalib's road scene (three LiDARs, the side ones pitched
 // about 45 deg, OpenCalib's own guess saying they are level) dropped as its folder is, with its
 // `lidar_cloud_path.txt` and `initial_extrinsic.txt`; no target. The page must name the
-// sensors, take the guess, align globally and calibrate to what the library computes in Node,
-// with a verdict; a screenshot of the aligned clouds is kept.
+// sensors, take the guess, align globally (on two workers) and calibrate to what the library
+// computes in Node, with a verdict; a screenshot of the aligned clouds is kept.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
@@ -34,7 +34,9 @@ function difference(a, b) {
 }
 
 test('OpenCalib\'s road scene dropped as its folder calibrates from its own guess, no target', async () => {
-  const { page, problems } = await session.open();
+  // Two workers: the global stage's two side sensors are aligned side by side, one in a pool
+  // worker (the frame pairs, all against the one reference view, stay in one).
+  const { page, problems } = await session.open('#workers=2');
   await page.locator('#view').drop({ files: opencalibFolder('0001') });
   await waitForStatus(page, /^3 scans of 3 sensors loaded\.$/);
   const rows = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => [...tr.querySelectorAll('input')].map((i) => i.value).join('/')));
@@ -48,6 +50,7 @@ test('OpenCalib\'s road scene dropped as its folder calibrates from its own gues
   assert.equal(await page.locator('#target-size').isDisabled(), true);
   await page.getByTestId('calibrate').click();
   await waitForStatus(page, /^Done/, 180_000);
+  assert.match(await page.getByTestId('status').textContent(), /on 2 workers\.$/);
   assert.equal(await page.getByTestId('verdict').getAttribute('data-level'), 'good');
   const result = JSON.parse(await page.getByTestId('result-json').textContent());
   assert.deepEqual(result.sensors.map((s) => s.name), ['left', 'right', 'top']);

@@ -1,6 +1,7 @@
 // A calibration over a pool of workers: the calibration worker drives a wasm
 // CalibrationSession (the library's state machine over methods and their phases) and shares
-// each phase's work with pool workers (shard-worker.js). JRMPC's E-step: it keeps the first
+// each phase's work with pool workers (shard-worker.js). The global stage: a sensor at a
+// time, each aligned onto the reference on its own. JRMPC's E-step: it keeps the first
 // slice of the views and each pool worker holds another; every iteration each returns its
 // views' statistics (O(views x K) numbers, transferred, not copied) and the session's M-step
 // takes them in view order. The frame pairs' ICP: a reference view's pairs at a time. Which
@@ -33,14 +34,18 @@ export function splitViews(sizes, parts) {
   return slices;
 }
 
-// A pool worker (shard-worker.js) as promises: init(points, sizes), then eStep(input, first)
-// -> Float64Array; align(icp, target, sources, starts) -> an outcome per source.
-class RemoteWorker {
+// A pool worker (shard-worker.js) as promises, given the wasm module first: ready();
+// init(points, sizes), then eStep(input, first) -> Float64Array; align(icp, target, sources,
+// starts) -> an outcome per source; alignGlobal(job) -> a sensor's global alignment.
+export class RemoteWorker {
   #worker;
   #pending = []; // {resolve, reject} of the requests in flight: the worker answers in order
 
-  constructor() {
+  // `module`: this worker's compiled WebAssembly.Module, shared with the new one (else it
+  // fetches and compiles its own).
+  constructor(module = undefined) {
     this.#worker = new Worker(new URL('./shard-worker.js', import.meta.url), { type: 'module' });
+    this.#worker.postMessage({ type: 'module', module });
     this.#worker.onmessage = ({ data }) => {
       const request = this.#pending.shift();
       if (data.type === 'error') request?.reject(new Error(`a calculation worker failed: ${data.message}`));
@@ -72,6 +77,15 @@ class RemoteWorker {
     return this.#request({ type: 'align', icp, target, sources, starts }, [target.buffer, ...sources.map((s) => s.buffer)]);
   }
 
+  // Resolves once the worker runs, its wasm loaded.
+  ready() {
+    return this.#request({ type: 'ready' }, []);
+  }
+
+  alignGlobal(job) {
+    return this.#request({ type: 'alignGlobal', job }, [job.scan.buffer, job.reference.buffer]);
+  }
+
   terminate() {
     this.#worker.terminate();
   }
@@ -86,6 +100,43 @@ const yieldToEvents = () => new Promise((resolve) => {
   };
   channel.port2.postMessage(null);
 });
+
+// Runs `loops` (async functions) to their ends; the first failure stops the others (`stop()`
+// makes their queues look empty) and is thrown once all have ended, so none touches the
+// session after it is freed.
+async function untilAllEnd(loops, stop) {
+  const settled = await Promise.allSettled(loops.map((loop) => loop.catch((error) => {
+    stop();
+    throw error;
+  })));
+  const failure = settled.find(({ status }) => status === 'rejected');
+  if (failure) throw failure.reason;
+}
+
+// The global stage shared: each sensor is aligned onto the reference on its own, so a remote
+// worker takes a sensor (its job carries all it needs) while this worker aligns another. The
+// session keeps the alignments by sensor, so who aligned what does not change the result.
+async function shareGlobal(session, pool) {
+  const queue = Array.from(session.globalJobs());
+  // One sensor (a rig of two) is this worker's alone: no remote is started for it.
+  const remotes = queue.length > 1 ? await pool() : [];
+  let stopped = false;
+  const next = () => (stopped ? undefined : queue.shift());
+  const remote = async (worker) => {
+    for (let sensor = next(); sensor !== undefined; sensor = next()) {
+      session.recordGlobal(sensor, await worker.alignGlobal(session.globalJob(sensor)));
+    }
+  };
+  const local = async () => {
+    for (let sensor = next(); sensor !== undefined; sensor = next()) {
+      session.alignGlobally(Uint32Array.of(sensor));
+      await yieldToEvents();
+    }
+  };
+  // The remotes take their first sensors before this worker starts on one, which holds the
+  // thread until it is done.
+  await untilAllEnd([...remotes.map(remote), local()], () => { stopped = true; });
+}
 
 // JRMPC's EM with the E-step shared: this worker keeps the first slice of the views, each remote
 // one more (remotes beyond the slices idle). With `gpu` (a GpuEStep) one GPU shard holds every
@@ -122,7 +173,7 @@ async function shareFramePairs(session, pool, onProgress) {
     groups.get(reference).push(job);
   }
   // One group (a targetless scene of one frame) is this worker's alone: no remote is started.
-  const remotes = groups.size > 1 ? pool() : [];
+  const remotes = groups.size > 1 ? await pool() : [];
   const queue = [...groups];
   let stopped = false;
   const heed = (progress) => {
@@ -148,15 +199,8 @@ async function shareFramePairs(session, pool, onProgress) {
   };
   // Two requests in flight per remote: it starts the next group while its last reply waits for
   // this worker to finish a group of its own (one in flight left it idle about half the time).
-  // A failure stops every loop, and all have ended before the session can be freed.
-  const loops = [local(), ...remotes.flatMap((worker) => [remote(worker), remote(worker)])].map((loop) =>
-    loop.catch((error) => {
-      stopped = true;
-      throw error;
-    }));
-  const failure = (await Promise.allSettled(loops)).find(({ status }) => status === 'rejected');
-  if (failure) throw failure.reason;
-  if (stopped) session.cancel(); // no later method starts
+  await untilAllEnd([local(), ...remotes.flatMap((worker) => [remote(worker), remote(worker)])], () => { stopped = true; });
+  if (stopped) session.cancel(); // stopped by the user: no later method starts
 }
 
 // `calibrate(input, onProgress)` with the work shared by `workers` workers (this one included,
@@ -184,15 +228,25 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
       const adapter = await gpuAdapter(eStep);
       if (adapter) gpu = await GpuEStep.create(adapter);
     }
-    const pool = () => {
-      while (remotes.length < workers - 1) remotes.push(spawn());
+    // A new worker starts only while this one yields to its event loop (Chromium), so each is
+    // waited for before this worker goes back to work: otherwise a remote's share began only
+    // after this worker's own (the global stage's two sensors took as long as one after the
+    // other).
+    const pool = async () => {
+      const started = [];
+      while (remotes.length < workers - 1) {
+        remotes.push(spawn());
+        started.push(remotes.at(-1).ready());
+      }
+      await Promise.all(started);
       return remotes;
     };
     for (let phase = session.phase(); phase !== 'done'; phase = session.phase()) {
       try {
-        if (phase === 'em') {
+        if (phase === 'global') await shareGlobal(session, pool);
+        else if (phase === 'em') {
           const method = session.method();
-          const timing = await shareEm(wasm, session, gpu ? [] : pool(), heed, gpu);
+          const timing = await shareEm(wasm, session, gpu ? [] : await pool(), heed, gpu);
           emRan.set(method, timing ? { estep: 'gpu', gpu: gpu.name, gpuEStepSeconds: timing.seconds, gpuIterations: timing.iterations } : { estep: 'cpu' });
         } else if (phase === 'cad') session.registerCad(heed); // one call: fast, not shared
         else await shareFramePairs(session, pool, heed);

@@ -1,16 +1,27 @@
 // A pool worker (see shard-pool.js): holds a shard of JRMPC's E-step, some views' points in its
 // own wasm instance, and answers each {type: 'eStep', input, first} with its views'
-// statistics; and registers frame pairs, {type: 'align', ...}, for the calibration worker.
-import init, { JrmpcShard, alignPairs } from '../pkg/gmmcalib.js';
+// statistics; registers frame pairs, {type: 'align', ...}, and aligns a sensor globally,
+// {type: 'alignGlobal', job}, for the calibration worker.
+import init, { JrmpcShard, alignGlobal, alignPairs } from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
 
-const ready = init({ module_or_path: wasmUrl });
+// The first message is {type: 'module', module}: the calibration worker's compiled module,
+// whose code this worker shares, or undefined to fetch and compile its own.
+let loaded;
+const ready = new Promise((resolve) => { loaded = resolve; })
+  .then((module) => init({ module_or_path: module ?? wasmUrl }));
 let shard = null;
 
 self.onmessage = async ({ data }) => {
+  if (data.type === 'module') {
+    loaded(data.module);
+    return;
+  }
   try {
     await ready;
-    if (data.type === 'init') {
+    if (data.type === 'ready') {
+      self.postMessage({ type: 'output', output: null });
+    } else if (data.type === 'init') {
       shard?.free();
       shard = new JrmpcShard(data.points, data.sizes);
       self.postMessage({ type: 'ready' });
@@ -21,6 +32,8 @@ self.onmessage = async ({ data }) => {
     } else if (data.type === 'align') {
       const output = alignPairs(data.icp, data.target, data.sources, data.starts);
       self.postMessage({ type: 'output', output }, output.filter((o) => o instanceof Float64Array).map((o) => o.buffer));
+    } else if (data.type === 'alignGlobal') {
+      self.postMessage({ type: 'output', output: alignGlobal(data.job) });
     } else {
       throw new Error(`unknown request type '${data.type}'`);
     }

@@ -3,7 +3,7 @@
 // results are transferred, not copied.
 import init, * as wasm from '../pkg/gmmcalib.js';
 import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
-import { calibrateSharded } from './shard-pool.js';
+import { RemoteWorker, calibrateSharded } from './shard-pool.js';
 
 const { calibrate, compareCalibrations, methods, parseCloud, parseConfig, parseMesh, parseOpenCalib, rosExports, simulateRig, RecordingFile } = wasm;
 
@@ -12,7 +12,11 @@ const { calibrate, compareCalibrations, methods, parseCloud, parseConfig, parseM
 const recordings = new Map();
 let nextRecording = 1;
 
-const ready = init({ module_or_path: wasmUrl });
+// Compiled here once and handed to the pool workers (shard-pool.js): a posted module shares
+// its compiled code, so a pool worker neither compiles it again nor starts on baseline code
+// (a freshly compiled pool worker took twice as long over the same global alignment).
+const compiled = WebAssembly.compileStreaming(fetch(wasmUrl));
+const ready = compiled.then((module) => init({ module_or_path: module }));
 
 function buffersOf(value, found = []) {
   if (ArrayBuffer.isView(value)) found.push(value.buffer);
@@ -47,10 +51,11 @@ const handlers = {
     recordings.delete(handle);
   },
   simulate: ({ options }) => simulateRig(options),
-  // `workers` > 1 shares JRMPC's E-step and the frame pairs' ICP with that many workers in
-  // all (this one included), where a worker can start workers of its own; `estep` 'auto' or
-  // 'gpu' puts the E-step on the GPU where WebGPU allows (shard-pool.js, gpu-estep.js).
-  calibrate: ({ input, workers = 1, estep = 'cpu' }, id) => {
+  // `workers` > 1 shares the global stage, JRMPC's E-step and the frame pairs' ICP with that
+  // many workers in all (this one included), where a worker can start workers of its own;
+  // `estep` 'auto' or 'gpu' puts the E-step on the GPU where WebGPU allows (shard-pool.js,
+  // gpu-estep.js).
+  calibrate: async ({ input, workers = 1, estep = 'cpu' }, id) => {
     // At most 10 progress messages a second (and always the last): the page redraws on each,
     // and on two cores that work competes with the calculation (sample scale on 2 workers:
     // 1.2 s with every iteration shown, 0.9 s with this).
@@ -64,7 +69,10 @@ const handlers = {
       return true;
     };
     const shared = workers > 1 && typeof Worker === 'function';
-    if (shared || estep !== 'cpu') return calibrateSharded(wasm, input, shared ? workers : 1, onProgress, undefined, estep);
+    if (shared || estep !== 'cpu') {
+      const module = await compiled;
+      return calibrateSharded(wasm, input, shared ? workers : 1, onProgress, () => new RemoteWorker(module), estep);
+    }
     const result = calibrate(input, onProgress);
     for (const r of Array.isArray(result) ? result : [result]) if (!r.error) r.workers = 1;
     return result;

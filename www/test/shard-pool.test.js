@@ -27,9 +27,11 @@ test('views are split into contiguous slices of about equal points, none empty',
 const inProcess = () => {
   let shard = null;
   return {
+    ready: async () => null,
     init: async (points, sizes) => { shard = new wasm.JrmpcShard(points, sizes); },
     eStep: async (input, first) => shard.eStep(input, first),
     align: async (icp, target, sources, starts) => wasm.alignPairs(icp, target, sources, starts),
+    alignGlobal: async (job) => wasm.alignGlobal(job),
     terminate: () => shard?.free(),
   };
 };
@@ -105,6 +107,49 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.deepEqual(loneDriven.sensors, wasm.calibrate(loneInput()).sensors);
   assert.equal(spawned, 0);
   assert.equal(loneDriven.workers, 1);
+  // OpenCalib's real road rig, three LiDARs: the global stage has two sensors to align, so a
+  // remote takes one (its job through structured clone, as between workers) while this worker
+  // aligns the other, and the result is calibrate's whole, the verdict and notes included.
+  const fixture = new URL('../../tests/fixtures/opencalib/0001/', import.meta.url);
+  const text = async (name) => readFile(new URL(name, fixture), 'utf8');
+  const road = wasm.parseOpenCalib(await text('lidar_cloud_path.txt'), 'lidar_cloud_path.txt', await text('initial_extrinsic.txt'), 'initial_extrinsic.txt');
+  const roadScans = await Promise.all(road.devices.map(async (d) => ({ sensor: d.name, frame: '1', points: wasm.parseCloud(await readFile(new URL(d.file, fixture)), d.file).points })));
+  const trioInput = () => ({ scans: roadScans, nominal: road.nominal, reference: road.reference, target: { kind: 'none' } });
+  const remoteSensors = [];
+  const cloned = () => ({
+    ...inProcess(),
+    alignGlobal: async (job) => {
+      remoteSensors.push(job.seed);
+      return structuredClone(wasm.alignGlobal(structuredClone(job)));
+    },
+  });
+  const { workers: trioWorkers, ...trioDriven } = await calibrateSharded(wasm, trioInput(), 2, () => true, cloned);
+  const { workers: one, ...trioDirect } = wasm.calibrate(trioInput());
+  assert.deepEqual(trioDriven, trioDirect);
+  assert.equal(remoteSensors.length, 1);
+  assert.equal(typeof remoteSensors[0], 'bigint', 'the seed crosses as a BigInt, never rounded');
+  assert.equal(trioWorkers, 2);
+  // The global stage's calls, out of turn or with bad data, are errors, not crashes.
+  const aligning = new wasm.CalibrationSession(trioInput());
+  assert.equal(aligning.phase(), 'global');
+  assert.deepEqual(Array.from(aligning.globalJobs()), [1, 2]);
+  assert.throws(() => aligning.globalJob(0), /sensor 0 is not waiting for its global alignment/);
+  assert.throws(() => aligning.alignGlobally(Uint32Array.of(7)), /sensor 7 is not waiting/);
+  const job = aligning.globalJob(2);
+  assert.throws(() => wasm.alignGlobal({ ...job, scan: new Float32Array(4) }), /scan's 4 numbers are not points/);
+  assert.throws(() => wasm.alignGlobal({ ...job, reference: new Float64Array(5) }), /reference's 5 numbers are not points/);
+  assert.throws(() => wasm.alignGlobal({ ...job, nominal: [0, 0, 0, 2, 0, 0, 0] }), /unit quaternion/);
+  assert.throws(() => wasm.alignGlobal({ ...job, settings: 'fast' }), /alignGlobal: invalid job/);
+  assert.throws(() => aligning.recordGlobal(2, { applied: 'here' }), /not a global alignment/);
+  const found = wasm.alignGlobal(job);
+  aligning.recordGlobal(2, found);
+  assert.throws(() => aligning.recordGlobal(2, found), /sensor 2 is not waiting/);
+  aligning.alignGlobally(Uint32Array.of(1));
+  assert.deepEqual(Array.from(aligning.globalJobs()), []);
+  aligning.advance();
+  assert.notEqual(aligning.phase(), 'global');
+  assert.throws(() => aligning.globalJobs(), /not in its global stage/);
+  aligning.free();
   // Compare all through the pool: the session runs every method in turn, as `calibrate` does.
   const all = () => ({ ...input(), method: 'all', iterations: 10 });
   const compared = await calibrateSharded(wasm, all(), 2, () => true, inProcess);
