@@ -84,6 +84,22 @@ fn for_each_k_nearest_equals_brute_force() {
     }
 }
 
+/// On a lattice every query has many neighbours at exactly its k-th distance: each search
+/// starts bounded by the previous query's neighbours, and ties at that bound must still be
+/// found and ordered by index.
+#[test]
+fn for_each_k_nearest_on_a_lattice_keeps_the_ties_at_its_bound() {
+    let points: Vec<[f32; 3]> = (0..6 * 7 * 5)
+        .map(|i| [(i % 6) as f32, (i / 6 % 7) as f32 * 0.5, (i / 42) as f32])
+        .collect();
+    let tree = KdTree::new(&points);
+    for k in [2, 5, 7, 20] {
+        tree.for_each_k_nearest(k, |i, found| {
+            assert_eq!(found, brute_force(&points, points[i].map(f64::from), k), "k {k}");
+        });
+    }
+}
+
 #[test]
 fn skips_non_finite_points_and_queries() {
     let points = vec![[0.0, 0.0, 0.0], [f32::NAN, 0.0, 0.0], [1.0, 0.0, 0.0], [f32::INFINITY; 3]];

@@ -116,28 +116,30 @@ impl KdTree {
     /// Calls `f(index, neighbours)` with the `k` nearest points of every indexed point
     /// (itself included), as [`KdTree::k_nearest`] would find them. Points are visited in
     /// tree order, so consecutive queries are close, and each search starts bounded by the
-    /// previous one: its k-th distance plus the step between the two queries (triangle
-    /// inequality) still encloses k points.
+    /// previous one's neighbours: they are `k` distinct points, so the farthest of them from
+    /// the new query (by the same [`sq_distance`]) bounds its `k`-th distance exactly.
     pub fn for_each_k_nearest(&self, k: usize, mut f: impl FnMut(usize, &[Neighbour])) {
         if k == 0 {
             return;
         }
+        // Where each indexed point lies in `entries`, by its index.
+        let mut slot =
+            vec![u32::MAX; self.entries.iter().map(|e| e.index as usize + 1).max().unwrap_or(0)];
+        for (at, e) in self.entries.iter().enumerate() {
+            slot[e.index as usize] = at as u32;
+        }
         let mut found = Vec::with_capacity(k.min(self.len()));
-        let mut previous: Option<([f64; 3], f64)> = None;
         for e in &self.entries {
             let q = e.point.map(f64::from);
-            let max_sq_distance = match previous {
-                Some((p, radius)) if found.len() == k => {
-                    let step = sq_distance(p, e.point).sqrt();
-                    // Relative slack absorbs rounding of the square roots.
-                    (radius + step).powi(2) * (1.0 + 1e-9) + f64::MIN_POSITIVE
-                }
-                _ => f64::INFINITY,
+            let max_sq_distance = match found.len() == k {
+                true => found.iter().fold(0.0, |bound: f64, n: &Neighbour| {
+                    bound.max(sq_distance(q, self.entries[slot[n.index] as usize].point))
+                }),
+                false => f64::INFINITY,
             };
             found.clear();
             let mut collector = KNearest { k, max_sq_distance, found: &mut found };
             self.search(&q, &mut collector);
-            previous = found.last().map(|last| (q, last.sq_distance.sqrt()));
             f(e.index as usize, &found);
         }
     }
