@@ -160,21 +160,38 @@ async function shareEm(wasm, session, remotes, onProgress, gpu = null) {
   }
 }
 
-// The frame pairs' ICP (`gmm`'s refinement, the ICP methods) shared: grouped by reference view,
-// so each group builds its ICP target once, and handed out a group at a time to whichever
-// worker is free, this one included. The session keeps the outcomes in pair order, so who
-// registered what does not change the result.
-async function shareFramePairs(session, pool, onProgress) {
-  const work = session.framePairs();
-  const groups = new Map(); // reference view -> pair indices
-  for (let job = 0; job < work.pairs.length / 2; job++) {
-    const reference = work.pairs[2 * job];
-    if (!groups.has(reference)) groups.set(reference, []);
-    groups.get(reference).push(job);
+// The frame pairs (`pairs`: referenceView, view per pair) as groups of pair indices that share
+// a reference view, [[referenceView, [pair, ...]], ...]: each group builds that view's ICP
+// target once. With fewer groups than `parts` (the workers), the largest are halved until
+// there are `parts` or none has two pairs: a worker that would idle builds the target again
+// and registers half of them (a targetless scene of one frame has one reference view).
+export function pairGroups(pairs, parts) {
+  const byReference = new Map();
+  for (let job = 0; job < pairs.length / 2; job++) {
+    const reference = pairs[2 * job];
+    if (!byReference.has(reference)) byReference.set(reference, []);
+    byReference.get(reference).push(job);
   }
-  // One group (a targetless scene of one frame) is this worker's alone: no remote is started.
-  const remotes = groups.size > 1 ? await pool() : [];
-  const queue = [...groups];
+  const groups = [...byReference];
+  while (groups.length > 0 && groups.length < parts) {
+    const largest = groups.reduce((best, g, i) => (g[1].length > groups[best][1].length ? i : best), 0);
+    const [reference, jobs] = groups[largest];
+    if (jobs.length < 2) break;
+    const half = Math.ceil(jobs.length / 2);
+    groups.splice(largest, 1, [reference, jobs.slice(0, half)], [reference, jobs.slice(half)]);
+  }
+  return groups;
+}
+
+// The frame pairs' ICP (`gmm`'s refinement, the ICP methods) shared: in groups of one
+// reference view (`pairGroups`), handed out a group at a time to whichever worker is free,
+// this one included. The session keeps the outcomes in pair order, so who registered what
+// does not change the result.
+async function shareFramePairs(session, pool, onProgress, workers) {
+  const work = session.framePairs();
+  const queue = pairGroups(work.pairs, workers);
+  // One group (one pair) is this worker's alone: no remote is started for it.
+  const remotes = queue.length > 1 ? await pool() : [];
   let stopped = false;
   const heed = (progress) => {
     if (onProgress(progress) === false) stopped = true;
@@ -197,9 +214,11 @@ async function shareFramePairs(session, pool, onProgress) {
       jobs.forEach((job, i) => heed(session.recordPair(job, outcomes[i])));
     }
   };
-  // Two requests in flight per remote: it starts the next group while its last reply waits for
-  // this worker to finish a group of its own (one in flight left it idle about half the time).
-  await untilAllEnd([local(), ...remotes.flatMap((worker) => [remote(worker), remote(worker)])], () => { stopped = true; });
+  // Each remote takes a group before this worker starts on one, which holds the thread until
+  // it is done; then a second request in flight per remote, so it starts its next group while
+  // its last reply waits for this worker (one in flight left it idle about half the time).
+  const loops = [...remotes.map(remote), local(), ...remotes.map(remote)];
+  await untilAllEnd(loops, () => { stopped = true; });
   if (stopped) session.cancel(); // stopped by the user: no later method starts
 }
 
@@ -249,7 +268,7 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
           const timing = await shareEm(wasm, session, gpu ? [] : await pool(), heed, gpu);
           emRan.set(method, timing ? { estep: 'gpu', gpu: gpu.name, gpuEStepSeconds: timing.seconds, gpuIterations: timing.iterations } : { estep: 'cpu' });
         } else if (phase === 'cad') session.registerCad(heed); // one call: fast, not shared
-        else await shareFramePairs(session, pool, heed);
+        else await shareFramePairs(session, pool, heed, workers);
         session.advance();
       } catch (error) {
         if (input.method !== 'all') throw error;

@@ -6,7 +6,7 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFile } from 'node:fs/promises';
 import init, * as wasm from '../pkg/gmmcalib.js';
-import { calibrateSharded, splitViews } from '../src/shard-pool.js';
+import { calibrateSharded, pairGroups, splitViews } from '../src/shard-pool.js';
 
 test('views are split into contiguous slices of about equal points, none empty', () => {
   assert.deepEqual(splitViews([5, 5, 5, 5], 2), [{ first: 0, count: 2 }, { first: 2, count: 2 }]);
@@ -21,6 +21,19 @@ test('views are split into contiguous slices of about equal points, none empty',
   const loads = slices.map(({ first, count }) => sizes.slice(first, first + count).reduce((a, b) => a + b, 0));
   const mean = sizes.reduce((a, b) => a + b, 0) / 4;
   for (const load of loads) assert.ok(Math.abs(load - mean) < 2200, `${loads}`);
+});
+
+test('frame pairs are grouped by reference view, the largest halved while workers would idle', () => {
+  // pairs: referenceView, view per pair.
+  const pairs = [0, 1, 0, 2, 3, 4, 0, 5, 3, 6];
+  assert.deepEqual(pairGroups(pairs, 1), [[0, [0, 1, 3]], [3, [2, 4]]]);
+  assert.deepEqual(pairGroups(pairs, 2), [[0, [0, 1, 3]], [3, [2, 4]]]);
+  assert.deepEqual(pairGroups(pairs, 3), [[0, [0, 1]], [0, [3]], [3, [2, 4]]]);
+  assert.deepEqual(pairGroups(pairs, 9), [[0, [0]], [0, [1]], [0, [3]], [3, [2]], [3, [4]]]);
+  // A targetless scene of one frame: one reference view, its pairs shared when workers allow.
+  assert.deepEqual(pairGroups([2, 0, 2, 1], 2), [[2, [0]], [2, [1]]]);
+  assert.deepEqual(pairGroups([2, 0], 4), [[2, [0]]]);
+  assert.deepEqual(pairGroups([], 2), []);
 });
 
 // A remote worker in this thread: shard-worker.js's calls, answered as promises.
@@ -109,15 +122,21 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.equal(loneDriven.workers, 1);
   // OpenCalib's real road rig, three LiDARs: the global stage has two sensors to align, so a
   // remote takes one (its job through structured clone, as between workers) while this worker
-  // aligns the other, and the result is calibrate's whole, the verdict and notes included.
+  // aligns the other, and likewise one of the two frame pairs; the result is calibrate's
+  // whole, the verdict and notes included.
   const fixture = new URL('../../tests/fixtures/opencalib/0001/', import.meta.url);
   const text = async (name) => readFile(new URL(name, fixture), 'utf8');
   const road = wasm.parseOpenCalib(await text('lidar_cloud_path.txt'), 'lidar_cloud_path.txt', await text('initial_extrinsic.txt'), 'initial_extrinsic.txt');
   const roadScans = await Promise.all(road.devices.map(async (d) => ({ sensor: d.name, frame: '1', points: wasm.parseCloud(await readFile(new URL(d.file, fixture)), d.file).points })));
   const trioInput = () => ({ scans: roadScans, nominal: road.nominal, reference: road.reference, target: { kind: 'none' } });
   const remoteSensors = [];
+  let remotePairs = 0;
   const cloned = () => ({
     ...inProcess(),
+    align: async (icp, target, sources, starts) => {
+      remotePairs += sources.length;
+      return wasm.alignPairs(icp, target, sources, starts);
+    },
     alignGlobal: async (job) => {
       remoteSensors.push(job.seed);
       return structuredClone(wasm.alignGlobal(structuredClone(job)));
@@ -127,6 +146,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   const { workers: one, ...trioDirect } = wasm.calibrate(trioInput());
   assert.deepEqual(trioDriven, trioDirect);
   assert.equal(remoteSensors.length, 1);
+  assert.equal(remotePairs, 1, 'the lone reference view\'s two pairs are shared too');
   assert.equal(typeof remoteSensors[0], 'bigint', 'the seed crosses as a BigInt, never rounded');
   assert.equal(trioWorkers, 2);
   // The global stage's calls, out of turn or with bad data, are errors, not crashes.
