@@ -210,3 +210,31 @@ fn the_global_stage_gives_the_same_calibration_however_its_sensors_are_shared() 
     let two = calib::calibrate(&rig, &threaded, |_| Control::Continue).expect("two threads");
     assert_eq!(format!("{two:?}"), expected);
 }
+
+/// A cancel while the global stage runs (it reports no progress of its own, so a driver
+/// cancels between phases) stops the next phase at once, and no later method starts.
+#[test]
+fn a_run_cancelled_in_its_global_stage_stops_its_next_phase_at_once() {
+    let preset = Preset::paper();
+    let scans: Vec<Scan> = preset
+        .simulate(2, 5)
+        .into_iter()
+        .map(|v| Scan { sensor: v.sensor, frame: v.frame, points: v.cloud.points, source: None })
+        .collect();
+    let nominal = preset.sensors.iter().map(|s| (s.name.clone(), s.mount)).collect();
+    let rig = Rig { scans, nominal, roi: Some(preset.roi), reference: None };
+    let settings = calib::Settings::default();
+    let methods = [calib::Method::Gmm, calib::Method::Jrmpc];
+    let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &methods);
+    assert_eq!(run.phase(), calib::Phase::Global);
+    run.cancel();
+    run.advance();
+    assert_eq!(run.phase(), calib::Phase::Em);
+    assert!(run.em().expect("EM").finished(), "EM stops before its first iteration");
+    run.drive(1, &mut |_, _| Control::Continue);
+    let outcomes = run.into_outcomes();
+    assert_eq!(outcomes.len(), 1, "no later method starts");
+    if let (_, Ok(calibration)) = &outcomes[0] {
+        assert!(calibration.cancelled && calibration.iterations == 0, "{calibration:?}");
+    }
+}

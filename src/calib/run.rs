@@ -362,7 +362,13 @@ impl<'r> Run<'r> {
             Ok((views, pairs.map(|p| State::Pairs(None, p))))
         });
         match started {
-            Ok((views, Some(state))) => self.current = Some((index, views, state)),
+            Ok((views, Some(state))) => {
+                self.current = Some((index, views, state));
+                // Cancelled during the global stage: its first phase stops at once.
+                if self.cancelled {
+                    self.cancel();
+                }
+            }
             // No stage to run (a method without registrations cannot be configured today).
             Ok((views, None)) => self.done(index, finish(views, None, None)),
             Err(e) => self.done(index, Err(e)),
