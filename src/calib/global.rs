@@ -218,17 +218,8 @@ impl GlobalStage {
     pub fn align(&mut self, which: &[usize], threads: usize) {
         let jobs: Vec<(usize, GlobalJob)> =
             which.iter().filter_map(|&s| Some((s, self.job(s)?))).collect();
-        let threads = crate::threads_here(threads).min(jobs.len());
-        let done: Vec<(usize, GlobalAlignment)> = if threads <= 1 {
-            jobs.iter().map(|(s, job)| (*s, job.run())).collect()
-        } else {
-            std::thread::scope(|scope| {
-                let handles: Vec<_> =
-                    jobs.iter().map(|(s, job)| scope.spawn(move || (*s, job.run()))).collect();
-                let joined = handles.into_iter().map(|h| h.join());
-                joined.map(|r| r.expect("a global alignment thread panicked")).collect()
-            })
-        };
+        let done =
+            crate::on_threads(&jobs, crate::threads_here(threads), |(s, job)| (*s, job.run()));
         for (s, alignment) in done {
             self.record(s, alignment);
         }

@@ -264,12 +264,12 @@ impl FramePairs {
             needed.sort_unstable();
             needed.dedup();
             let icp = &self.icp;
-            let built = on_threads(&needed, threads, |&r| target(clouds[r], icp));
+            let built = crate::on_threads(&needed, threads, |&r| target(clouds[r], icp));
             for (&r, built) in needed.iter().zip(built) {
                 targets[r] = Some(built);
             }
             let pairs = &self.pairs;
-            let aligned = on_threads(batch, threads, |&j| {
+            let aligned = crate::on_threads(batch, threads, |&j| {
                 let pair = &pairs[j];
                 let target = targets[pair.reference_view].as_ref().expect("built for the batch");
                 match target {
@@ -355,22 +355,6 @@ impl FramePairs {
         }
         (refined, failures)
     }
-}
-
-/// `f` of every item, in order, on up to `threads` threads (contiguous slices).
-fn on_threads<T: Sync, R: Send>(items: &[T], threads: usize, f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    if threads <= 1 || items.len() <= 1 {
-        return items.iter().map(f).collect();
-    }
-    let per = items.len().div_ceil(threads);
-    let f = &f;
-    std::thread::scope(|scope| {
-        let handles: Vec<_> = items
-            .chunks(per)
-            .map(|chunk| scope.spawn(move || chunk.iter().map(f).collect::<Vec<R>>()))
-            .collect();
-        handles.into_iter().flat_map(|h| h.join().expect("a refinement thread panicked")).collect()
-    })
 }
 
 /// The note for `end` too far from `start` to be trusted, if it is.

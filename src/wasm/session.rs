@@ -89,7 +89,6 @@ impl CalibrationSession {
     #[wasm_bindgen(js_name = globalJob)]
     pub fn global_job(&mut self, sensor: usize) -> Result<JsValue, JsError> {
         let stage = self.run_mut()?.global_stage().ok_or_else(no_global)?;
-        check_pending(&stage.pending(), sensor)?;
         let job = stage.job(sensor).ok_or_else(|| not_pending(sensor))?;
         let reference: Vec<f64> =
             job.reference.points.iter().flat_map(|p| p.iter().copied()).collect();
@@ -110,6 +109,7 @@ impl CalibrationSession {
     pub fn record_global(&mut self, sensor: usize, alignment: JsValue) -> Result<(), JsError> {
         let alignment: GlobalAlignment = serde_wasm_bindgen::from_value(alignment)
             .map_err(|e| JsError::new(&format!("recordGlobal: not a global alignment: {e}")))?;
+        from_quaternion_xyz(&to_quaternion_xyz(&alignment.applied)).ok_or_else(bad_pose)?;
         let stage = self.run_mut()?.global_stage().ok_or_else(no_global)?;
         check_pending(&stage.pending(), sensor)?;
         stage.record(sensor, alignment);

@@ -162,6 +162,9 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.throws(() => wasm.alignGlobal({ ...job, settings: 'fast' }), /alignGlobal: invalid job/);
   assert.throws(() => aligning.recordGlobal(2, { applied: 'here' }), /not a global alignment/);
   const found = wasm.alignGlobal(job);
+  const skewed = structuredClone(found);
+  skewed.applied.rotation[3] *= 2;
+  assert.throws(() => aligning.recordGlobal(2, skewed), /unit quaternion/);
   aligning.recordGlobal(2, found);
   assert.throws(() => aligning.recordGlobal(2, found), /sensor 2 is not waiting/);
   aligning.alignGlobally(Uint32Array.of(1));
