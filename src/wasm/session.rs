@@ -1,7 +1,8 @@
 //! `CalibrationSession`, `JrmpcShard`, `alignGlobal` and `alignPairs`: the library's [`Run`]
 //! driven step by step from JS, so a pool of workers can share the global stage's sensors,
-//! JRMPC's E-step and the frame pairs' ICP (docs/api.md). The session forwards to the run, which owns the control flow (phases,
-//! methods, failures); the flat formats are `jrmpc::wire`'s and `se3::to_quaternion_xyz`'s.
+//! JRMPC's E-step and the frame pairs' ICP (docs/api.md). The session forwards to the run,
+//! which owns the control flow (phases, methods, failures); the flat formats are
+//! `jrmpc::wire`'s and `se3::to_quaternion_xyz`'s.
 //! The M-step takes every view's statistics in view order, and the global alignments and the
 //! frame pairs' outcomes are kept by sensor and pair, so the result is `calibrate`'s, bit for
 //! bit, however the work is split.
@@ -333,12 +334,7 @@ fn bigints() -> serde_wasm_bindgen::Serializer {
 pub fn align_global(job: JsValue) -> Result<JsValue, JsError> {
     let wire: GlobalJobWire = serde_wasm_bindgen::from_value(job)
         .map_err(|e| JsError::new(&format!("alignGlobal: invalid job: {e}")))?;
-    let scan = Cloud::from_flat(&wire.scan.to_vec()).ok_or_else(|| {
-        JsError::new(&format!(
-            "alignGlobal: the scan's {} numbers are not points",
-            wire.scan.length()
-        ))
-    })?;
+    let scan = cloud_from(&wire.scan.to_vec(), "alignGlobal", "scan")?;
     let flat = wire.reference.to_vec();
     if flat.len() % 3 != 0 {
         let what = format!("alignGlobal: the reference's {} numbers are not points", flat.len());
@@ -385,7 +381,7 @@ pub fn align_pairs(
             sources.length()
         )));
     }
-    let target = cloud_from(target, "target")?;
+    let target = cloud_from(target, "alignPairs", "target")?;
     let built = calib::target(&target.points, &icp);
     let outcomes = Array::new();
     for (i, (source, start)) in sources.iter().zip(starts.chunks_exact(7)).enumerate() {
@@ -408,13 +404,13 @@ fn cloud_of(value: &JsValue, what: &str) -> Result<Cloud, JsError> {
         .dyn_ref::<Float32Array>()
         .ok_or_else(|| JsError::new(&format!("alignPairs: the {what} is not a Float32Array")))?
         .to_vec();
-    cloud_from(&flat, what)
+    cloud_from(&flat, "alignPairs", what)
 }
 
-/// `flat` (`x, y, z, ...`) as a cloud, or an error naming `what`.
-fn cloud_from(flat: &[f32], what: &str) -> Result<Cloud, JsError> {
+/// `flat` (`x, y, z, ...`) as a cloud, or an error naming the function `call` and `what`.
+fn cloud_from(flat: &[f32], call: &str, what: &str) -> Result<Cloud, JsError> {
     Cloud::from_flat(flat).ok_or_else(|| {
-        JsError::new(&format!("alignPairs: the {what}'s {} numbers are not points", flat.len()))
+        JsError::new(&format!("{call}: the {what}'s {} numbers are not points", flat.len()))
     })
 }
 

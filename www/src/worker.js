@@ -13,8 +13,8 @@ const recordings = new Map();
 let nextRecording = 1;
 
 // Compiled here once and handed to the pool workers (shard-pool.js): a posted module shares
-// its compiled code, so a pool worker neither compiles it again nor starts on baseline code
-// (a freshly compiled pool worker took twice as long over the same global alignment).
+// its compiled code, so a pool worker does not compile it again (one answers 10-20 ms after
+// it is started).
 const compiled = WebAssembly.compileStreaming(fetch(wasmUrl));
 const ready = compiled.then((module) => init({ module_or_path: module }));
 
