@@ -8,10 +8,13 @@
 //! distance taken along that point's surface normal. Points with no reference surface near do
 //! not overlap and count neither way: a small residual over nothing is no evidence.
 
+use std::borrow::Cow;
+
 use nalgebra::{Matrix6, Point3, SymmetricEigen, Vector3, Vector6};
 
-use crate::icp::KdTree;
-use crate::plane::{Plane, principal_axes};
+use crate::icp::normals::{self, Neighbourhood};
+use crate::icp::{KdTree, TargetCloud};
+use crate::plane::Plane;
 use crate::se3::Pose;
 
 /// Sensor points taken per view (strided, deterministic): enough for shares to a percent and
@@ -112,7 +115,7 @@ pub struct SensorEvidence {
 /// neighbourhood is a line or a point) and the surface's thickness.
 pub(super) struct ReferenceSurface<'a> {
     points: &'a [[f32; 3]],
-    tree: KdTree,
+    tree: Cow<'a, KdTree>,
     normals: Vec<Vector3<f64>>,
     radius: f64,
     noise: f64,
@@ -121,25 +124,45 @@ pub(super) struct ReferenceSurface<'a> {
 impl<'a> ReferenceSurface<'a> {
     pub(super) fn new(points: &'a [[f32; 3]], ground: Option<&Plane>) -> Self {
         let tree = KdTree::new(points);
+        let neighbourhoods = normals::neighbourhoods(points, &tree, NEIGHBOURS);
+        Self::from_neighbourhoods(points, Cow::Owned(tree), &neighbourhoods, ground)
+    }
+
+    /// The surface of `points` from the ICP target built on them, whose tree and neighbourhoods
+    /// it takes instead of searching again: the same surface as [`ReferenceSurface::new`]'s.
+    /// `None` unless the target kept its neighbourhoods, of as many neighbours, on the same
+    /// points (not downsampled).
+    pub(super) fn of_target(
+        target: &'a TargetCloud,
+        points: &[[f32; 3]],
+        ground: Option<&Plane>,
+    ) -> Option<Self> {
+        let neighbourhoods = target.neighbourhoods();
+        let same = target.neighbours() == NEIGHBOURS && target.points() == points;
+        (same && neighbourhoods.len() == points.len()).then(|| {
+            let tree = Cow::Borrowed(target.tree());
+            Self::from_neighbourhoods(target.points(), tree, neighbourhoods, ground)
+        })
+    }
+
+    fn from_neighbourhoods(
+        points: &'a [[f32; 3]],
+        tree: Cow<'a, KdTree>,
+        neighbourhoods: &[Option<Neighbourhood>],
+        ground: Option<&Plane>,
+    ) -> Self {
         let mut normals = vec![Vector3::zeros(); points.len()];
         let (mut thickness, mut spacing) = (Vec::new(), Vec::new());
-        tree.for_each_k_nearest(NEIGHBOURS, |i, neighbours| {
-            if neighbours.len() < 3 {
-                return;
+        for (normal, n) in normals.iter_mut().zip(neighbourhoods) {
+            let Some(n) = n else { continue };
+            spacing.push(n.reach);
+            let Some((variances, least)) = n.shape else { continue };
+            if variances[1].max(0.0).sqrt() < MIN_SURFACE_EXTENT {
+                continue;
             }
-            let local: Vec<Vector3<f64>> =
-                neighbours.iter().map(|n| Vector3::from(points[n.index].map(f64::from))).collect();
-            spacing.push(neighbours.last().map_or(0.0, |n| n.sq_distance.sqrt()));
-            let Some((_, eigen)) = principal_axes(&local) else { return };
-            let mut values: Vec<(f64, usize)> =
-                eigen.eigenvalues.iter().copied().zip(0..3).collect();
-            values.sort_by(|a, b| a.0.total_cmp(&b.0));
-            if values[1].0.max(0.0).sqrt() < MIN_SURFACE_EXTENT {
-                return;
-            }
-            normals[i] = eigen.eigenvectors.column(values[0].1).into_owned();
-            thickness.push(values[0].0.max(0.0).sqrt());
-        });
+            *normal = least;
+            thickness.push(variances[0].max(0.0).sqrt());
+        }
         if let Some(g) = ground {
             for (p, n) in points.iter().zip(&mut normals) {
                 if g.distance(&Vector3::from(p.map(f64::from))).abs() <= GROUND_BAND {
@@ -357,5 +380,39 @@ mod tests {
             None,
         );
         assert_eq!((e.after.overlapping, e.after.share()), (0, 0.0));
+    }
+
+    #[test]
+    fn a_frame_pairs_target_gives_the_surface_searched_again() {
+        use crate::icp::{IcpSettings, Metric};
+        // A corner with centimetre ripples, so thickness and normals are not exact.
+        let reference: Vec<[f32; 3]> = corner(0.05)
+            .into_iter()
+            .enumerate()
+            .map(|(i, p)| p.map(|c| c + 0.01 * ((i as f32) * 0.7).sin()))
+            .collect();
+        let ground = Plane { normal: Vector3::z(), offset: 0.0 };
+        let settings = IcpSettings::default();
+        let target = TargetCloud::gicp_with_neighbourhoods(&reference, &settings).unwrap();
+        let shared = ReferenceSurface::of_target(&target, &reference, Some(&ground)).unwrap();
+        let searched = ReferenceSurface::new(&reference, Some(&ground));
+        assert_eq!(shared.normals, searched.normals);
+        assert_eq!((shared.radius, shared.noise), (searched.radius, searched.noise));
+        assert!(shared.noise > MIN_NOISE, "{}", shared.noise);
+
+        // ICP sees the same target; the surface is not taken when the target's points or
+        // neighbourhoods differ from its own.
+        let plain = TargetCloud::new(&reference, Metric::Gicp, &settings).unwrap();
+        assert_eq!(plain.covariances(), target.covariances());
+        let fewer = IcpSettings { neighbours: 10, ..settings.clone() };
+        let thinned = IcpSettings { voxel: Some(0.1), ..settings.clone() };
+        for other in [
+            plain,
+            TargetCloud::gicp_with_neighbourhoods(&reference, &fewer).unwrap(),
+            TargetCloud::gicp_with_neighbourhoods(&reference, &thinned).unwrap(),
+        ] {
+            assert!(ReferenceSurface::of_target(&other, &reference, None).is_none());
+        }
+        assert!(ReferenceSurface::of_target(&target, &reference[1..], None).is_none());
     }
 }

@@ -125,9 +125,14 @@ pub(super) fn finish(
     reconstruction.placements = placements;
     // The verdict, from evidence measured on the same views.
     let mut surfaces: Vec<Option<ReferenceSurface>> = clouds.iter().map(|_| None).collect();
-    for &(reference_view, _) in &frame_pairs[r] {
-        surfaces[reference_view] =
-            Some(ReferenceSurface::new(clouds[reference_view], ground.as_ref()));
+    for &(view, _) in &frame_pairs[r] {
+        // The frame pairs' ICP target of this view, where it was built here, has searched
+        // the same neighbourhoods already.
+        let target = pairs.as_ref().and_then(|p| p.target(view));
+        let shared =
+            target.and_then(|t| ReferenceSurface::of_target(t, clouds[view], ground.as_ref()));
+        surfaces[view] =
+            Some(shared.unwrap_or_else(|| ReferenceSurface::new(clouds[view], ground.as_ref())));
     }
     let count = |notes: &[Note], sensor: &str, kinds: &dyn Fn(&NoteKind) -> bool| {
         notes.iter().filter(|n| n.sensor == sensor && kinds(&n.kind)).count()

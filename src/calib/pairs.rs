@@ -119,9 +119,14 @@ pub struct FramePair {
 }
 
 /// The ICP target of reference view `cloud`, with the ground's normals. Build it once per
-/// reference view: every sensor's pair of that frame aligns onto it.
+/// reference view: every sensor's pair of that frame aligns onto it. A GICP target keeps its
+/// points' neighbourhoods, which the verdict reads afterwards.
 pub fn target(cloud: &[[f32; 3]], icp: &PairIcp) -> Result<icp::TargetCloud, icp::IcpError> {
-    let mut target = icp::TargetCloud::new(cloud, icp.settings.metric, &icp.settings.icp)?;
+    let settings = &icp.settings;
+    let mut target = match settings.metric {
+        icp::Metric::Gicp => icp::TargetCloud::gicp_with_neighbourhoods(cloud, &settings.icp)?,
+        metric => icp::TargetCloud::new(cloud, metric, &settings.icp)?,
+    };
     if let Some((plane, band)) = icp.ground {
         target.set_normals(|p| {
             let p = Vector3::from(p.map(f64::from));
@@ -173,6 +178,8 @@ pub struct FramePairs {
     stopped: bool,
     /// Starting corrections set aside before registering (noted with the failures).
     set_aside: Vec<PairFailure>,
+    /// Per view, the ICP target built here when a pair first needed it.
+    targets: Vec<Option<Result<icp::TargetCloud, icp::IcpError>>>,
 }
 
 impl FramePairs {
@@ -211,6 +218,7 @@ impl FramePairs {
             sensors: pairs.len(),
             stopped: false,
             set_aside,
+            targets: Vec::new(),
         }
     }
 
@@ -249,12 +257,12 @@ impl FramePairs {
             .filter(|&j| self.outcomes.get(j).is_some_and(Option::is_none))
             .collect();
         // Targets are built once per reference view, when a batch first needs it, and shared
-        // by every sensor.
-        let mut targets: Vec<Option<Result<icp::TargetCloud, icp::IcpError>>> =
-            (0..clouds.len()).map(|_| None).collect();
+        // by every sensor; they are kept for the verdict.
+        let mut targets = std::mem::take(&mut self.targets);
+        targets.resize_with(clouds.len(), || None);
         for batch in todo.chunks(4 * threads) {
             if self.stopped {
-                return;
+                break;
             }
             let mut needed: Vec<usize> = batch
                 .iter()
@@ -289,6 +297,12 @@ impl FramePairs {
                 }
             }
         }
+        self.targets = targets;
+    }
+
+    /// The ICP target of reference view `view`, when [`FramePairs::run`] built one.
+    pub fn target(&self, view: usize) -> Option<&icp::TargetCloud> {
+        self.targets.get(view)?.as_ref()?.as_ref().ok()
     }
 
     /// Stops: no later [`FramePairs::run`] registers anything.

@@ -56,7 +56,7 @@ enum State {
     /// EM under way; the views' centred points until a driver takes them for its shards.
     Em(Em, Option<CentredViews>),
     /// The frame pairs, registered as far as they are; JRMPC's result for the GMM methods.
-    Pairs(Option<Registration>, FramePairs),
+    Pairs(Option<Registration>, Box<FramePairs>),
     /// `cad`'s registration, once run.
     Cad(Option<Result<Registration, CalibError>>),
 }
@@ -211,13 +211,14 @@ impl<'r> Run<'r> {
                 let registration = em.into_registration();
                 match views.frame_pairs(Some(&registration)) {
                     Some(pairs) => {
-                        self.current = Some((index, views, State::Pairs(Some(registration), pairs)))
+                        self.current =
+                            Some((index, views, State::Pairs(Some(registration), Box::new(pairs))))
                     }
                     None => self.done(index, finish(views, Some(registration), None)),
                 }
             }
             State::Pairs(registration, pairs) => {
-                self.done(index, finish(views, registration, Some(pairs)))
+                self.done(index, finish(views, registration, Some(*pairs)))
             }
             State::Cad(outcome) => {
                 let outcome = outcome
@@ -359,7 +360,7 @@ impl<'r> Run<'r> {
                 return Ok((views, Some(State::Em(em, Some(points)))));
             }
             let pairs = views.frame_pairs(None);
-            Ok((views, pairs.map(|p| State::Pairs(None, p))))
+            Ok((views, pairs.map(|p| State::Pairs(None, Box::new(p)))))
         });
         match started {
             Ok((views, Some(state))) => {

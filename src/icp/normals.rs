@@ -29,13 +29,26 @@ pub fn normals(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Vector3<f64>
 /// `PLANE_IN_PLANE`, `PLANE_NORMAL`, so every surface is modelled as a thin plane. Identity
 /// (no preferred direction) where the neighbourhood has no shape.
 pub fn plane_covariances(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Matrix3<f64>> {
-    shapes(points, tree, k, Matrix3::identity(), |eig| {
-        let normal_axis = eig.eigenvalues.imin();
-        let values =
-            Vector3::from_fn(|i, _| if i == normal_axis { PLANE_NORMAL } else { PLANE_IN_PLANE });
-        let v = &eig.eigenvectors;
-        v * Matrix3::from_diagonal(&values) * v.transpose()
-    })
+    shapes(points, tree, k, Matrix3::identity(), thin_plane)
+}
+
+/// [`plane_covariances`] and every point's [`Neighbourhood`], from one search: a target that
+/// the verdict reads too is searched once.
+pub fn plane_covariances_and_neighbourhoods(
+    points: &[[f32; 3]],
+    tree: &KdTree,
+    k: usize,
+) -> (Vec<Matrix3<f64>>, Vec<Option<Neighbourhood>>) {
+    shapes_and_neighbourhoods(points, tree, k, Matrix3::identity(), thin_plane)
+}
+
+/// The GICP covariance of a neighbourhood with principal axes `eig`.
+fn thin_plane(eig: &SymmetricEigen<f64, U3>) -> Matrix3<f64> {
+    let normal_axis = eig.eigenvalues.imin();
+    let values =
+        Vector3::from_fn(|i, _| if i == normal_axis { PLANE_NORMAL } else { PLANE_IN_PLANE });
+    let v = &eig.eigenvectors;
+    v * Matrix3::from_diagonal(&values) * v.transpose()
 }
 
 /// The plane-regularised covariance of a surface with unit `normal`: `PLANE_IN_PLANE` along
@@ -43,6 +56,51 @@ pub fn plane_covariances(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Ma
 pub fn plane_covariance(normal: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::identity() * PLANE_IN_PLANE
         - normal * normal.transpose() * (PLANE_IN_PLANE - PLANE_NORMAL)
+}
+
+/// What a point's nearest neighbours say of the surface there beyond ICP's normal or
+/// covariance (the verdict's evidence reads the surface's thickness and sampling from it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Neighbourhood {
+    /// Distance (m) to the farthest of the neighbours.
+    pub reach: f64,
+    /// The principal variances (m^2), least first, and the unit direction of the least (sign
+    /// arbitrary); `None` where the neighbourhood has no shape.
+    pub shape: Option<([f64; 3], Vector3<f64>)>,
+}
+
+/// Every point's [`Neighbourhood`] of `k` nearest neighbours in `tree` (built from `points`);
+/// `None` where fewer than three neighbours were found, which say nothing of a surface.
+pub fn neighbourhoods(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Option<Neighbourhood>> {
+    shapes_and_neighbourhoods(points, tree, k, (), |_| ()).1
+}
+
+/// [`shapes`] and every point's [`Neighbourhood`], from one search.
+fn shapes_and_neighbourhoods<T: Clone>(
+    points: &[[f32; 3]],
+    tree: &KdTree,
+    k: usize,
+    shapeless: T,
+    shape: impl Fn(&SymmetricEigen<f64, U3>) -> T,
+) -> (Vec<T>, Vec<Option<Neighbourhood>>) {
+    let mut out = vec![shapeless; points.len()];
+    let mut neighbourhoods = vec![None; points.len()];
+    each_shape(points, tree, k, |i, neighbours, eig| {
+        if let Some(eig) = eig {
+            out[i] = shape(eig);
+        }
+        if neighbours.len() < 3 {
+            return;
+        }
+        let reach = neighbours.last().map_or(0.0, |n| n.sq_distance.sqrt());
+        let shape = eig.map(|eig| {
+            let mut axes: [(f64, usize); 3] = [0, 1, 2].map(|j| (eig.eigenvalues[j], j));
+            axes.sort_by(|a, b| a.0.total_cmp(&b.0));
+            (axes.map(|(v, _)| v), eig.eigenvectors.column(axes[0].1).into_owned())
+        });
+        neighbourhoods[i] = Some(Neighbourhood { reach, shape });
+    });
+    (out, neighbourhoods)
 }
 
 /// `shape(eigen-decomposition of the neighbourhood covariance)` for every point, or
@@ -55,6 +113,22 @@ fn shapes<T: Clone>(
     shape: impl Fn(&SymmetricEigen<f64, U3>) -> T,
 ) -> Vec<T> {
     let mut out = vec![shapeless; points.len()];
+    each_shape(points, tree, k, |i, _, eig| {
+        if let Some(eig) = eig {
+            out[i] = shape(eig);
+        }
+    });
+    out
+}
+
+/// `f(point, its k nearest neighbours, the eigen-decomposition of their covariance)` for every
+/// point of `points`; the decomposition is `None` where the neighbourhood has no shape.
+fn each_shape(
+    points: &[[f32; 3]],
+    tree: &KdTree,
+    k: usize,
+    mut f: impl FnMut(usize, &[Neighbour], Option<&SymmetricEigen<f64, U3>>),
+) {
     tree.for_each_k_nearest(k, |i, neighbours| {
         // Indices beyond `points` (a tree built from other points) are skipped, not a panic.
         let Some(q) = points.get(i).map(|p| p.map(f64::from)) else {
@@ -66,11 +140,8 @@ fn shapes<T: Clone>(
             let largest = eig.eigenvalues.max();
             (largest.is_finite() && largest > MIN_VARIANCE).then_some(eig)
         });
-        if let Some(eig) = eig {
-            out[i] = shape(&eig);
-        }
+        f(i, neighbours, eig.as_ref());
     });
-    out
 }
 
 /// Sample covariance (m^2) of the neighbours, accumulated relative to `q` to keep precision
