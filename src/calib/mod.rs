@@ -27,6 +27,7 @@ pub mod global;
 mod level;
 mod notes;
 mod pairs;
+mod placed;
 mod planes;
 mod progress;
 mod reconstruction;

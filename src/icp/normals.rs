@@ -19,9 +19,10 @@ const MIN_VARIANCE: f64 = 1e-12;
 /// nearest neighbours in `tree`, which must be built from `points`. Zero where the
 /// neighbourhood has no shape (all neighbours coincide, or the point is not finite).
 pub fn normals(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Vector3<f64>> {
-    shapes(points, tree, k, Vector3::zeros(), |eig| {
+    let normal = |eig: &SymmetricEigen<f64, U3>| {
         eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned()
-    })
+    };
+    shapes(points, tree, k, Vector3::zeros(), normal, false).0
 }
 
 /// GICP covariance (m^2) of each point: the principal directions of its `k` nearest
@@ -29,7 +30,7 @@ pub fn normals(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Vector3<f64>
 /// `PLANE_IN_PLANE`, `PLANE_NORMAL`, so every surface is modelled as a thin plane. Identity
 /// (no preferred direction) where the neighbourhood has no shape.
 pub fn plane_covariances(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Matrix3<f64>> {
-    shapes(points, tree, k, Matrix3::identity(), thin_plane)
+    shapes(points, tree, k, Matrix3::identity(), thin_plane, false).0
 }
 
 /// [`plane_covariances`] and every point's [`Neighbourhood`], from one search: a target that
@@ -39,7 +40,7 @@ pub fn plane_covariances_and_neighbourhoods(
     tree: &KdTree,
     k: usize,
 ) -> (Vec<Matrix3<f64>>, Vec<Option<Neighbourhood>>) {
-    shapes_and_neighbourhoods(points, tree, k, Matrix3::identity(), thin_plane)
+    shapes(points, tree, k, Matrix3::identity(), thin_plane, true)
 }
 
 /// The GICP covariance of a neighbourhood with principal axes `eig`.
@@ -72,63 +73,22 @@ pub struct Neighbourhood {
 /// Every point's [`Neighbourhood`] of `k` nearest neighbours in `tree` (built from `points`);
 /// `None` where fewer than three neighbours were found, which say nothing of a surface.
 pub fn neighbourhoods(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Option<Neighbourhood>> {
-    shapes_and_neighbourhoods(points, tree, k, (), |_| ()).1
-}
-
-/// [`shapes`] and every point's [`Neighbourhood`], from one search.
-fn shapes_and_neighbourhoods<T: Clone>(
-    points: &[[f32; 3]],
-    tree: &KdTree,
-    k: usize,
-    shapeless: T,
-    shape: impl Fn(&SymmetricEigen<f64, U3>) -> T,
-) -> (Vec<T>, Vec<Option<Neighbourhood>>) {
-    let mut out = vec![shapeless; points.len()];
-    let mut neighbourhoods = vec![None; points.len()];
-    each_shape(points, tree, k, |i, neighbours, eig| {
-        if let Some(eig) = eig {
-            out[i] = shape(eig);
-        }
-        if neighbours.len() < 3 {
-            return;
-        }
-        let reach = neighbours.last().map_or(0.0, |n| n.sq_distance.sqrt());
-        let shape = eig.map(|eig| {
-            let mut axes: [(f64, usize); 3] = [0, 1, 2].map(|j| (eig.eigenvalues[j], j));
-            axes.sort_by(|a, b| a.0.total_cmp(&b.0));
-            (axes.map(|(v, _)| v), eig.eigenvectors.column(axes[0].1).into_owned())
-        });
-        neighbourhoods[i] = Some(Neighbourhood { reach, shape });
-    });
-    (out, neighbourhoods)
+    shapes(points, tree, k, (), |_| (), true).1
 }
 
 /// `shape(eigen-decomposition of the neighbourhood covariance)` for every point, or
-/// `shapeless` where the neighbourhood has no shape.
+/// `shapeless` where the neighbourhood has no shape; with `keep`, also every point's
+/// [`Neighbourhood`] from the same search (else none).
 fn shapes<T: Clone>(
     points: &[[f32; 3]],
     tree: &KdTree,
     k: usize,
     shapeless: T,
     shape: impl Fn(&SymmetricEigen<f64, U3>) -> T,
-) -> Vec<T> {
+    keep: bool,
+) -> (Vec<T>, Vec<Option<Neighbourhood>>) {
     let mut out = vec![shapeless; points.len()];
-    each_shape(points, tree, k, |i, _, eig| {
-        if let Some(eig) = eig {
-            out[i] = shape(eig);
-        }
-    });
-    out
-}
-
-/// `f(point, its k nearest neighbours, the eigen-decomposition of their covariance)` for every
-/// point of `points`; the decomposition is `None` where the neighbourhood has no shape.
-fn each_shape(
-    points: &[[f32; 3]],
-    tree: &KdTree,
-    k: usize,
-    mut f: impl FnMut(usize, &[Neighbour], Option<&SymmetricEigen<f64, U3>>),
-) {
+    let mut neighbourhoods = if keep { vec![None; points.len()] } else { Vec::new() };
     tree.for_each_k_nearest(k, |i, neighbours| {
         // Indices beyond `points` (a tree built from other points) are skipped, not a panic.
         let Some(q) = points.get(i).map(|p| p.map(f64::from)) else {
@@ -140,8 +100,26 @@ fn each_shape(
             let largest = eig.eigenvalues.max();
             (largest.is_finite() && largest > MIN_VARIANCE).then_some(eig)
         });
-        f(i, neighbours, eig.as_ref());
+        if let Some(eig) = &eig {
+            out[i] = shape(eig);
+        }
+        if keep && neighbours.len() >= 3 {
+            neighbourhoods[i] = Some(neighbourhood(neighbours, eig.as_ref()));
+        }
     });
+    (out, neighbourhoods)
+}
+
+/// The [`Neighbourhood`] of `neighbours` (nearest first), whose covariance has the principal
+/// axes `eig`.
+fn neighbourhood(neighbours: &[Neighbour], eig: Option<&SymmetricEigen<f64, U3>>) -> Neighbourhood {
+    let reach = neighbours.last().map_or(0.0, |n| n.sq_distance.sqrt());
+    let shape = eig.map(|eig| {
+        let mut axes: [(f64, usize); 3] = [0, 1, 2].map(|j| (eig.eigenvalues[j], j));
+        axes.sort_by(|a, b| a.0.total_cmp(&b.0));
+        (axes.map(|(v, _)| v), eig.eigenvectors.column(axes[0].1).into_owned())
+    });
+    Neighbourhood { reach, shape }
 }
 
 /// Sample covariance (m^2) of the neighbours, accumulated relative to `q` to keep precision
