@@ -16,6 +16,7 @@ import { writeHash } from './url.js';
 import { describeDone } from './progress.js';
 import { clearState, createState, nominalPoses, pointBounds, rebuildRig, shownPoses, sortScans } from './state.js';
 import { runCalibration } from './run.js';
+import { nextTask } from './tasks.js';
 import { describeInstants, isRecording, renderRecording } from './recording.js';
 import { foldSetup, initInset, initLayout } from './layout.js';
 import { initViewTools } from './viewtools.js';
@@ -53,7 +54,6 @@ function showError(error) {
   $('error').textContent = error ? String(error.message ?? error) : '';
 }
 const setStatus = (text) => ($('status').textContent = text);
-const nextTask = () => new Promise((resolve) => setTimeout(resolve));
 
 // --- view -------------------------------------------------------------------------------------
 

@@ -4,8 +4,7 @@
 // runs them in turn and keeps a failed method's error.
 import { StageClock, describeProgress } from './progress.js';
 import { methodInfo } from './state.js';
-
-const nextTask = () => new Promise((resolve) => setTimeout(resolve));
+import { nextTask } from './tasks.js';
 
 // The scans are copied (the originals stay loaded, whatever happens to the worker) one per task:
 // copying millions of points at once would block the page for 100 ms and more.

@@ -8,6 +8,7 @@
 // phase comes next, and the loop over methods when comparing, are the session's. The result is
 // `calibrate`'s, bit for bit, for any number of workers. JRMPC's E-step may run on the GPU
 // instead (gpu-estep.js): within the fidelity rule of the CPU's result, not bit for bit.
+import { nextTask } from './tasks.js';
 
 // Contiguous slices of views with about equal points: [{first, count}], at most `parts`, none
 // empty. The E-step costs about the same per point, so equal points balance the workers.
@@ -91,16 +92,6 @@ export class RemoteWorker {
   }
 }
 
-// Lets the event loop run (other workers' replies) without setTimeout's 4 ms clamp.
-const yieldToEvents = () => new Promise((resolve) => {
-  const channel = new MessageChannel();
-  channel.port1.onmessage = () => {
-    channel.port1.close(); // an open port would keep Node's event loop alive
-    resolve();
-  };
-  channel.port2.postMessage(null);
-});
-
 // Runs `loops` (async functions) to their ends; the first failure stops the others (`stop()`
 // makes their queues look empty) and is thrown once all have ended, so none touches the
 // session after it is freed.
@@ -130,7 +121,7 @@ async function shareGlobal(session, pool) {
   const local = async () => {
     for (let sensor = next(); sensor !== undefined; sensor = next()) {
       session.alignGlobally(Uint32Array.of(sensor));
-      await yieldToEvents();
+      await nextTask();
     }
   };
   // The remotes take their first sensors before this worker starts on one, which holds the
@@ -201,7 +192,7 @@ async function shareFramePairs(session, pool, onProgress, workers) {
   const local = async () => {
     for (let group = next(); group; group = next()) {
       session.registerPairs(Uint32Array.from(group[1]), heed);
-      await yieldToEvents();
+      await nextTask();
     }
   };
   const remote = async (worker) => {
