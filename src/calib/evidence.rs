@@ -393,23 +393,29 @@ mod tests {
             .collect();
         let ground = Plane { normal: Vector3::z(), offset: 0.0 };
         let settings = IcpSettings::default();
-        let target = TargetCloud::gicp_with_neighbourhoods(&reference, &settings).unwrap();
-        let shared = ReferenceSurface::of_target(&target, &reference, Some(&ground)).unwrap();
         let searched = ReferenceSurface::new(&reference, Some(&ground));
-        assert_eq!(shared.normals, searched.normals);
-        assert_eq!((shared.radius, shared.noise), (searched.radius, searched.noise));
-        assert!(shared.noise > MIN_NOISE, "{}", shared.noise);
+        assert!(searched.noise > MIN_NOISE, "{}", searched.noise);
+        for metric in [Metric::Gicp, Metric::PointToPlane, Metric::PointToPoint] {
+            let target = TargetCloud::with_neighbourhoods(&reference, metric, &settings).unwrap();
+            let shared = ReferenceSurface::of_target(&target, &reference, Some(&ground)).unwrap();
+            assert_eq!(shared.normals, searched.normals, "{metric:?}");
+            assert_eq!((shared.radius, shared.noise), (searched.radius, searched.noise));
+        }
+        let target = TargetCloud::with_neighbourhoods(&reference, Metric::Gicp, &settings).unwrap();
 
         // ICP sees the same target; the surface is not taken when the target's points or
         // neighbourhoods differ from its own.
         let plain = TargetCloud::new(&reference, Metric::Gicp, &settings).unwrap();
         assert_eq!(plain.covariances(), target.covariances());
+        let kept = TargetCloud::with_neighbourhoods(&reference, Metric::PointToPlane, &settings);
+        let plain_p2l = TargetCloud::new(&reference, Metric::PointToPlane, &settings).unwrap();
+        assert_eq!(plain_p2l.normals(), kept.unwrap().normals());
         let fewer = IcpSettings { neighbours: 10, ..settings.clone() };
         let thinned = IcpSettings { voxel: Some(0.1), ..settings.clone() };
         for other in [
             plain,
-            TargetCloud::gicp_with_neighbourhoods(&reference, &fewer).unwrap(),
-            TargetCloud::gicp_with_neighbourhoods(&reference, &thinned).unwrap(),
+            TargetCloud::with_neighbourhoods(&reference, Metric::Gicp, &fewer).unwrap(),
+            TargetCloud::with_neighbourhoods(&reference, Metric::Gicp, &thinned).unwrap(),
         ] {
             assert!(ReferenceSurface::of_target(&other, &reference, None).is_none());
         }

@@ -119,14 +119,11 @@ pub struct FramePair {
 }
 
 /// The ICP target of reference view `cloud`, with the ground's normals. Build it once per
-/// reference view: every sensor's pair of that frame aligns onto it. A GICP target keeps its
-/// points' neighbourhoods, which the verdict reads afterwards.
+/// reference view: every sensor's pair of that frame aligns onto it. It keeps its points'
+/// neighbourhoods, which the verdict reads afterwards.
 pub fn target(cloud: &[[f32; 3]], icp: &PairIcp) -> Result<icp::TargetCloud, icp::IcpError> {
     let settings = &icp.settings;
-    let mut target = match settings.metric {
-        icp::Metric::Gicp => icp::TargetCloud::gicp_with_neighbourhoods(cloud, &settings.icp)?,
-        metric => icp::TargetCloud::new(cloud, metric, &settings.icp)?,
-    };
+    let mut target = icp::TargetCloud::with_neighbourhoods(cloud, settings.metric, &settings.icp)?;
     if let Some((plane, band)) = icp.ground {
         target.set_normals(|p| {
             let p = Vector3::from(p.map(f64::from));

@@ -19,10 +19,7 @@ const MIN_VARIANCE: f64 = 1e-12;
 /// nearest neighbours in `tree`, which must be built from `points`. Zero where the
 /// neighbourhood has no shape (all neighbours coincide, or the point is not finite).
 pub fn normals(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Vector3<f64>> {
-    let normal = |eig: &SymmetricEigen<f64, U3>| {
-        eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned()
-    };
-    shapes(points, tree, k, Vector3::zeros(), normal, false).0
+    shapes(points, tree, k, Vector3::zeros(), least_spread, false).0
 }
 
 /// GICP covariance (m^2) of each point: the principal directions of its `k` nearest
@@ -33,14 +30,30 @@ pub fn plane_covariances(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Ma
     shapes(points, tree, k, Matrix3::identity(), thin_plane, false).0
 }
 
-/// [`plane_covariances`] and every point's [`Neighbourhood`], from one search: a target that
-/// the verdict reads too is searched once.
-pub fn plane_covariances_and_neighbourhoods(
+/// [`plane_covariances`] and, with `keep`, every point's [`Neighbourhood`] from the same
+/// search: a target that the verdict reads too is searched once.
+pub(super) fn plane_covariances_and_neighbourhoods(
     points: &[[f32; 3]],
     tree: &KdTree,
     k: usize,
+    keep: bool,
 ) -> (Vec<Matrix3<f64>>, Vec<Option<Neighbourhood>>) {
-    shapes(points, tree, k, Matrix3::identity(), thin_plane, true)
+    shapes(points, tree, k, Matrix3::identity(), thin_plane, keep)
+}
+
+/// [`normals`] and, with `keep`, every point's [`Neighbourhood`] from the same search.
+pub(super) fn normals_and_neighbourhoods(
+    points: &[[f32; 3]],
+    tree: &KdTree,
+    k: usize,
+    keep: bool,
+) -> (Vec<Vector3<f64>>, Vec<Option<Neighbourhood>>) {
+    shapes(points, tree, k, Vector3::zeros(), least_spread, keep)
+}
+
+/// The direction of least spread of a neighbourhood with principal axes `eig`.
+fn least_spread(eig: &SymmetricEigen<f64, U3>) -> Vector3<f64> {
+    eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned()
 }
 
 /// The GICP covariance of a neighbourhood with principal axes `eig`.

@@ -8,7 +8,7 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use super::gicp::Gicp;
 use super::kdtree::KdTree;
 use super::normals::{
-    Neighbourhood, normals, plane_covariance, plane_covariances,
+    self, Neighbourhood, normals_and_neighbourhoods, plane_covariance, plane_covariances,
     plane_covariances_and_neighbourhoods,
 };
 use super::plane::PointToPlane;
@@ -51,36 +51,45 @@ impl TargetCloud {
         metric: Metric,
         settings: &IcpSettings,
     ) -> Result<Self, IcpError> {
-        let (points, tree) = indexed(points, Role::Target, settings)?;
-        let k = settings.neighbours;
-        let normals =
-            if metric == Metric::PointToPlane { normals(&points, &tree, k) } else { Vec::new() };
-        let covariances =
-            if metric == Metric::Gicp { plane_covariances(&points, &tree, k) } else { Vec::new() };
-        let neighbourhoods = Vec::new();
-        Ok(Self { metric, points, tree, normals, covariances, neighbourhoods, neighbours: k })
+        Self::build(points, metric, settings, false)
     }
 
-    /// [`TargetCloud::new`] for GICP that also keeps each point's [`Neighbourhood`] from the
-    /// same search, for whoever reads the target's surface afterwards (the verdict's
-    /// evidence): the same covariances, bit for bit.
-    pub fn gicp_with_neighbourhoods(
+    /// [`TargetCloud::new`] that also keeps each point's [`Neighbourhood`] from the search
+    /// that gave its normals or covariances (a search of its own for point-to-point), for
+    /// whoever reads the target's surface afterwards (the verdict's evidence). The same target
+    /// otherwise, bit for bit.
+    pub fn with_neighbourhoods(
         points: &[[f32; 3]],
+        metric: Metric,
         settings: &IcpSettings,
+    ) -> Result<Self, IcpError> {
+        Self::build(points, metric, settings, true)
+    }
+
+    fn build(
+        points: &[[f32; 3]],
+        metric: Metric,
+        settings: &IcpSettings,
+        keep: bool,
     ) -> Result<Self, IcpError> {
         let (points, tree) = indexed(points, Role::Target, settings)?;
         let k = settings.neighbours;
-        let (covariances, neighbourhoods) = plane_covariances_and_neighbourhoods(&points, &tree, k);
-        let metric = Metric::Gicp;
-        Ok(Self {
-            metric,
-            points,
-            tree,
-            normals: Vec::new(),
-            covariances,
-            neighbourhoods,
-            neighbours: k,
-        })
+        let ((normals, covariances), neighbourhoods) = match metric {
+            Metric::PointToPlane => {
+                let (normals, kept) = normals_and_neighbourhoods(&points, &tree, k, keep);
+                ((normals, Vec::new()), kept)
+            }
+            Metric::Gicp => {
+                let (covariances, kept) =
+                    plane_covariances_and_neighbourhoods(&points, &tree, k, keep);
+                ((Vec::new(), covariances), kept)
+            }
+            Metric::PointToPoint if keep => {
+                ((Vec::new(), Vec::new()), normals::neighbourhoods(&points, &tree, k))
+            }
+            Metric::PointToPoint => ((Vec::new(), Vec::new()), Vec::new()),
+        };
+        Ok(Self { metric, points, tree, normals, covariances, neighbourhoods, neighbours: k })
     }
 
     pub fn metric(&self) -> Metric {
