@@ -240,7 +240,7 @@ fn threads_change_nothing_but_the_time() {
 }
 
 /// Frame pairs registered elsewhere (the page's pool workers) and recorded in any order give
-/// the calibration `calibrate` gives.
+/// the calibration and the verdict `calibrate` gives.
 #[test]
 fn frame_pairs_recorded_in_any_order_calibrate_alike() {
     let spec = RigSpec { sensors: 3, frames: 4, seed: 6, ..RigSpec::default() };
@@ -257,7 +257,7 @@ fn frame_pairs_recorded_in_any_order_calibrate_alike() {
     assert_eq!(jobs.len(), 8, "two sensors against the reference, four frames each");
     let icp = pairs.icp().clone();
     for (j, job) in jobs.iter().enumerate().rev() {
-        let target = calib::target(&clouds[job.reference_view], &icp).expect("target");
+        let target = calib::target(&clouds[job.reference_view], &icp, false).expect("target");
         let pose = calib::align(&target, &clouds[job.view], &job.start, &icp);
         pairs.record(j, pose.map_err(|e| e.to_string()));
     }
@@ -273,4 +273,7 @@ fn frame_pairs_recorded_in_any_order_calibrate_alike() {
         assert_eq!((a.name.as_str(), a.correction), (b.name.as_str(), b.correction));
     }
     assert_eq!(direct.skipped.len(), recorded.skipped.len());
+    // The verdict's surfaces came from the frame pairs' targets there and were searched again
+    // here: the same evidence, bit for bit.
+    assert_eq!(direct.verdict, recorded.verdict);
 }

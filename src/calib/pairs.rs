@@ -119,11 +119,19 @@ pub struct FramePair {
 }
 
 /// The ICP target of reference view `cloud`, with the ground's normals. Build it once per
-/// reference view: every sensor's pair of that frame aligns onto it. It keeps its points'
-/// neighbourhoods, which the verdict reads afterwards.
-pub fn target(cloud: &[[f32; 3]], icp: &PairIcp) -> Result<icp::TargetCloud, icp::IcpError> {
-    let settings = &icp.settings;
-    let mut target = icp::TargetCloud::with_neighbourhoods(cloud, settings.metric, &settings.icp)?;
+/// reference view: every sensor's pair of that frame aligns onto it. With `for_verdict` (where
+/// the run finishes), it keeps its points' neighbourhoods, which the verdict reads afterwards.
+pub fn target(
+    cloud: &[[f32; 3]],
+    icp: &PairIcp,
+    for_verdict: bool,
+) -> Result<icp::TargetCloud, icp::IcpError> {
+    let (metric, settings) = (icp.settings.metric, &icp.settings.icp);
+    let mut target = if for_verdict {
+        icp::TargetCloud::with_neighbourhoods(cloud, metric, settings)?
+    } else {
+        icp::TargetCloud::new(cloud, metric, settings)?
+    };
     if let Some((plane, band)) = icp.ground {
         target.set_normals(|p| {
             let p = Vector3::from(p.map(f64::from));
@@ -269,7 +277,7 @@ impl FramePairs {
             needed.sort_unstable();
             needed.dedup();
             let icp = &self.icp;
-            let built = crate::on_threads(&needed, threads, |&r| target(clouds[r], icp));
+            let built = crate::on_threads(&needed, threads, |&r| target(clouds[r], icp, true));
             for (&r, built) in needed.iter().zip(built) {
                 targets[r] = Some(built);
             }
