@@ -7,9 +7,10 @@ use nalgebra::{Point3, Vector3};
 use super::CalibError;
 use super::settings::Stages;
 use super::views::{View, Views};
+use crate::cad::{self, CadError, CadIteration, CadModel, CadViews, Copies};
 use crate::cloud::Aabb;
 use crate::io::mesh::Mesh;
-use crate::jrmpc::Registration;
+use crate::jrmpc::{Control, IterationStats, Mixture, Registration};
 use crate::plane::Plane;
 use crate::se3::Pose;
 use crate::target::{ModelCloud, PlaceSettings, Placement, Target};
@@ -109,7 +110,7 @@ fn mesh_size(mesh: &Mesh) -> f64 {
 /// [`Views::register_cad`].
 pub(super) fn register_cad(
     views: &Views,
-    mut progress: impl FnMut(&crate::cad::CadIteration) -> crate::jrmpc::Control,
+    mut progress: impl FnMut(&CadIteration) -> Control,
 ) -> Result<Registration, CalibError> {
     let settings = views.stages.cad.clone().unwrap_or_default();
     let mesh = views.settings.target.model().ok_or(CalibError::NoTargetModel)?;
@@ -133,7 +134,7 @@ pub(super) fn register_cad(
             copy_of_centre.push(c);
         }
     }
-    let model = crate::cad::CadModel::from_samples(&samples, settings.a_max);
+    let model = CadModel::from_samples(&samples, settings.a_max);
     let (mut clouds, mut sensor_of_view, mut copy_of_view) = (Vec::new(), Vec::new(), Vec::new());
     for (view, n) in views.views.iter().zip(&near) {
         for (c, points) in n.by_copy.iter().enumerate() {
@@ -144,21 +145,18 @@ pub(super) fn register_cad(
     }
     let ground_lists: Vec<&[[f32; 3]]> = near.iter().map(|n| n.ground.as_slice()).collect();
     let ground_sensors: Vec<usize> = views.views.iter().map(|v| v.sensor).collect();
-    let ground = views.ground.map(|g| crate::cad::Ground {
+    let ground = views.ground.map(|g| cad::Ground {
         normal: g.normal.into(),
         offset: g.offset,
         points: &ground_lists,
         sensor_of: &ground_sensors,
     });
-    let input = crate::cad::CadViews {
-        points: &clouds,
-        sensor_of: &sensor_of_view,
-        sensors: views.sensors.len(),
-    };
-    let reg = crate::cad::register(
+    let input =
+        CadViews { points: &clouds, sensor_of: &sensor_of_view, sensors: views.sensors.len() };
+    let reg = cad::register(
         &input,
         &model,
-        Some(&crate::cad::Copies {
+        Some(&Copies {
             of_centre: &copy_of_centre,
             of_view: &copy_of_view,
             fixed_sensor: views.reference,
@@ -169,9 +167,7 @@ pub(super) fn register_cad(
         &mut progress,
     )
     .map_err(|e| match e {
-        crate::cad::CadError::NoPoints { sensor } => {
-            CalibError::NoPointsInRoi(views.sensors[sensor].clone())
-        }
+        CadError::NoPoints { sensor } => CalibError::NoPointsInRoi(views.sensors[sensor].clone()),
         other => CalibError::StageFailed(format!("cad: {other}")),
     })?;
     // The mixture is the model where the data put its copies.
@@ -184,7 +180,7 @@ pub(super) fn register_cad(
     let k = means.len();
     Ok(Registration {
         poses: views.views.iter().map(|v| reg.poses[v.sensor]).collect(),
-        mixture: crate::jrmpc::Mixture {
+        mixture: Mixture {
             means,
             variances: vec![reg.sigma * reg.sigma; k],
             priors: vec![1.0 / k as f64; k],
@@ -196,11 +192,7 @@ pub(super) fn register_cad(
         history: reg
             .history
             .iter()
-            .map(|h| crate::jrmpc::IterationStats {
-                mean_sigma: h.sigma,
-                max_change: h.max_change,
-                terms: 0,
-            })
+            .map(|h| IterationStats { mean_sigma: h.sigma, max_change: h.max_change, terms: 0 })
             .collect(),
     })
 }
