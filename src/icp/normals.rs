@@ -17,38 +17,30 @@ const MIN_VARIANCE: f64 = 1e-12;
 
 /// Unit normal of each point (sign arbitrary): the direction of least variance of its `k`
 /// nearest neighbours in `tree`, which must be built from `points`. Zero where the
-/// neighbourhood has no shape (all neighbours coincide, or the point is not finite).
-pub fn normals(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Vector3<f64>> {
-    shapes(points, tree, k, Vector3::zeros(), least_spread, false).0
-}
-
-/// GICP covariance (m^2) of each point: the principal directions of its `k` nearest
-/// neighbours in `tree` (built from `points`) with eigenvalues `PLANE_IN_PLANE`,
-/// `PLANE_IN_PLANE`, `PLANE_NORMAL`, so every surface is modelled as a thin plane. Identity
-/// (no preferred direction) where the neighbourhood has no shape.
-pub fn plane_covariances(points: &[[f32; 3]], tree: &KdTree, k: usize) -> Vec<Matrix3<f64>> {
-    shapes(points, tree, k, Matrix3::identity(), thin_plane, false).0
-}
-
-/// [`plane_covariances`] and, with `keep`, every point's [`Neighbourhood`] from the same
-/// search: a target that the verdict reads too is searched once.
-pub(super) fn plane_covariances_and_neighbourhoods(
-    points: &[[f32; 3]],
-    tree: &KdTree,
-    k: usize,
-    keep: bool,
-) -> (Vec<Matrix3<f64>>, Vec<Option<Neighbourhood>>) {
-    shapes(points, tree, k, Matrix3::identity(), thin_plane, keep)
-}
-
-/// [`normals`] and, with `keep`, every point's [`Neighbourhood`] from the same search.
-pub(super) fn normals_and_neighbourhoods(
+/// neighbourhood has no shape (all neighbours coincide, or the point is not finite). With
+/// `keep`, also every point's [`Neighbourhood`] from the same search (else none): a target
+/// that the verdict reads too is searched once.
+pub fn normals(
     points: &[[f32; 3]],
     tree: &KdTree,
     k: usize,
     keep: bool,
 ) -> (Vec<Vector3<f64>>, Vec<Option<Neighbourhood>>) {
     shapes(points, tree, k, Vector3::zeros(), least_spread, keep)
+}
+
+/// GICP covariance (m^2) of each point: the principal directions of its `k` nearest
+/// neighbours in `tree` (built from `points`) with eigenvalues `PLANE_IN_PLANE`,
+/// `PLANE_IN_PLANE`, `PLANE_NORMAL`, so every surface is modelled as a thin plane. Identity
+/// (no preferred direction) where the neighbourhood has no shape. With `keep`, also every
+/// point's [`Neighbourhood`], as [`normals`] gives them.
+pub fn plane_covariances(
+    points: &[[f32; 3]],
+    tree: &KdTree,
+    k: usize,
+    keep: bool,
+) -> (Vec<Matrix3<f64>>, Vec<Option<Neighbourhood>>) {
+    shapes(points, tree, k, Matrix3::identity(), thin_plane, keep)
 }
 
 /// The direction of least spread of a neighbourhood with principal axes `eig`.
@@ -180,7 +172,7 @@ mod tests {
     fn normals_of_a_plane() {
         let (points, normal) = tilted_plane();
         let tree = KdTree::new(&points);
-        for n in normals(&points, &tree, 20) {
+        for n in normals(&points, &tree, 20, false).0 {
             assert!((n.dot(&normal).abs() - 1.0).abs() < 1e-6, "{n}");
         }
     }
@@ -190,7 +182,7 @@ mod tests {
         let (points, normal) = tilted_plane();
         let tree = KdTree::new(&points);
         let in_plane: Vector3<f64> = Vector3::x();
-        for c in plane_covariances(&points, &tree, 20) {
+        for c in plane_covariances(&points, &tree, 20, false).0 {
             assert!(((normal.transpose() * c * normal)[0] - PLANE_NORMAL).abs() < 1e-6);
             assert!(((in_plane.transpose() * c * in_plane)[0] - PLANE_IN_PLANE).abs() < 1e-6);
             assert!((c - c.transpose()).abs().max() < 1e-12);
@@ -201,7 +193,7 @@ mod tests {
     fn plane_covariance_from_a_normal() {
         let (points, normal) = tilted_plane();
         let tree = KdTree::new(&points);
-        for c in plane_covariances(&points, &tree, 20) {
+        for c in plane_covariances(&points, &tree, 20, false).0 {
             assert!((c - plane_covariance(&normal)).abs().max() < 1e-6);
         }
     }
@@ -211,8 +203,8 @@ mod tests {
         let (points, _) = tilted_plane();
         let tree = KdTree::new(&points);
         let fewer = &points[..10];
-        assert_eq!(normals(fewer, &tree, 20).len(), 10);
-        assert_eq!(plane_covariances(fewer, &tree, 20).len(), 10);
+        assert_eq!(normals(fewer, &tree, 20, false).0.len(), 10);
+        assert_eq!(plane_covariances(fewer, &tree, 20, false).0.len(), 10);
     }
 
     #[test]
@@ -220,8 +212,8 @@ mod tests {
         // Three copies of one point and a NaN: no shape anywhere.
         let points = vec![[1.0, 2.0, 3.0], [1.0, 2.0, 3.0], [1.0, 2.0, 3.0], [f32::NAN, 0.0, 0.0]];
         let tree = KdTree::new(&points);
-        assert!(normals(&points, &tree, 20).iter().all(|n| *n == Vector3::zeros()));
-        let covariances = plane_covariances(&points, &tree, 20);
+        assert!(normals(&points, &tree, 20, false).0.iter().all(|n| *n == Vector3::zeros()));
+        let covariances = plane_covariances(&points, &tree, 20, false).0;
         assert_eq!(covariances.len(), 4);
         assert!(covariances.iter().all(|c| *c == Matrix3::identity()));
     }

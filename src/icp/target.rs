@@ -7,10 +7,7 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 use super::gicp::Gicp;
 use super::kdtree::KdTree;
-use super::normals::{
-    self, Neighbourhood, normals_and_neighbourhoods, plane_covariance, plane_covariances,
-    plane_covariances_and_neighbourhoods,
-};
+use super::normals::{self, Neighbourhood, normals, plane_covariance, plane_covariances};
 use super::plane::PointToPlane;
 use super::point::PointToPoint;
 use super::solver::{self, LevenbergMarquardt, Matcher};
@@ -76,12 +73,11 @@ impl TargetCloud {
         let k = settings.neighbours;
         let ((normals, covariances), neighbourhoods) = match metric {
             Metric::PointToPlane => {
-                let (normals, kept) = normals_and_neighbourhoods(&points, &tree, k, keep);
+                let (normals, kept) = normals(&points, &tree, k, keep);
                 ((normals, Vec::new()), kept)
             }
             Metric::Gicp => {
-                let (covariances, kept) =
-                    plane_covariances_and_neighbourhoods(&points, &tree, k, keep);
+                let (covariances, kept) = plane_covariances(&points, &tree, k, keep);
                 ((Vec::new(), covariances), kept)
             }
             Metric::PointToPoint if keep => {
@@ -252,7 +248,7 @@ impl SourceCloud {
         let (points, tree) = indexed(points, Role::Source, settings)?;
         let order: Vec<usize> = tree.tree_order().collect();
         let covariances = if metric == Metric::Gicp {
-            let covariances = plane_covariances(&points, &tree, settings.neighbours);
+            let (covariances, _) = plane_covariances(&points, &tree, settings.neighbours, false);
             order.iter().map(|&i| covariances[i]).collect()
         } else {
             Vec::new()
