@@ -87,6 +87,9 @@ test('state never goes stale: edits mark the result out of date, Clear resets, C
   const early = statuses.filter((t) => /^JRMPC iteration [123]\//.test(t));
   assert.ok(early.length && early.every((t) => !/left/.test(t)), JSON.stringify(early));
   assert.ok(statuses.some((t) => /^JRMPC iteration \d+\/100, .*about \d+\.\d s left/.test(t)), JSON.stringify(statuses));
+  // EM's last iteration is shown, also when it converged before the maximum.
+  const iterations = statuses.at(-1).match(/^Done: (\d+) iterations/)[1];
+  assert.ok(statuses.filter((t) => t.startsWith('JRMPC')).at(-1).startsWith(`JRMPC iteration ${iterations}/100,`), JSON.stringify(statuses));
   assert.equal(await page.getByTestId('stale').isHidden(), true);
 
   // A sensor renamed in the file table (panel 1 folded after the run: opened as a user would).
