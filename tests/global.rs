@@ -6,7 +6,7 @@
 use std::borrow::Cow;
 use std::f64::consts::PI;
 
-use gmmcalib::calib::{self, Rig, Scan, verdict::Level};
+use gmmcalib::calib::{self, Rig, Scan, Stage, verdict::Level};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::{Pose, pose_from_xyz_rpy};
 use gmmcalib::target::Target;
@@ -188,16 +188,28 @@ fn the_global_stage_gives_the_same_calibration_however_its_sensors_are_shared() 
 
     let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[settings.method]);
     assert_eq!(run.phase(), calib::Phase::Global);
+    // The progress counts the sensors aligned; each one's correction is its alignment's motion.
+    let progress = |run: &calib::Run| {
+        run.global_progress(|p| (p.stage, p.iteration, p.max_iterations, p.corrections.to_vec()))
+    };
+    let identity = Pose::identity();
+    assert_eq!(progress(&run), Some((Stage::Global, 0, 2, vec![identity; 3])));
     let stage = run.global_stage().expect("the global stage");
     assert_eq!(stage.pending(), [1, 2]);
     assert!(stage.job(0).is_none(), "the reference is not aligned");
     let elsewhere = stage.job(2).expect("a pending sensor's job").run();
+    let moved = elsewhere.applied;
+    assert_ne!(moved, identity, "OpenCalib's far-off start is moved");
     stage.record(2, elsewhere);
     assert_eq!(stage.pending(), [1]);
     assert!(stage.job(2).is_none(), "a recorded sensor is done");
+    assert_eq!(progress(&run), Some((Stage::Global, 1, 2, vec![identity, identity, moved])));
+    let stage = run.global_stage().expect("the global stage");
     stage.align(&[1], 1);
     assert!(stage.pending().is_empty());
+    assert_eq!(progress(&run).map(|(_, done, _, _)| done), Some(2));
     run.advance();
+    assert!(progress(&run).is_none(), "no global progress after the stage");
     assert_ne!(run.phase(), calib::Phase::Global);
     run.drive(1, &mut |_, _| Control::Continue);
     let (_, shared) = run.into_outcomes().pop().expect("an outcome");
@@ -211,8 +223,29 @@ fn the_global_stage_gives_the_same_calibration_however_its_sensors_are_shared() 
     assert_eq!(format!("{two:?}"), expected);
 }
 
-/// A cancel while the global stage runs (it reports no progress of its own, so a driver
-/// cancels between phases) stops the next phase at once, and no later method starts.
+/// `drive` reports the global stage as it begins and after each sensor aligned (two at a time
+/// on two threads), before EM's iterations.
+#[test]
+fn driving_reports_the_global_stage_sensor_by_sensor() {
+    let rig = opencalib_scene("0001");
+    for (threads, expected) in [(1, vec![0, 1, 2]), (2, vec![0, 2])] {
+        let mut run = calib::Run::new(Cow::Borrowed(&rig), &targetless(), &[calib::Method::Gmm]);
+        let mut seen = Vec::new();
+        run.drive(threads, &mut |_, p| {
+            seen.push((p.stage, p.iteration, p.max_iterations));
+            Control::Continue
+        });
+        let global: Vec<usize> =
+            seen.iter().filter(|(s, _, _)| *s == Stage::Global).map(|&(_, i, _)| i).collect();
+        assert_eq!(global, expected, "{threads} threads");
+        assert!(seen.iter().take(global.len()).all(|&(s, _, n)| s == Stage::Global && n == 2));
+        assert_ne!(seen[global.len()].0, Stage::Global);
+        assert!(run.into_outcomes()[0].1.is_ok());
+    }
+}
+
+/// A cancel while the global stage runs (here from its first progress) stops the next phase
+/// at once, and no later method starts.
 #[test]
 fn a_run_cancelled_in_its_global_stage_stops_its_next_phase_at_once() {
     let preset = Preset::paper();
@@ -227,11 +260,15 @@ fn a_run_cancelled_in_its_global_stage_stops_its_next_phase_at_once() {
     let methods = [calib::Method::Gmm, calib::Method::Jrmpc];
     let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &methods);
     assert_eq!(run.phase(), calib::Phase::Global);
-    run.cancel();
-    run.advance();
-    assert_eq!(run.phase(), calib::Phase::Em);
-    assert!(run.em().expect("EM").finished(), "EM stops before its first iteration");
-    run.drive(1, &mut |_, _| Control::Continue);
+    let mut seen = Vec::new();
+    run.drive(1, &mut |_, p| {
+        seen.push((p.stage, p.iteration));
+        if p.stage == Stage::Global { Control::Stop } else { Control::Continue }
+    });
+    // The stop ends the stage (the other sensor is aligned as it ends) and EM, before its first
+    // iteration; the frame pairs of the stopped method run, as after a stop in EM.
+    assert_eq!(seen[0], (Stage::Global, 0));
+    assert!(seen[1..].iter().all(|(s, _)| *s == Stage::FramePairs), "{seen:?}");
     let outcomes = run.into_outcomes();
     assert_eq!(outcomes.len(), 1, "no later method starts");
     if let (_, Ok(calibration)) = &outcomes[0] {

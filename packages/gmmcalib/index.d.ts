@@ -51,7 +51,8 @@ export interface CalibrationInput {
 
 export interface Progress {
   method: MethodName;
-  stage: 'jrmpc' | 'cad' | 'framePairs';
+  /** 'global': the sensors aligned globally so far, of `maxIterations`. */
+  stage: 'global' | 'jrmpc' | 'cad' | 'framePairs';
   iteration: number;
   maxIterations: number;
   /** m; 0 for frame pairs. */

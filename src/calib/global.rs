@@ -207,6 +207,19 @@ impl GlobalStage {
         })
     }
 
+    /// The sensors aligned so far and how many the stage aligns: all but the reference, none
+    /// when the reference shows no ground.
+    pub fn aligned(&self) -> (usize, usize) {
+        let total = if self.reference.is_ok() { self.found.len() - 1 } else { 0 };
+        (total - self.pending().len(), total)
+    }
+
+    /// Each sensor's motion so far, in sensor order: its alignment's `applied` once aligned,
+    /// identity before.
+    pub fn applied(&self) -> Vec<Pose> {
+        self.found.iter().map(|f| f.as_ref().map_or_else(Pose::identity, |a| a.applied)).collect()
+    }
+
     /// Records pending sensor `s`'s alignment, run elsewhere (ignored for any other sensor).
     pub fn record(&mut self, s: usize, alignment: GlobalAlignment) {
         if let Some(slot @ None) = self.found.get_mut(s) {

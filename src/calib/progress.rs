@@ -6,6 +6,9 @@ use crate::se3::Pose;
 /// Which step a [`Progress`] reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stage {
+    /// The global alignment before the registration: `iteration` sensors aligned of
+    /// `max_iterations`; `mean_sigma` and `max_change` are 0.
+    Global,
     /// JRMPC's EM: `iteration` of `max_iterations`, with `mean_sigma` and `max_change`.
     Jrmpc,
     /// The frame pairs' ICP (`gmm`'s refinement, the ICP methods): `iteration` pairs done of
@@ -16,9 +19,10 @@ pub enum Stage {
 }
 
 impl Stage {
-    /// `"jrmpc"`, `"framePairs"` or `"cad"`, as JS sees it.
+    /// `"global"`, `"jrmpc"`, `"framePairs"` or `"cad"`, as JS sees it.
     pub fn name(&self) -> &'static str {
         match self {
+            Stage::Global => "global",
             Stage::Jrmpc => "jrmpc",
             Stage::FramePairs => "framePairs",
             Stage::Cad => "cad",
@@ -26,7 +30,8 @@ impl Stage {
     }
 }
 
-/// What the progress callback sees after each EM iteration and each frame pair.
+/// What the progress callback sees as the global stage begins, after each sensor it aligns,
+/// and after each EM iteration and each frame pair.
 pub struct Progress<'a> {
     pub stage: Stage,
     pub iteration: usize,

@@ -183,6 +183,21 @@ impl<'r> Run<'r> {
         *outcome = Some(reg);
     }
 
+    /// What the progress callback sees in the global stage: the sensors aligned so far, and
+    /// their motions as corrections.
+    pub fn global_progress<R>(&self, then: impl FnOnce(&Progress) -> R) -> Option<R> {
+        let (_, stage) = self.aligning.as_ref()?;
+        let (aligned, total) = stage.aligned();
+        Some(then(&Progress {
+            stage: Stage::Global,
+            iteration: aligned,
+            max_iterations: total,
+            mean_sigma: 0.0,
+            max_change: 0.0,
+            corrections: &stage.applied(),
+        }))
+    }
+
     /// What the progress callback sees after EM's latest iteration.
     pub fn em_progress<R>(&self, then: impl FnOnce(&Progress) -> R) -> Option<R> {
         let Some((_, views, State::Em(em, _))) = &self.current else { return None };
@@ -269,11 +284,7 @@ impl<'r> Run<'r> {
         while let Some((_, method)) = self.method() {
             let progress = &mut |p: &Progress| progress(method, p);
             match self.phase() {
-                Phase::Global => {
-                    if let Some(stage) = self.global_stage() {
-                        stage.align(&stage.pending(), threads);
-                    }
-                }
+                Phase::Global => self.drive_global(threads, progress),
                 Phase::Em => self.drive_em(threads, progress),
                 Phase::FramePairs => {
                     let count = self.frame_pairs().map_or(0, |p| p.pairs().len());
@@ -294,6 +305,24 @@ impl<'r> Run<'r> {
             }
             self.advance();
         }
+    }
+
+    /// Aligns the pending sensors as many at a time as there are threads; `progress` sees the
+    /// stage begin and each batch end.
+    fn drive_global(&mut self, threads: usize, progress: &mut impl FnMut(&Progress) -> Control) {
+        let batch = crate::threads_here(threads);
+        let mut control = self.global_progress(|p| progress(p));
+        while control != Some(Control::Stop) {
+            let Some(stage) = self.global_stage() else { return };
+            let pending = stage.pending();
+            if pending.is_empty() {
+                return;
+            }
+            stage.align(&pending[..batch.min(pending.len())], threads);
+            control = self.global_progress(|p| progress(p));
+        }
+        // The rest are aligned as the stage ends, and the method stops at its first phase.
+        self.cancel();
     }
 
     fn drive_em(&mut self, threads: usize, progress: &mut impl FnMut(&Progress) -> Control) {

@@ -181,9 +181,11 @@ pub(super) fn write_json(
     host.write(path, (json + "\n").as_bytes()).map_err(|e| format!("{path}: {e}"))
 }
 
-/// The progress line: EM's iterations, then the frame pairs registered.
+/// The progress line: the sensors aligned globally, EM's iterations, then the frame pairs
+/// registered.
 fn progress_line(method: Method, p: &Progress) -> String {
     let what = match p.stage {
+        Stage::Global => "sensors aligned globally",
         Stage::Jrmpc => "JRMPC iteration",
         Stage::FramePairs => "frame pair",
         Stage::Cad => "CAD iteration",

@@ -87,7 +87,8 @@ enum InitialSigmaInput {
 struct ProgressOutput<'a> {
     /// The method this progress is of.
     method: &'static str,
-    /// "jrmpc" (EM's iterations) or "framePairs" (pairs registered).
+    /// "global" (sensors aligned), "jrmpc" or "cad" (EM's iterations) or "framePairs" (pairs
+    /// registered).
     stage: &'static str,
     iteration: usize,
     max_iterations: usize,

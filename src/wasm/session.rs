@@ -75,15 +75,24 @@ impl CalibrationSession {
         Ok(Uint32Array::from(pending.as_slice()))
     }
 
-    /// Aligns the pending sensors `sensors` here.
+    /// The global stage's progress (`calibrate`'s shape): the sensors aligned so far.
+    #[wasm_bindgen(js_name = globalProgress)]
+    pub fn global_progress(&self) -> Result<JsValue, JsError> {
+        let run = self.run.as_ref().ok_or_else(finished)?;
+        let method = run.method().map(|(_, m)| m).ok_or_else(finished)?;
+        run.global_progress(|p| ProgressSink::value(method, &self.sensors, p))
+            .ok_or_else(no_global)?
+    }
+
+    /// Aligns the pending sensors `sensors` here; returns the progress (`calibrate`'s shape).
     #[wasm_bindgen(js_name = alignGlobally)]
-    pub fn align_globally(&mut self, sensors: &[u32]) -> Result<(), JsError> {
+    pub fn align_globally(&mut self, sensors: &[u32]) -> Result<JsValue, JsError> {
         let stage = self.run_mut()?.global_stage().ok_or_else(no_global)?;
         let which: Vec<usize> = sensors.iter().map(|&s| s as usize).collect();
         let pending = stage.pending();
         which.iter().try_for_each(|s| check_pending(&pending, *s))?;
         stage.align(&which, 1);
-        Ok(())
+        self.global_progress()
     }
 
     /// Pending sensor `sensor`'s alignment as `alignGlobal` takes it.
@@ -105,16 +114,17 @@ impl CalibrationSession {
             .map_err(|e| JsError::new(&format!("internal: cannot convert a global job: {e}")))
     }
 
-    /// Records pending sensor `sensor`'s alignment, found by `alignGlobal` elsewhere.
+    /// Records pending sensor `sensor`'s alignment, found by `alignGlobal` elsewhere; returns
+    /// the progress (`calibrate`'s shape).
     #[wasm_bindgen(js_name = recordGlobal)]
-    pub fn record_global(&mut self, sensor: usize, alignment: JsValue) -> Result<(), JsError> {
+    pub fn record_global(&mut self, sensor: usize, alignment: JsValue) -> Result<JsValue, JsError> {
         let alignment: GlobalAlignment = serde_wasm_bindgen::from_value(alignment)
             .map_err(|e| JsError::new(&format!("recordGlobal: not a global alignment: {e}")))?;
         from_quaternion_xyz(&to_quaternion_xyz(&alignment.applied)).ok_or_else(bad_pose)?;
         let stage = self.run_mut()?.global_stage().ok_or_else(no_global)?;
         check_pending(&stage.pending(), sensor)?;
         stage.record(sensor, alignment);
-        Ok(())
+        self.global_progress()
     }
 
     /// Points per view of EM's views, for splitting them among shards (empty outside EM).

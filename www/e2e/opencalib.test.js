@@ -48,9 +48,21 @@ test('OpenCalib\'s road scene dropped as its folder calibrates from its own gues
 
   await page.locator('#target-kind').selectOption('none');
   assert.equal(await page.locator('#target-size').isDisabled(), true);
+  await page.evaluate(() => {
+    window.statuses = [];
+    const status = document.querySelector('[data-testid=status]');
+    new MutationObserver(() => window.statuses.push(status.textContent)).observe(status, { childList: true, characterData: true, subtree: true });
+  });
   await page.getByTestId('calibrate').click();
   await waitForStatus(page, /^Done/, 180_000);
   assert.match(await page.getByTestId('status').textContent(), /on 2 workers\.$/);
+  // The global stage says what it does (its first and last messages always reach the page),
+  // then the frame pairs.
+  const statuses = await page.evaluate(() => window.statuses);
+  const global = statuses.filter((t) => t.startsWith('global alignment'));
+  assert.equal(global[0], 'global alignment: 0 of 2 sensors aligned', JSON.stringify(statuses));
+  assert.equal(global.at(-1), 'global alignment: 2 of 2 sensors aligned', JSON.stringify(statuses));
+  assert.ok(statuses.indexOf(global.at(-1)) < statuses.findIndex((t) => t.startsWith('frame pair')), JSON.stringify(statuses));
   assert.equal(await page.getByTestId('verdict').getAttribute('data-level'), 'good');
   const result = JSON.parse(await page.getByTestId('result-json').textContent());
   assert.deepEqual(result.sensors.map((s) => s.name), ['left', 'right', 'top']);

@@ -1,7 +1,8 @@
 // What the page says of a calibration: while it runs, the progress bar's share and the status
 // line from the worker's progress messages; then the status line for the results. A calibration
-// reports its stages: JRMPC's iterations (`gmm`, `jrmpc`) or `cad`'s, then the frame pairs
-// registered (`gmm`'s refinement, the ICP methods).
+// reports its stages: the sensors aligned globally (`gmm`, `cad`, when the global stage runs),
+// JRMPC's iterations (`gmm`, `jrmpc`) or `cad`'s, then the frame pairs registered (`gmm`'s
+// refinement, the ICP methods).
 
 // Share of a method's bar for JRMPC when it also registers frame pairs: `gmm` spends about a
 // fifth of its time on them (browser bench, both scales).
@@ -32,6 +33,10 @@ export function describeProgress(stages, p, left = null) {
   const jrmpcShare = stages.jrmpc ? (stages.pairs ? JRMPC_SHARE_WITH_PAIRS : 1) : 0;
   const done = p.iteration / p.maxIterations;
   const eta = left !== null && Number.isFinite(left) ? `, about ${left.toFixed(1)} s left` : '';
+  if (p.stage === 'global') {
+    // Before the registration's bar: the bar waits at 0, the line counts the sensors.
+    return { fraction: 0, text: `global alignment: ${p.iteration} of ${p.maxIterations} sensors aligned${eta}` };
+  }
   if (p.stage === 'framePairs') {
     return { fraction: jrmpcShare + (1 - jrmpcShare) * done, text: `frame pair ${p.iteration}/${p.maxIterations}${eta}` };
   }

@@ -107,20 +107,29 @@ async function untilAllEnd(loops, stop) {
 // The global stage shared: each sensor is aligned onto the reference on its own, so a remote
 // worker takes a sensor (its job carries all it needs) while this worker aligns another. The
 // session keeps the alignments by sensor, so who aligned what does not change the result.
-async function shareGlobal(session, pool) {
+// `onProgress` sees the stage begin and each sensor aligned; `false` from it stops handing out
+// sensors (the session aligns the rest as the stage ends, then stops).
+async function shareGlobal(session, pool, onProgress) {
   const queue = Array.from(session.globalJobs());
-  // One sensor (a rig of two) is this worker's alone: no remote is started for it.
-  const remotes = queue.length > 1 ? await pool() : [];
   let stopped = false;
+  const heed = (progress) => {
+    if (!onProgress(progress) && !stopped) {
+      stopped = true;
+      session.cancel();
+    }
+  };
+  heed(session.globalProgress());
+  // One sensor (a rig of two) is this worker's alone: no remote is started for it.
+  const remotes = queue.length > 1 && !stopped ? await pool() : [];
   const next = () => (stopped ? undefined : queue.shift());
   const remote = async (worker) => {
     for (let sensor = next(); sensor !== undefined; sensor = next()) {
-      session.recordGlobal(sensor, await worker.alignGlobal(session.globalJob(sensor)));
+      heed(session.recordGlobal(sensor, await worker.alignGlobal(session.globalJob(sensor))));
     }
   };
   const local = async () => {
     for (let sensor = next(); sensor !== undefined; sensor = next()) {
-      session.alignGlobally(Uint32Array.of(sensor));
+      heed(session.alignGlobally(Uint32Array.of(sensor)));
       await nextTask();
     }
   };
@@ -253,7 +262,7 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
     };
     for (let phase = session.phase(); phase !== 'done'; phase = session.phase()) {
       try {
-        if (phase === 'global') await shareGlobal(session, pool);
+        if (phase === 'global') await shareGlobal(session, pool, heed);
         else if (phase === 'em') {
           const method = session.method();
           const timing = await shareEm(wasm, session, gpu ? [] : await pool(), heed, gpu);

@@ -134,7 +134,7 @@ test('URL hash: known keys only, numbers checked, defaults otherwise', () => {
   assert.ok(!('evil' in s));
 });
 
-test('progress: JRMPC then the frame pairs fill one bar, each stage with its own wording and time left', () => {
+test('progress: the global stage, then JRMPC and the frame pairs fill one bar, each stage with its own wording and time left', () => {
   const em = { stage: 'jrmpc', iteration: 50, maxIterations: 100, meanSigma: 0.0123 };
   const pairs = { stage: 'framePairs', iteration: 3, maxIterations: 4, meanSigma: 0 };
   assert.deepEqual(describeProgress(GMM, em, 5), { fraction: 0.4, text: 'JRMPC iteration 50/100, σ 1.23 cm, about 5.0 s left, then the frame pairs' });
@@ -145,6 +145,9 @@ test('progress: JRMPC then the frame pairs fill one bar, each stage with its own
   assert.equal(describeProgress(ICP, pairs, 3).fraction, 0.75);
   assert.equal(describeProgress(GMM, { ...pairs, iteration: 0 }, null).text, 'frame pair 0/4');
   assert.equal(describeProgress(GMM, { ...pairs, iteration: 4 }, null).text, 'frame pair 4/4');
+  // The global stage comes before the bar's stages: the bar waits, the line counts sensors.
+  const global = { stage: 'global', iteration: 1, maxIterations: 2, meanSigma: 0 };
+  assert.deepEqual(describeProgress(GMM, global, null), { fraction: 0, text: 'global alignment: 1 of 2 sensors aligned' });
 });
 
 test('the time left comes from measured iterations, not from the setup before the first', () => {

@@ -142,9 +142,19 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
       return structuredClone(wasm.alignGlobal(structuredClone(job)));
     },
   });
-  const { workers: trioWorkers, ...trioDriven } = await calibrateSharded(wasm, trioInput(), 2, () => true, cloned);
-  const { workers: one, ...trioDirect } = wasm.calibrate(trioInput());
+  const seen = { driven: [], direct: [] };
+  const { workers: trioWorkers, ...trioDriven } = await calibrateSharded(wasm, trioInput(), 2, (p) => seen.driven.push(p), cloned);
+  const { workers: one, ...trioDirect } = wasm.calibrate(trioInput(), (p) => seen.direct.push(p) > 0);
   assert.deepEqual(trioDriven, trioDirect);
+  // The global stage reports as it begins and after each sensor, before the frame pairs, with
+  // each aligned sensor's motion as its correction.
+  for (const progress of Object.values(seen)) {
+    const global = progress.filter((p) => p.stage === 'global');
+    assert.deepEqual(global.map((p) => [p.iteration, p.maxIterations]), [[0, 2], [1, 2], [2, 2]]);
+    assert.ok(progress.slice(0, 3).every((p) => p.stage === 'global' && p.method === 'gmm'));
+    assert.deepEqual(global[0].corrections[1], [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]);
+    assert.notDeepEqual(global[2].corrections[1], global[0].corrections[1], 'OpenCalib\'s far-off start moved');
+  }
   assert.equal(remoteSensors.length, 1);
   assert.equal(remotePairs, 1, 'the lone reference view\'s two pairs are shared too');
   assert.equal(typeof remoteSensors[0], 'bigint', 'the seed crosses as a BigInt, never rounded');
@@ -153,6 +163,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   const aligning = new wasm.CalibrationSession(trioInput());
   assert.equal(aligning.phase(), 'global');
   assert.deepEqual(Array.from(aligning.globalJobs()), [1, 2]);
+  assert.equal(aligning.globalProgress().iteration, 0);
   assert.throws(() => aligning.globalJob(0), /sensor 0 is not waiting for its global alignment/);
   assert.throws(() => aligning.alignGlobally(Uint32Array.of(7)), /sensor 7 is not waiting/);
   const job = aligning.globalJob(2);
@@ -165,13 +176,14 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   const skewed = structuredClone(found);
   skewed.applied.rotation[3] *= 2;
   assert.throws(() => aligning.recordGlobal(2, skewed), /unit quaternion/);
-  aligning.recordGlobal(2, found);
+  assert.equal(aligning.recordGlobal(2, found).iteration, 1);
   assert.throws(() => aligning.recordGlobal(2, found), /sensor 2 is not waiting/);
-  aligning.alignGlobally(Uint32Array.of(1));
+  assert.equal(aligning.alignGlobally(Uint32Array.of(1)).iteration, 2);
   assert.deepEqual(Array.from(aligning.globalJobs()), []);
   aligning.advance();
   assert.notEqual(aligning.phase(), 'global');
   assert.throws(() => aligning.globalJobs(), /not in its global stage/);
+  assert.throws(() => aligning.globalProgress(), /not in its global stage/);
   aligning.free();
   // Compare all through the pool: the session runs every method in turn, as `calibrate` does.
   const all = () => ({ ...input(), method: 'all', iterations: 10 });
