@@ -60,7 +60,7 @@ pub fn run(job: &Job, rig: &Rig, dense: bool, iterations: usize, threads: usize)
     };
     settings.jrmpc.tolerance = 0.0;
     settings.jrmpc.max_iterations = iterations;
-    settings.jrmpc.dense = dense;
+    settings.jrmpc.exact = dense;
     settings.jrmpc.threads = threads;
     let result = calib::calibrate(rig, &settings, |_| Control::Continue).expect("calibration");
     Outcome {

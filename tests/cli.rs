@@ -368,3 +368,46 @@ fn a_failed_verdict_is_printed_first_and_exits_2() {
     assert_eq!(json["verdict"]["level"], "failed");
     assert_eq!(json["verdict"]["sensors"]["sensor_2"]["reasons"][0]["kind"], "sameScans");
 }
+
+/// `--exact` (or `exact: true` in the config) runs JRMPC's exact E-step: every point against
+/// every component in each iteration, said in the JSON; the calibration is the fast path's to
+/// well within the bound (1e-4 rad), yet not bit for bit, so the flag is seen to take effect.
+#[test]
+fn exact_runs_the_exact_e_step_by_flag_or_config() {
+    let tmp = TempDir::new("exact");
+    let dir = tmp.0.to_str().unwrap();
+    let simulate = Command::new(env!("CARGO_BIN_EXE_gmmcalib"))
+        .args(["simulate", "--out", dir, "--frames", "2", "--seed", "3"])
+        .output()
+        .unwrap();
+    assert!(simulate.status.success(), "{}", String::from_utf8_lossy(&simulate.stderr));
+    let run = |extra: &[&str], name: &str| -> Value {
+        let path = tmp.0.join(name);
+        let mut args = vec!["--method", "jrmpc", "--components", "100", "--iterations", "40"];
+        args.extend(extra);
+        args.extend(["--json", path.to_str().unwrap()]);
+        let out = gmmcalib(&tmp.0, &args);
+        let said = String::from_utf8_lossy(&out.stdout) + String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{said}");
+        serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap()
+    };
+    let fast = run(&[], "fast.json");
+    let exact = run(&["--exact"], "exact.json");
+    assert_eq!((fast["exact"].as_bool(), exact["exact"].as_bool()), (Some(false), Some(true)));
+    let terms = |json: &Value| -> Vec<f64> {
+        json["history"]["terms"].as_array().unwrap().iter().map(|t| t.as_f64().unwrap()).collect()
+    };
+    // Every iteration the same count, a whole number of passes over the 100 components.
+    let dense = terms(&exact);
+    assert!(dense.iter().all(|&t| t == dense[0] && t % 100.0 == 0.0), "{dense:?}");
+    assert!(terms(&fast).iter().sum::<f64>() < dense.iter().sum::<f64>(), "the fast path skips");
+    let (a, b) =
+        (matrix(&fast["sensors"][1]["extrinsic"]), matrix(&exact["sensors"][1]["extrinsic"]));
+    let d = a.inverse() * b;
+    assert!(d.rotation.angle() < 1e-4 && d.translation.vector.norm() < 1e-4, "{d:?}");
+    assert_ne!(fast["sensors"][1]["extrinsic"], exact["sensors"][1]["extrinsic"]);
+    append(&tmp.0, "exact: true\n");
+    let configured = run(&[], "configured.json");
+    assert_eq!(configured["sensors"], exact["sensors"], "the config's exact: true is --exact");
+    assert_eq!(configured["exact"].as_bool(), Some(true));
+}

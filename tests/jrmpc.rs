@@ -205,7 +205,7 @@ fn fast_estep_calibrates_as_the_dense_one() {
             settings.jrmpc.tolerance = 0.0;
         }
         let fast = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
-        settings.jrmpc.dense = true;
+        settings.jrmpc.exact = true;
         let dense = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
         assert!(
             fast.iterations.abs_diff(dense.iterations) <= 1,
@@ -321,10 +321,8 @@ fn em_driven_over_uneven_shards_matches_register() {
     let (mut em, points) = jrmpc::Em::start(&refs, &prior_means(150), &settings).unwrap();
     let split = [1, 3, 1];
     let mut points = points.into_iter();
-    let mut shards: Vec<jrmpc::Shard> = split
-        .iter()
-        .map(|&n| jrmpc::Shard::new(points.by_ref().take(n).collect(), false))
-        .collect();
+    let mut shards: Vec<jrmpc::Shard> =
+        split.iter().map(|&n| jrmpc::Shard::new(points.by_ref().take(n).collect())).collect();
     let mut stats = em.empty_stats();
     let mut iterations = 0;
     while !em.finished() {
@@ -340,8 +338,7 @@ fn em_driven_over_uneven_shards_matches_register() {
             .collect();
         for (shard, range) in shards.iter_mut().zip(&ranges).rev() {
             let transforms = &em.transforms()[range.clone()];
-            let (mixture, beta, cell) = (em.mixture(), em.beta(), em.cell());
-            terms += shard.e_step(mixture, beta, cell, transforms, &mut stats[range.clone()]);
+            terms += shard.e_step(&em.step(), transforms, &mut stats[range.clone()]);
         }
         em.m_step(&stats, terms);
         iterations += 1;

@@ -44,6 +44,9 @@ export interface CalibrationInput {
   components?: number;
   iterations?: number;
   tolerance?: number;
+  multiresolution?: boolean;
+  /** JRMPC's exact E-step: every point against every component in f64 (about 8x slower). */
+  exact?: boolean;
   initialSigma?: 'bbox' | 'prior' | number;
   seed?: number;
   alignGlobally?: boolean;
@@ -149,6 +152,8 @@ export interface CalibrationResult {
   iterations: number;
   converged: boolean;
   cancelled: boolean;
+  /** JRMPC ran with its exact E-step (`exact: true`). */
+  exact: boolean;
   sensors: SensorResult[];
   reconstruction: {
     means: Float32Array;

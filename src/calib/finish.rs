@@ -189,6 +189,7 @@ pub(super) fn finish(
         iterations,
         converged,
         cancelled,
+        exact: stages.jrmpc && settings.jrmpc.exact,
         skipped,
         kept_jrmpc,
         plane_adjustment,

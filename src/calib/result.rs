@@ -82,6 +82,8 @@ pub struct Calibration {
     pub iterations: usize,
     pub converged: bool,
     pub cancelled: bool,
+    /// JRMPC ran with its exact E-step ([`crate::jrmpc::EmSettings::exact`]).
+    pub exact: bool,
     /// Views left out (too few points in the ROI, failed registration, outliers).
     pub skipped: Vec<Note>,
     /// `gmm` frames whose refinement went beyond its guard; they keep the JRMPC correction.

@@ -326,9 +326,8 @@ impl<'r> Run<'r> {
     }
 
     fn drive_em(&mut self, threads: usize, progress: &mut impl FnMut(&Progress) -> Control) {
-        let Some((_, views, State::Em(_, points))) = &mut self.current else { return };
-        let dense = views.settings.jrmpc.dense;
-        let mut shards = Shards::new(points.take().unwrap_or_default(), threads, dense);
+        let Some((_, _, State::Em(_, points))) = &mut self.current else { return };
+        let mut shards = Shards::new(points.take().unwrap_or_default(), threads);
         while let Some(em) = self.em().filter(|em| !em.finished()) {
             shards.iterate(em);
             if self.em_progress(|p| progress(p)) == Some(Control::Stop) {

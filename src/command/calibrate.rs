@@ -71,6 +71,7 @@ pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
     if let Some(n) = a.iterations {
         settings.jrmpc.max_iterations = n;
     }
+    settings.jrmpc.exact |= a.exact;
     settings.align_globally = a.global.or(settings.align_globally);
     settings.jrmpc.threads = a.threads.unwrap_or_else(|| host.threads());
 

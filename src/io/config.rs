@@ -11,7 +11,7 @@
 //! # ours, all optional: reference, method (a name or "all"), components, iterations,
 //! # target (cube:EDGE, box:W,D,H, sphere:DIAMETER, mesh:PATH (relative to the config) or
 //! # none), target_edge (a cube's edge, m),
-//! # initial_sigma (m, or "prior" / "bbox")
+//! # initial_sigma (m, or "prior" / "bbox"), exact (true: JRMPC's exact E-step)
 //! ```
 //!
 //! Rules: `transform_<name>` gives sensor `<name>`'s nominal (the data folder of that name);
@@ -61,6 +61,8 @@ pub struct Config {
     /// to the config's folder, and sets the target).
     pub target_mesh: Option<String>,
     pub initial_sigma: Option<InitialSigma>,
+    /// JRMPC's exact E-step ([`crate::jrmpc::EmSettings::exact`]).
+    pub exact: Option<bool>,
 }
 
 impl Config {
@@ -123,6 +125,7 @@ impl Config {
             target,
             target_mesh,
             initial_sigma: initial_sigma(&map).map_err(fail)?,
+            exact: boolean(&map, "exact").map_err(fail)?,
         })
     }
 
@@ -154,6 +157,9 @@ impl Config {
         }
         if let Some(sigma) = self.initial_sigma {
             settings.initial_sigma = sigma;
+        }
+        if let Some(exact) = self.exact {
+            settings.jrmpc.exact = exact;
         }
     }
 }
@@ -238,6 +244,14 @@ fn count(map: &Mapping, key: &str) -> Result<Option<usize>, String> {
         .transpose()
 }
 
+fn boolean(map: &Mapping, key: &str) -> Result<Option<bool>, String> {
+    map.get(key)
+        .map(|v| {
+            v.as_bool().ok_or_else(|| format!("{key}: expected true or false, got {}", show(v)))
+        })
+        .transpose()
+}
+
 fn string(map: &Mapping, key: &str) -> Result<Option<String>, String> {
     map.get(key)
         .map(|v| {
@@ -315,8 +329,12 @@ max_bound:
     fn reads_plain_form_and_our_keys() {
         let text = "transform_sensor_1: [0, 0, 0, 1, 2, 3]\nmin_bound: [0, 0, 0]\n\
                     max_bound: [1, 1, 1]\nmethod: jrmpc\niterations: 5\ninitial_sigma: prior\n\
-                    target_edge: 0.6\n";
+                    target_edge: 0.6\nexact: true\n";
         let c = parse(text).unwrap();
+        assert_eq!(c.exact, Some(true));
+        let mut settings = crate::calib::Settings::default();
+        c.apply(&mut settings);
+        assert!(settings.jrmpc.exact);
         assert_eq!(c.nominal[0].xyz, [1.0, 2.0, 3.0]);
         assert_eq!(c.methods("c.yaml").unwrap(), Some(vec![Method::Jrmpc]));
         assert_eq!(c.iterations, Some(5));
@@ -363,6 +381,10 @@ max_bound:
         assert!(err("- 1\n").contains("c.yaml: expected a mapping"));
         let bad_sigma = "min_bound: [0,0,0]\nmax_bound: [1,1,1]\ninitial_sigma: wide\n";
         assert!(err(bad_sigma).contains("initial_sigma"));
+        assert_eq!(
+            err("exact: yes please\n"),
+            "c.yaml: exact: expected true or false, got yes please"
+        );
         let bad = parse("method: ndt\n").unwrap().methods("c.yaml").unwrap_err().to_string();
         assert!(bad.contains("c.yaml: method: unknown method 'ndt'"), "{bad}");
         assert!(!err("a: [1, 2\n").contains('\n'));

@@ -101,8 +101,18 @@ impl Em {
         self.cell
     }
 
+    /// What the shards' E-step takes for the next iteration.
+    pub fn step(&self) -> super::Step<'_> {
+        super::Step {
+            mixture: &self.mixture,
+            beta: self.beta(),
+            cell: self.cell,
+            exact: self.settings.exact,
+        }
+    }
+
     fn next_cell(&self) -> f64 {
-        if !self.settings.multiresolution {
+        if !self.settings.multiresolution || self.settings.exact {
             return 0.0;
         }
         let edge = (EDGE_PER_SIGMA * self.mixture.mean_sigma()).log2().floor().exp2();

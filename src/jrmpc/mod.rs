@@ -45,10 +45,11 @@ pub struct EmSettings {
     /// Initial standard deviation of every component (m). `None`: the references' rule, the
     /// diagonal of the bounding box of all points and means.
     pub initial_sigma: Option<f64>,
-    /// Evaluate every point against every component with libm's exp: the reference the fast
-    /// E-step (a grid with a bound on the neglected mass, SIMD lanes, a polynomial exp) is
-    /// tested against. Slow.
-    pub dense: bool,
+    /// The exact E-step: every point against every component in f64 with libm's exp, every
+    /// point every iteration (no multi-resolution). The reference the fast E-step (a grid with
+    /// a bound on the neglected mass, SIMD lanes, a polynomial exp) is tested against, and the
+    /// paper's method computed as it states it (`--exact`, `exact: true`). Slow.
+    pub exact: bool,
     /// Threads sharing the E-step's views (native only; wasm runs one). Each view's sums are
     /// computed by one thread and combined in view order, so results do not depend on it.
     pub threads: usize,
@@ -69,7 +70,7 @@ impl Default for EmSettings {
             variance_floor: 1e-6,
             update_priors: true,
             initial_sigma: None,
-            dense: false,
+            exact: false,
             threads: 1,
             multiresolution: false,
         }
@@ -174,7 +175,7 @@ pub fn register(
     mut progress: impl FnMut(&Iteration) -> Control,
 ) -> Result<Registration, JrmpcError> {
     let (mut em, points) = Em::start(views, initial_means, settings)?;
-    let mut shards = Shards::new(points, settings.threads, settings.dense);
+    let mut shards = Shards::new(points, settings.threads);
     while !em.finished() {
         shards.iterate(&mut em);
         if progress(&em.latest()) == Control::Stop {
@@ -182,6 +183,17 @@ pub fn register(
         }
     }
     Ok(em.into_registration())
+}
+
+/// What every shard's E-step takes from EM for one iteration ([`Em::step`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step<'a> {
+    pub mixture: &'a Mixture,
+    pub beta: f64,
+    /// Multi-resolution's cube edge ([`Em::cell`]); 0: every point.
+    pub cell: f64,
+    /// The exact E-step ([`EmSettings::exact`]).
+    pub exact: bool,
 }
 
 /// The views split into contiguous [`Shard`]s, one per thread (native; one in wasm32), and
@@ -194,13 +206,13 @@ pub struct Shards {
 }
 
 impl Shards {
-    pub fn new(points: CentredViews, threads: usize, dense: bool) -> Self {
+    pub fn new(points: CentredViews, threads: usize) -> Self {
         let threads = crate::threads_here(threads);
         let per = points.len().div_ceil(threads.min(points.len()).max(1));
         let mut shards: Vec<Shard> = Vec::new();
         let mut points = points.into_iter().peekable();
         while points.peek().is_some() {
-            shards.push(Shard::new(points.by_ref().take(per).collect(), dense));
+            shards.push(Shard::new(points.by_ref().take(per).collect()));
         }
         Self { shards, per, stats: Vec::new() }
     }
@@ -211,17 +223,18 @@ impl Shards {
         if self.stats.len() != em.transforms().len() {
             self.stats = em.empty_stats();
         }
-        let (mixture, beta, cell) = (em.mixture(), em.beta(), em.cell());
+        let step = em.step();
         let per = self.per.max(1);
         let jobs =
             self.shards.iter_mut().zip(self.stats.chunks_mut(per)).zip(em.transforms().chunks(per));
         let terms = if jobs.len() == 1 {
-            jobs.map(|((shard, st), t)| shard.e_step(mixture, beta, cell, t, st)).sum()
+            jobs.map(|((shard, st), t)| shard.e_step(&step, t, st)).sum()
         } else {
             std::thread::scope(|scope| {
                 let handles: Vec<_> = jobs
                     .map(|((shard, st), t)| {
-                        scope.spawn(move || shard.e_step(mixture, beta, cell, t, st))
+                        let step = &step;
+                        scope.spawn(move || shard.e_step(step, t, st))
                     })
                     .collect();
                 handles.into_iter().map(|h| h.join().expect("E-step thread")).sum()
@@ -241,7 +254,6 @@ pub struct Shard {
     /// The coarse iterations' cube edge, and each view's points merged in cubes (`None`:
     /// the view's own points, when merging would not halve them).
     coarse: Option<(f64, Vec<Option<Cells>>)>,
-    dense: bool,
     scratch: estep::Scratch,
     dense_terms: Vec<f64>,
 }
@@ -298,9 +310,8 @@ impl Cells {
 }
 
 impl Shard {
-    /// `dense`: the exact reference E-step ([`EmSettings::dense`]).
-    pub fn new(views: Vec<Vec<Vector3<f64>>>, dense: bool) -> Self {
-        Self { views, coarse: None, dense, scratch: estep::Scratch::new(), dense_terms: Vec::new() }
+    pub fn new(views: Vec<Vec<Vector3<f64>>>) -> Self {
+        Self { views, coarse: None, scratch: estep::Scratch::new(), dense_terms: Vec::new() }
     }
 
     pub fn len(&self) -> usize {
@@ -312,18 +323,17 @@ impl Shard {
     }
 
     /// Fills `stats` (one per view of the shard) from the views under `transforms` (likewise),
-    /// with each view's points merged in cubes of edge `cell` when it is positive
+    /// with each view's points merged in cubes of edge `step.cell` when it is positive
     /// ([`Em::cell`]; smaller where a view would keep too few cubes, and none where merging
     /// would not halve its points); returns the Gaussian terms evaluated. Each view's cubes
     /// depend on its points alone, so the result does not depend on the split.
     pub fn e_step(
         &mut self,
-        mixture: &Mixture,
-        beta: f64,
-        cell: f64,
+        step: &Step,
         transforms: &[(Matrix3<f64>, Vector3<f64>)],
         stats: &mut [ViewStats],
     ) -> u64 {
+        let Step { mixture, beta, cell, exact } = *step;
         stats.iter_mut().for_each(ViewStats::clear);
         if cell <= 0.0 {
             self.coarse = None;
@@ -342,7 +352,7 @@ impl Shard {
                 None => estep::Points::plain(&self.views[v]),
             })
             .collect();
-        if self.dense {
+        if exact {
             let views = views.iter().zip(stats.iter_mut()).zip(transforms);
             return views
                 .map(|((view, st), (r, t))| {

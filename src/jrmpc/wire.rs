@@ -2,8 +2,8 @@
 //! `Float64Array`s, which transfer without copies). Native code, tested natively; the wasm
 //! layer only converts typed arrays.
 //!
-//! - E-step input: `[beta, K, cell, means (3K), variances (K), priors (K), then per view its
-//!   rotation (9, row-major) and translation (3)]`;
+//! - E-step input: `[beta, K, cell, exact (0 or 1), means (3K), variances (K), priors (K), then
+//!   per view its rotation (9, row-major) and translation (3)]`;
 //! - E-step output: `[terms, then per view lambda (K), s1 (3K), s2 (K)]`;
 //! - a shard's points: `x, y, z` of each view's centred points, one view after another, with
 //!   the views' sizes beside them.
@@ -13,7 +13,7 @@ use std::fmt;
 use nalgebra::{Matrix3, Vector3};
 
 use super::model::{Mixture, ViewStats};
-use super::{CentredViews, Em};
+use super::{CentredViews, Em, Step};
 
 /// Numbers per view in the E-step input: a rotation and a translation.
 const TRANSFORM: usize = 12;
@@ -68,8 +68,9 @@ pub type Transform = (Matrix3<f64>, Vector3<f64>);
 pub fn e_step_input(em: &Em) -> Vec<f64> {
     let mixture = em.mixture();
     let k = mixture.len();
-    let mut flat = Vec::with_capacity(3 + 5 * k + TRANSFORM * em.transforms().len());
-    flat.extend([em.beta(), k as f64, em.cell()]);
+    let step = em.step();
+    let mut flat = Vec::with_capacity(4 + 5 * k + TRANSFORM * em.transforms().len());
+    flat.extend([step.beta, k as f64, step.cell, f64::from(u8::from(step.exact))]);
     flat.extend(mixture.means.iter().flat_map(|m| [m.x, m.y, m.z]));
     flat.extend(&mixture.variances);
     flat.extend(&mixture.priors);
@@ -80,14 +81,20 @@ pub fn e_step_input(em: &Em) -> Vec<f64> {
     flat
 }
 
-/// What a shard's E-step takes: [`Em::mixture`], [`Em::beta`], [`Em::cell`] and its views'
-/// transforms.
+/// What a shard's E-step takes: [`Em::step`] and its views' transforms.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EStepInput {
     pub mixture: Mixture,
     pub beta: f64,
     pub cell: f64,
+    pub exact: bool,
     pub transforms: Vec<Transform>,
+}
+
+impl EStepInput {
+    pub fn step(&self) -> Step<'_> {
+        Step { mixture: &self.mixture, beta: self.beta, cell: self.cell, exact: self.exact }
+    }
 }
 
 /// An E-step input for views `first..first + views`.
@@ -99,8 +106,13 @@ pub fn read_e_step_input(
     let (&beta, rest) = flat.split_first().ok_or(WireError::MalformedInput)?;
     let (&k, rest) = rest.split_first().ok_or(WireError::MalformedInput)?;
     let (&cell, rest) = rest.split_first().ok_or(WireError::MalformedInput)?;
+    let (&exact, rest) = rest.split_first().ok_or(WireError::MalformedInput)?;
     let k = k as usize; // saturating; NaN -> 0
-    let plausible = beta.is_finite() && beta > 0.0 && cell.is_finite() && cell >= 0.0;
+    let plausible = beta.is_finite()
+        && beta > 0.0
+        && cell.is_finite()
+        && cell >= 0.0
+        && (exact == 0.0 || exact == 1.0);
     if k == 0 || k > rest.len() / 5 || !plausible {
         return Err(WireError::MalformedInput);
     }
@@ -125,7 +137,7 @@ pub fn read_e_step_input(
     if transforms.len() != views {
         return Err(WireError::MissingTransforms { first });
     }
-    Ok(EStepInput { mixture, beta, cell, transforms })
+    Ok(EStepInput { mixture, beta, cell, exact: exact == 1.0, transforms })
 }
 
 /// A shard's E-step output: the terms it evaluated, then its views' statistics.
@@ -226,10 +238,11 @@ mod tests {
         let input = e_step_input(&em);
         let read = read_e_step_input(&input, 0, 3).unwrap();
         assert_eq!((&read.mixture, read.beta, read.cell), (em.mixture(), em.beta(), 0.0));
+        assert!(!read.exact);
         assert_eq!(read.transforms, em.transforms().to_vec());
-        let mut shard = Shard::new(points.clone(), false);
+        let mut shard = Shard::new(points.clone());
         let mut stats = em.empty_stats();
-        let terms = shard.e_step(&read.mixture, read.beta, 0.0, &read.transforms, &mut stats);
+        let terms = shard.e_step(&read.step(), &read.transforms, &mut stats);
         let output = e_step_output(terms, &stats);
         let (back_terms, back) = read_e_step_outputs([output.as_slice()], 20, 3).unwrap();
         assert_eq!(back_terms, terms);
@@ -240,6 +253,16 @@ mod tests {
         assert_eq!(em.iteration(), 1);
 
         assert_eq!(read_e_step_input(&input[..5], 0, 3), Err(WireError::MalformedInput));
+        let mut half_exact = input.clone();
+        half_exact[3] = 0.5;
+        assert_eq!(read_e_step_input(&half_exact, 0, 3), Err(WireError::MalformedInput));
+        // The exact E-step crosses too: the shard evaluates every term.
+        let exact = EmSettings { exact: true, ..EmSettings::default() };
+        let (exact_em, _) = Em::start(&refs, &means, &exact).unwrap();
+        let read = read_e_step_input(&e_step_input(&exact_em), 0, 3).unwrap();
+        assert!(read.exact);
+        let dense = shard.e_step(&read.step(), &read.transforms, &mut stats);
+        assert_eq!(dense, 150 * 20, "every point against every component");
         assert_eq!(
             read_e_step_input(&input, 2, 3).unwrap_err(),
             WireError::MissingTransforms { first: 2 }

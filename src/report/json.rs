@@ -21,6 +21,8 @@ pub struct Report {
     pub iterations: usize,
     pub converged: bool,
     pub cancelled: bool,
+    /// JRMPC ran with its exact E-step (`--exact`).
+    pub exact: bool,
     pub sensors: Vec<SensorReport>,
     pub reconstruction: ReconstructionReport,
     /// Views left out.
@@ -195,6 +197,7 @@ impl From<&Calibration> for Report {
             iterations: c.iterations,
             converged: c.converged,
             cancelled: c.cancelled,
+            exact: c.exact,
             sensors: c.sensors.iter().map(SensorReport::from).collect(),
             reconstruction: ReconstructionReport {
                 means: t.means.iter().flatten().copied().collect(),

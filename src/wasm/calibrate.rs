@@ -66,8 +66,10 @@ pub(super) struct CalibrateInput {
     components: Option<usize>,
     iterations: Option<usize>,
     tolerance: Option<f64>,
-    /// Multi-resolution EM (`gmm` on by default, `jrmpc` off).
+    /// Multi-resolution EM (off by default).
     multiresolution: Option<bool>,
+    /// JRMPC's exact E-step (`jrmpc::EmSettings::exact`; off by default).
+    exact: Option<bool>,
     /// Initial component width (m), or "prior" / "bbox".
     initial_sigma: Option<InitialSigmaInput>,
     seed: Option<u64>,
@@ -241,6 +243,7 @@ pub(super) fn rig_and_settings(
     if let Some(on) = input.multiresolution {
         (settings.jrmpc.multiresolution, settings.gmm_multiresolution) = (on, on);
     }
+    settings.jrmpc.exact = input.exact.unwrap_or(settings.jrmpc.exact);
     settings.seed = input.seed.unwrap_or(settings.seed);
     settings.align_globally = input.align_globally;
     if let Some(sigma) = input.initial_sigma {

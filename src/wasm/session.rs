@@ -439,7 +439,7 @@ impl JrmpcShard {
     pub fn new(points: &[f64], sizes: &[u32]) -> Result<JrmpcShard, JsError> {
         let views =
             wire::read_shard_points(points, sizes).map_err(|e| JsError::new(&e.to_string()))?;
-        Ok(Self { shard: Shard::new(views, false), stats: Vec::new() })
+        Ok(Self { shard: Shard::new(views), stats: Vec::new() })
     }
 
     /// The E-step of this shard's views, which are views `first..` of the session: its
@@ -453,8 +453,7 @@ impl JrmpcShard {
         if self.stats.len() != views || self.stats.first().is_some_and(|s| s.lambda.len() != k) {
             self.stats = vec![ViewStats::zeros(k); views];
         }
-        let wire::EStepInput { mixture, beta, cell, transforms } = &input;
-        let terms = self.shard.e_step(mixture, *beta, *cell, transforms, &mut self.stats);
+        let terms = self.shard.e_step(&input.step(), &input.transforms, &mut self.stats);
         Ok(Float64Array::from(wire::e_step_output(terms, &self.stats).as_slice()))
     }
 }

@@ -7,10 +7,14 @@ import { browserSession, waitForStatus } from './harness.js';
 
 const session = browserSession();
 
-async function run(workers, method = 'gmm') {
-  const { page, problems } = await session.open(`#demo=paper&frames=2&seed=3&workers=${workers}&method=${method}`);
+async function run(workers, method = 'gmm', { extra = '', estep = null } = {}) {
+  const { page, problems } = await session.open(`#demo=paper&frames=2&seed=3&workers=${workers}&method=${method}${extra}`);
   await waitForStatus(page, /Calibrate next/);
   assert.equal(await page.locator('#workers').inputValue(), String(workers));
+  if (estep) {
+    if (!(await page.locator('#estep').isVisible())) await page.locator('#estep').locator('xpath=ancestor::details[1]/summary').click();
+    await page.locator('#estep').selectOption(estep);
+  }
   await page.getByTestId('calibrate').click();
   await waitForStatus(page, /^Done/, 180_000);
   const status = await page.getByTestId('status').textContent();
@@ -42,4 +46,22 @@ test('an ICP method\'s frame pairs on two workers give the one-worker result', a
   assert.match(two.status, /^Done: 2 frame pairs registered in [\d.]+ s on 2 workers\.$/);
   assert.deepEqual(two.result.sensors, one.result.sensors);
   assert.deepEqual(two.result.skipped, one.result.skipped);
+});
+
+test('the exact E-step, chosen in the settings, runs in every worker and says so', async () => {
+  // Fewer components and iterations: the exact E-step evaluates every term in f64.
+  const small = { extra: '&components=100&iterations=20' };
+  const fast = await run(2, 'jrmpc', small);
+  const one = await run(1, 'jrmpc', { ...small, estep: 'exact' });
+  const two = await run(2, 'jrmpc', { ...small, estep: 'exact' });
+  assert.match(two.status, /^Done: 20 iterations in [\d.]+ s on 2 workers, exact E-step\.$/);
+  assert.equal(two.result.exact, true);
+  assert.equal(fast.result.exact, false);
+  // Every iteration evaluates every point against every component, in both workers' shards:
+  // the two-worker run is the one-worker run, bit for bit, and not the fast path's.
+  const terms = two.result.history.terms;
+  assert.ok(terms.every((t) => t === terms[0] && t % 100 === 0), JSON.stringify(terms));
+  assert.deepEqual(two.result.history, one.result.history);
+  assert.deepEqual(two.result.sensors, one.result.sensors);
+  assert.notDeepEqual(two.result.sensors, fast.result.sensors);
 });

@@ -151,17 +151,20 @@ class GpuShard {
     const started = performance.now();
     const { device, pipelines } = this.gpu;
     // input[2], multi-resolution EM's cube edge, is the CPU's saving: the GPU evaluates every
-    // point, the statistics the cubes stand for.
-    const [beta, k] = input;
+    // point, the statistics the cubes stand for. input[3] asks for the exact E-step (f64),
+    // which only the CPU computes: the pool never sends it here.
+    const [beta, k, , exact] = input;
     const views = this.sizes.length;
-    const transforms = 3 + 5 * k + 12 * first;
+    const head = 4;
+    const transforms = head + 5 * k + 12 * first;
     if (!(Number.isInteger(k) && k > 0 && beta > 0) || input.length < transforms + 12 * views) {
       throw new Error('GPU shard: malformed E-step input');
     }
+    if (exact !== 0) throw new Error('GPU shard: the exact E-step runs on the CPU only');
     if (k !== this.k) this.#sizeFor(k);
-    const means = input.subarray(3, 3 + 3 * k);
-    const variances = input.subarray(3 + 3 * k, 3 + 4 * k);
-    const priors = input.subarray(3 + 4 * k, 3 + 5 * k);
+    const means = input.subarray(head, head + 3 * k);
+    const variances = input.subarray(head + 3 * k, head + 4 * k);
+    const priors = input.subarray(head + 4 * k, head + 5 * k);
     const rt = input.subarray(transforms, transforms + 12 * views);
     // Per view, per component: its mean in the view's frame, c = R^T (x_k - t), as an f32
     // pair, with h_k = Q_k / 2 and s_k = p_k Q_k^1.5 (in f64, as Mixture::peak_scales, then

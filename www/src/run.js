@@ -27,6 +27,7 @@ async function calibrateInput(state) {
     components: s.components,
     iterations: s.iterations,
     initialSigma: s.initialSigma,
+    exact: s.estep === 'exact',
   };
   return { input, transfer: scans.map((v) => v.points.buffer) };
 }
@@ -67,7 +68,9 @@ export async function runCalibration(client, state, onProgress) {
   const { input, transfer } = await calibrateInput(state);
   // Each stage (a method's EM, its frame pairs) has its own clock for the time left.
   let stage = { key: null, clock: null };
-  const outcome = await client.request('calibrate', { input, workers: workerCount(state.settings.workers), estep: state.settings.estep }, {
+  // The exact E-step is the CPU's (f64).
+  const estep = state.settings.estep === 'exact' ? 'cpu' : state.settings.estep;
+  const outcome = await client.request('calibrate', { input, workers: workerCount(state.settings.workers), estep }, {
     transfer,
     onProgress: (p) => {
       const key = `${p.method}/${p.stage}`;

@@ -240,7 +240,8 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
   let gpu = null;
   const emRan = new Map(); // method -> its E-step's path
   try {
-    if (eStep !== 'cpu') {
+    // The exact E-step is f64 on the CPU: the GPU's f32 one is not it.
+    if (eStep !== 'cpu' && !input.exact) {
       // Loaded only when asked for: its shader comes through Vite (`?raw`), which Node's tests
       // of this module do without.
       const { GpuEStep, gpuAdapter } = await import('./gpu-estep.js');

@@ -9,7 +9,7 @@ export const DEFAULTS = Object.freeze({
   global: 'auto', // global alignment first: auto (gmm only) | on | off
   initialSigma: 'bbox', // bbox | prior
   workers: 'auto', // auto | 1 | 2 | 4 | 8: workers sharing JRMPC's E-step
-  estep: 'auto', // auto | gpu | cpu: where JRMPC's E-step runs (gpu-estep.js)
+  estep: 'auto', // auto | gpu | cpu | exact: where JRMPC's E-step runs (gpu-estep.js), or exact
   demo: '', // preset of a demo to load on open: '' | paper | os1-128
   frames: 4,
   seed: 1,

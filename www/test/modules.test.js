@@ -166,6 +166,7 @@ test('the status once done: iterations for the GMM methods, frame pairs for ICP,
   const gmm = { reference: 'a', iterations: 100, converged: false, workers: 2, sensors };
   assert.equal(describeDone([gmm], 1.234), 'Done: 100 iterations in 1.2 s on 2 workers.');
   assert.equal(describeDone([{ ...gmm, iterations: 40, converged: true, workers: 1 }], 0.5), 'Done: 40 iterations (converged) in 0.5 s.');
+  assert.equal(describeDone([{ ...gmm, exact: true }], 9.87), 'Done: 100 iterations in 9.9 s on 2 workers, exact E-step.');
   assert.equal(describeDone([{ ...gmm, iterations: 0, converged: true }], 0.1), 'Done: 7 frame pairs registered in 0.1 s on 2 workers.');
   assert.equal(describeDone([gmm, gmm], 3), 'Done: 2 methods in 3.0 s on 2 workers.');
   const failed = [{ method: 'p2p', error: 'x' }, { method: 'p2l', error: 'y' }];

@@ -199,7 +199,9 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   const shard = new wasm.JrmpcShard(session.shardPoints(0, 1), session.viewSizes().slice(0, 1));
   assert.throws(() => shard.eStep(new Float64Array([1, 2, 3]), 0), /malformed E-step input/);
   const estep = session.eStepInput();
-  estep[3] = NaN;
+  assert.equal(estep[3], 0, 'the fast E-step unless exact');
+  assert.throws(() => shard.eStep(Float64Array.of(...estep.slice(0, 3), 0.5, ...estep.slice(4)), 0), /malformed E-step input/);
+  estep[4] = NaN; // the first mean's x
   assert.throws(() => shard.eStep(estep, 0), /not finite/);
   assert.throws(() => new wasm.JrmpcShard(new Float64Array(5), new Uint32Array([2])), /5 coordinates for 2 points/);
   shard.free();
