@@ -28,6 +28,8 @@ struct ConfigOutput {
     /// The target in its short form (`cube:0.5`, `box:W,D,H`, `sphere:D`, `none`).
     target: Option<String>,
     initial_sigma: Option<SigmaOutput>,
+    /// JRMPC's exact E-step.
+    exact: Option<bool>,
 }
 
 /// The initial width as the page's settings hold it: a width (m), `"prior"` or `"bbox"`.
@@ -68,6 +70,7 @@ pub fn parse_config(text: &str, file_name: &str) -> Result<JsValue, JsError> {
             .map(short_form)
             .or_else(|| c.target_mesh.as_ref().map(|path| format!("mesh:{path}"))),
         initial_sigma,
+        exact: c.exact,
     })
 }
 

@@ -44,6 +44,9 @@ export function rebuildRig(state, config = {}) {
   if (config.reference) rig.reference = String(config.reference);
   if (!rig.sensors.includes(rig.reference)) rig.reference = rig.sensors[0] ?? '';
   for (const [key, value] of Object.entries(config)) if (key in DEFAULTS && value != null) state.settings[key] = value;
+  // `exact` is a choice of the E-step setting.
+  if (config.exact === true) state.settings.estep = 'exact';
+  if (config.exact === false && state.settings.estep === 'exact') state.settings.estep = DEFAULTS.estep;
 }
 
 export const sortScans = (state) => state.scans.sort((a, b) => natural(a.sensor, b.sensor) || natural(a.frame, b.frame));

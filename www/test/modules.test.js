@@ -8,6 +8,7 @@ import { initSync, parseConfig, rosExports } from '../pkg/gmmcalib.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
 import { exportsOf, gmmcalibYaml, resultJson, targetPly } from '../src/exports.js';
 import { DEFAULTS, readHash } from '../src/url.js';
+import { rebuildRig } from '../src/state.js';
 import { MIN_MEASURED, StageClock, describeDone, describeProgress } from '../src/progress.js';
 
 // The config reader is the library's, through the wasm package.
@@ -84,6 +85,14 @@ test('GMMCalib config: nested and plain lists, our keys, errors naming file and 
   assert.deepEqual(config.roi, { min: [-1, -2, -3], max: [1, 2, 3] });
   assert.equal(config.initialSigma, 'prior');
   assert.equal(config.edge, 0.4);
+  assert.equal(config.exact, null, 'not set');
+  // The config's settings reach the page's: `exact: true` is the E-step setting's 'exact'.
+  const state = { scans: [{ sensor: 'sensor_1' }], rig: { sensors: [], nominal: {}, roi: null, reference: '' }, settings: { ...DEFAULTS } };
+  rebuildRig(state, parseConfig('transform_sensor_1: [0, 0, 0, 1, 2, 3]\nmethod: jrmpc\ncomponents: 50\nexact: true\n', 'c.yaml'));
+  assert.deepEqual([state.settings.method, state.settings.components, state.settings.estep], ['jrmpc', 50, 'exact']);
+  rebuildRig(state, parseConfig('transform_sensor_1: [0, 0, 0, 1, 2, 3]\nexact: false\n', 'c.yaml'));
+  assert.equal(state.settings.estep, DEFAULTS.estep);
+  assert.throws(() => parseConfig('exact: maybe\n', 'c.yaml'), /c\.yaml: exact: expected true or false, got maybe/);
   assert.throws(() => parseConfig('transform_a: [1, 2]\n', 'c.yaml'), /c\.yaml: transform_a: expected \[roll, pitch, yaw, x, y, z\], \[x, y, z, qx, qy, qz, qw\] or a 4x4 row-major, got 2 numbers/);
   assert.throws(() => parseConfig('a: [1, 2\n', 'c.yaml'), /c\.yaml: bad YAML/);
   assert.throws(() => parseConfig('- 1\n', 'c.yaml'), /c\.yaml: expected a mapping/);
