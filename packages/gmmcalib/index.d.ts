@@ -45,7 +45,7 @@ export interface CalibrationInput {
   iterations?: number;
   tolerance?: number;
   multiresolution?: boolean;
-  /** JRMPC's exact E-step: every point against every component in f64 (about 8x slower). */
+  /** JRMPC's exact E-step: every point against every component in f64 (7-13x slower). */
   exact?: boolean;
   initialSigma?: 'bbox' | 'prior' | number;
   seed?: number;

@@ -31,7 +31,7 @@ pub const HELP: &str = "\
   clouds overlap. Flags override CONFIG.yaml. --threads: threads
   sharing JRMPC's E-step and the frame pairs (default: the available cores; the result does
   not depend on it). --exact: JRMPC's E-step as the paper states it, every point against
-  every component in double precision (config: exact: true); about 8x slower, and within
+  every component in double precision (config: exact: true); 7-13x slower, and within
   1e-5 rad of the default's calibration on the twin rigs.
   --bag: a recording (MCAP, ROS 1 .bag, rosbag2 .db3) instead of --data: sensors are its
   point-cloud topics (PointCloud2 or Livox CustomMsg; default: all), frames are N instants
