@@ -179,9 +179,16 @@ fn sort_by_cell(keyed: &mut Vec<Keyed>, sorted: &mut Vec<Keyed>, counts: &mut Ve
     let (lo, hi) = keyed.iter().fold((first.0, first.0), |(lo, hi), k| {
         (std::array::from_fn(|i| lo[i].min(k.0[i])), std::array::from_fn(|i| hi[i].max(k.0[i])))
     });
-    let dims: [usize; 3] = std::array::from_fn(|i| (hi[i] - lo[i]) as usize + 1);
-    let cells = dims[0].checked_mul(dims[1]).and_then(|c| c.checked_mul(dims[2]));
-    let Some(cells) = cells.filter(|&c| c <= (4 * keyed.len()).max(1 << 16)) else {
+    // Checked: points far outside the grid (a transform gone wild) have keys near i64's ends.
+    let span = |i: usize| {
+        let d = usize::try_from(hi[i].checked_sub(lo[i])?).ok()?;
+        d.checked_add(1)
+    };
+    let cells = span(0).zip(span(1)).zip(span(2)).and_then(|((x, y), z)| {
+        let cells = x.checked_mul(y)?.checked_mul(z)?;
+        Some((cells, [x, y, z]))
+    });
+    let Some((cells, dims)) = cells.filter(|&(c, _)| c <= (4 * keyed.len()).max(1 << 16)) else {
         keyed.sort_unstable();
         return;
     };

@@ -84,10 +84,12 @@ impl Grid {
         let (origin, extent) =
             if binned.is_empty() { (Vector3::zeros(), Vector3::zeros()) } else { (lo, hi - lo) };
         let mut cell = (reach / SUBDIVIDE).max(1e-6);
+        // Counted in f64, which cannot wrap; an extent too large for f64 is one cell.
+        let extent = if extent.iter().all(|e| e.is_finite()) { extent } else { Vector3::zeros() };
         let dims = loop {
-            let d = extent.map(|e| (e / cell).floor() as usize + 1);
-            if d.iter().product::<usize>() <= MAX_CELLS {
-                break [d.x, d.y, d.z];
+            let d = extent.map(|e| (e / cell).floor() + 1.0);
+            if d.iter().product::<f64>() <= MAX_CELLS as f64 {
+                break [d.x as usize, d.y as usize, d.z as usize];
             }
             cell *= 2.0;
         };
@@ -212,7 +214,7 @@ impl Grid {
 #[inline]
 fn floor(x: f64) -> i64 {
     let t = x as i64;
-    t - i64::from((t as f64) > x)
+    t.saturating_sub(i64::from((t as f64) > x))
 }
 
 fn cell_of(p: &Vector3<f64>, origin: &Vector3<f64>, cell: f64, dims: &[usize; 3]) -> [usize; 3] {

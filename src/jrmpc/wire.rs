@@ -27,6 +27,8 @@ pub enum WireError {
     MalformedInput,
     /// The mixture holds a non-finite mean, a non-positive variance or a negative prior.
     NonFiniteMixture,
+    /// A view's rotation or translation holds a number that is not finite.
+    NonFiniteTransform,
     /// The input has no transforms for the shard's views.
     MissingTransforms { first: usize },
     /// An output's length is not a whole number of views of K components.
@@ -42,6 +44,7 @@ impl fmt::Display for WireError {
         match self {
             Self::MalformedInput => f.write_str("shard: malformed E-step input"),
             Self::NonFiniteMixture => f.write_str("shard: the mixture is not finite"),
+            Self::NonFiniteTransform => f.write_str("shard: a view's transform is not finite"),
             Self::MissingTransforms { first } => {
                 write!(f, "shard: no transforms for views {first}..")
             }
@@ -136,6 +139,9 @@ pub fn read_e_step_input(
         .collect();
     if transforms.len() != views {
         return Err(WireError::MissingTransforms { first });
+    }
+    if transforms.iter().any(|(r, t)| r.iter().chain(t.iter()).any(|x| !x.is_finite())) {
+        return Err(WireError::NonFiniteTransform);
     }
     Ok(EStepInput { mixture, beta, cell, exact: exact == 1.0, transforms })
 }
@@ -256,6 +262,9 @@ mod tests {
         let mut half_exact = input.clone();
         half_exact[3] = 0.5;
         assert_eq!(read_e_step_input(&half_exact, 0, 3), Err(WireError::MalformedInput));
+        let mut wild = input.clone();
+        *wild.last_mut().unwrap() = f64::INFINITY; // the last view's translation
+        assert_eq!(read_e_step_input(&wild, 0, 3), Err(WireError::NonFiniteTransform));
         // The exact E-step crosses too: the shard evaluates every term.
         let exact = EmSettings { exact: true, ..EmSettings::default() };
         let (exact_em, _) = Em::start(&refs, &means, &exact).unwrap();
@@ -276,5 +285,73 @@ mod tests {
             WireError::ViewCount { got: 6, expected: 3 }
         );
         assert!(matches!(read_shard_points(&flat[1..], &sizes), Err(WireError::PointCount { .. })));
+    }
+
+    /// Decoders of what crosses between workers, fed thousands of mutated inputs (seeded): an
+    /// input either reads as an error or runs through a shard's E-step and the M-step without
+    /// a panic (in wasm a panic kills the worker).
+    #[test]
+    fn mutated_e_step_inputs_are_errors_or_run() {
+        use rand::{RngExt, SeedableRng};
+        let views: Vec<Vec<[f32; 3]>> = (0..3)
+            .map(|v| {
+                (0..40).map(|i| [i as f32 * 0.01, (i % 7) as f32 * 0.02, v as f32 * 0.1]).collect()
+            })
+            .collect();
+        let refs: Vec<&[[f32; 3]]> = views.iter().map(Vec::as_slice).collect();
+        let means: Vec<[f64; 3]> = (0..10).map(|i| [i as f64 * 0.02, 0.05, 0.1]).collect();
+        let (em, points) = Em::start(&refs, &means, &EmSettings::default()).unwrap();
+        let input = e_step_input(&em);
+        let specials = [f64::NAN, f64::INFINITY, -f64::INFINITY, 1e300, -1e300, 0.0, -1.0, 1e-300];
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+        let mut ran = 0;
+        for trial in 0..3000 {
+            let mut flat = input.clone();
+            for _ in 0..rng.random_range(1..4) {
+                let at = rng.random_range(0..flat.len());
+                flat[at] = match rng.random_range(0..3) {
+                    0 => specials[rng.random_range(0..specials.len())],
+                    1 => flat[at] * rng.random_range(-1e6..1e6),
+                    _ => rng.random_range(-1e3..1e3),
+                };
+            }
+            if trial % 10 == 0 {
+                flat.truncate(rng.random_range(0..flat.len()));
+            }
+            let outcome = std::panic::catch_unwind(|| {
+                let Ok(read) = read_e_step_input(&flat, 0, 3) else { return false };
+                let mut shard = Shard::new(points.clone());
+                let mut stats = em.empty_stats();
+                let terms = shard.e_step(&read.step(), &read.transforms, &mut stats);
+                let output = e_step_output(terms, &stats);
+                read_e_step_outputs([output.as_slice()], read.mixture.len(), 3).is_ok()
+            });
+            ran += usize::from(outcome.unwrap_or_else(|_| panic!("trial {trial} panicked")));
+        }
+        assert!(ran > 100, "only {ran} inputs ran");
+
+        // Mutated E-step outputs into the M-step: an error, or an iteration, never a panic.
+        let mut shard = Shard::new(points.clone());
+        let mut stats = em.empty_stats();
+        let terms = shard.e_step(&em.step(), em.transforms(), &mut stats);
+        let output = e_step_output(terms, &stats);
+        let mut stepped = 0;
+        for trial in 0..1000 {
+            let mut flat = output.clone();
+            for _ in 0..rng.random_range(1..4) {
+                let at = rng.random_range(0..flat.len());
+                flat[at] = specials[rng.random_range(0..specials.len())];
+            }
+            let outcome = std::panic::catch_unwind(|| {
+                let Ok((terms, back)) = read_e_step_outputs([flat.as_slice()], 10, 3) else {
+                    return false;
+                };
+                let (mut em, _) = Em::start(&refs, &means, &EmSettings::default()).unwrap();
+                em.m_step(&back, terms);
+                true
+            });
+            stepped += usize::from(outcome.unwrap_or_else(|_| panic!("output {trial} panicked")));
+        }
+        assert!(stepped > 100, "only {stepped} outputs stepped");
     }
 }
