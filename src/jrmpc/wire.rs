@@ -287,9 +287,9 @@ mod tests {
         assert!(matches!(read_shard_points(&flat[1..], &sizes), Err(WireError::PointCount { .. })));
     }
 
-    /// Decoders of what crosses between workers, fed thousands of mutated inputs (seeded): an
-    /// input either reads as an error or runs through a shard's E-step and the M-step without
-    /// a panic (in wasm a panic kills the worker).
+    /// Decoders of what crosses between workers, fed thousands of mutated inputs and shard
+    /// points (seeded): an input either reads as an error or runs through a shard's E-step and
+    /// the M-step without a panic (in wasm a panic kills the worker).
     #[test]
     fn mutated_e_step_inputs_are_errors_or_run() {
         use rand::{RngExt, SeedableRng};
@@ -318,9 +318,16 @@ mod tests {
             if trial % 10 == 0 {
                 flat.truncate(rng.random_range(0..flat.len()));
             }
+            // A shard's points come from JS too (`JrmpcShard`'s constructor).
+            let mut held = points.clone();
+            if trial % 3 == 0 {
+                let (v, i) = (rng.random_range(0..3), rng.random_range(0..40));
+                let axis = rng.random_range(0..3);
+                held[v][i][axis] = specials[rng.random_range(0..specials.len())];
+            }
             let outcome = std::panic::catch_unwind(|| {
                 let Ok(read) = read_e_step_input(&flat, 0, 3) else { return false };
-                let mut shard = Shard::new(points.clone());
+                let mut shard = Shard::new(held);
                 let mut stats = em.empty_stats();
                 let terms = shard.e_step(&read.step(), &read.transforms, &mut stats);
                 let output = e_step_output(terms, &stats);
