@@ -227,15 +227,20 @@ mod tests {
 
     /// A shard fed through the flat formats computes exactly what it computes directly, and
     /// the M-step takes the round-tripped statistics unchanged.
-    #[test]
-    fn an_iteration_through_the_wire_is_the_iteration() {
-        let views: Vec<Vec<[f32; 3]>> = (0..3)
+    /// Three small views of `n` points each, and `k` means along them.
+    fn small_rig(n: usize, k: usize) -> (Vec<Vec<[f32; 3]>>, Vec<[f64; 3]>) {
+        let views = (0..3)
             .map(|v| {
-                (0..50).map(|i| [i as f32 * 0.01, (i % 7) as f32 * 0.02, v as f32 * 0.1]).collect()
+                (0..n).map(|i| [i as f32 * 0.01, (i % 7) as f32 * 0.02, v as f32 * 0.1]).collect()
             })
             .collect();
+        (views, (0..k).map(|i| [i as f64 * 0.02, 0.05, 0.1]).collect())
+    }
+
+    #[test]
+    fn an_iteration_through_the_wire_is_the_iteration() {
+        let (views, means) = small_rig(50, 20);
         let refs: Vec<&[[f32; 3]]> = views.iter().map(Vec::as_slice).collect();
-        let means: Vec<[f64; 3]> = (0..20).map(|i| [i as f64 * 0.02, 0.05, 0.1]).collect();
         let (mut em, points) = Em::start(&refs, &means, &EmSettings::default()).unwrap();
         let (flat, sizes) = shard_points(&points, 1, 2).unwrap();
         assert_eq!(read_shard_points(&flat, &sizes).unwrap(), points[1..].to_vec());
@@ -293,13 +298,8 @@ mod tests {
     #[test]
     fn mutated_e_step_inputs_are_errors_or_run() {
         use rand::{RngExt, SeedableRng};
-        let views: Vec<Vec<[f32; 3]>> = (0..3)
-            .map(|v| {
-                (0..40).map(|i| [i as f32 * 0.01, (i % 7) as f32 * 0.02, v as f32 * 0.1]).collect()
-            })
-            .collect();
+        let (views, means) = small_rig(40, 10);
         let refs: Vec<&[[f32; 3]]> = views.iter().map(Vec::as_slice).collect();
-        let means: Vec<[f64; 3]> = (0..10).map(|i| [i as f64 * 0.02, 0.05, 0.1]).collect();
         let (em, points) = Em::start(&refs, &means, &EmSettings::default()).unwrap();
         let input = e_step_input(&em);
         let specials = [f64::NAN, f64::INFINITY, -f64::INFINITY, 1e300, -1e300, 0.0, -1.0, 1e-300];
