@@ -411,3 +411,28 @@ fn exact_runs_the_exact_e_step_by_flag_or_config() {
     assert_eq!(configured["sensors"], exact["sensors"], "the config's exact: true is --exact");
     assert_eq!(configured["exact"].as_bool(), Some(true));
 }
+
+/// `study --exact` runs JRMPC's exact E-step (every point against every component, so more
+/// terms than the fast path), and `--poses` prints each trial's error with the precision the
+/// calibration claimed, to weigh a move between two runs against.
+#[test]
+fn study_runs_the_exact_e_step_and_prints_claimed_precision() {
+    let study = |extra: &[&str]| -> String {
+        let out = Command::new(env!("CARGO_BIN_EXE_gmmcalib"))
+            .args(["study", "--seeds", "1", "--starts", "1", "--frames", "2", "--poses"])
+            .args(extra)
+            .output()
+            .unwrap();
+        let said = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(out.status.success(), "{said}{}", String::from_utf8_lossy(&out.stderr));
+        said
+    };
+    let terms = |said: &str| -> f64 {
+        let line = said.lines().find_map(|l| l.strip_prefix("JRMPC's Gaussian terms: "));
+        line.and_then(|l| l.split(' ').next()).and_then(|n| n.parse().ok()).expect(said)
+    };
+    let (fast, exact) = (study(&[]), study(&["--exact"]));
+    assert!(terms(&exact) > 1.5 * terms(&fast), "{fast}\n{exact}");
+    let pose = fast.lines().find(|l| l.starts_with("seed 1 start 0 pose: ")).expect(&fast);
+    assert!(pose.contains("; claimed ") && pose.ends_with(" mm"), "{pose}");
+}

@@ -24,7 +24,7 @@ const OWN_USAGE: &str = "\
                           [--max-angle-deg 3] [--max-yaw-deg DEG] [--max-translation 0.1]
                           [--method gmm] [--target cube:0.5|...|mesh:PATH|none] [--components K]
                           [--iterations N] [--tolerance T]
-                          [--bev on|off] [--planes on|off] [--multiresolution on|off] [--level on|off] [--global on|off] [--noise M]
+                          [--bev on|off] [--planes on|off] [--multiresolution on|off] [--exact] [--level on|off] [--global on|off] [--noise M]
                           [--columns N] [--threads T] [--notes] [--poses]
 ";
 
@@ -119,6 +119,8 @@ pub struct StudyArgs {
     pub planes: bool,
     /// `gmm`'s multi-resolution EM (`Settings::gmm_multiresolution`).
     pub multiresolution: bool,
+    /// JRMPC's exact E-step (`EmSettings::exact`), the reference the fast path is judged by.
+    pub exact: bool,
     /// Ground levelling on or off; default: the method's.
     pub level: Option<bool>,
     /// Global alignment first: `None`, the method's default.
@@ -154,6 +156,7 @@ impl Default for StudyArgs {
             bev: true,
             planes: true,
             multiresolution: false,
+            exact: false,
             level: None,
             global: None,
             target: None,
@@ -290,6 +293,7 @@ fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
             "--threads" => out.threads = Some(positive(&flag, &value)?),
             "--notes" => out.notes = true,
             "--poses" => out.poses = true,
+            "--exact" => out.exact = true,
             _ => return Err(unknown(&flag)),
         }
     }
@@ -374,12 +378,12 @@ mod tests {
     fn parses_study() {
         let Ok(Command::Study(s)) = parse(args(
             "study --preset paper-roof --seeds 3 --max-yaw-deg 8 --planes off --notes \
-                        --multiresolution on",
+                        --multiresolution on --exact",
         )) else {
             panic!("expected study");
         };
         assert_eq!((s.preset.as_str(), s.seeds, s.starts), ("paper-roof", 3, 5));
         assert_eq!((s.max_yaw_deg, s.planes, s.bev, s.notes), (Some(8.0), false, true, true));
-        assert!(s.multiresolution);
+        assert!(s.multiresolution && s.exact);
     }
 }

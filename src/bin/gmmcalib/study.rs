@@ -23,6 +23,8 @@ struct Trial {
     verdict: Level,
     micros: u128,
     iterations: usize,
+    /// Gaussian terms JRMPC's E-steps evaluated.
+    terms: u64,
     warnings: usize,
     notes: Vec<String>,
     /// The largest reconstructed target's fit: RMS (m) and size (m).
@@ -108,6 +110,7 @@ fn settings(a: &StudyArgs) -> Result<Settings, String> {
         settings.planes = None;
     }
     settings.gmm_multiresolution = a.multiresolution;
+    settings.jrmpc.exact = a.exact;
     settings.level_ground = a.level;
     settings.align_globally = a.global;
     if let Some(target) = &a.target {
@@ -163,6 +166,7 @@ fn trial(
         verdict: result.verdict.level,
         micros,
         iterations: result.iterations,
+        terms: result.history.iter().map(|h| h.terms).sum(),
         warnings: result.levelling.iter().filter(|l| l.warning.is_some()).count(),
         notes: said,
         target: result.reconstruction.fits.first().map(|f| (f.rms, f.size)),
@@ -220,8 +224,17 @@ fn report(jobs: &[(u64, u64)], trials: &[Trial], poses: bool) {
             for e in &t.errors {
                 let r = e.rotation.map(|a| a.to_degrees() * 1e3);
                 let p = e.position * 1e3;
+                // What the calibration claimed, to weigh a move between two runs against.
+                let claimed = e.precision.as_ref().map_or(String::new(), |c| {
+                    let r = c.rotation.map(|a| a.to_degrees() * 1e3);
+                    let p = c.position.map(|m| m * 1e3);
+                    format!(
+                        "; claimed {:.2} {:.2} {:.2} mdeg, {:.3} {:.3} {:.3} mm",
+                        r[0], r[1], r[2], p[0], p[1], p[2]
+                    )
+                });
                 println!(
-                    "seed {seed} start {start} pose: rotation {:.5} {:.5} {:.5} mdeg, position {:.5} {:.5} {:.5} mm",
+                    "seed {seed} start {start} pose: rotation {:.5} {:.5} {:.5} mdeg, position {:.5} {:.5} {:.5} mm{claimed}",
                     r.x, r.y, r.z, p.x, p.y, p.z
                 );
             }
@@ -269,6 +282,8 @@ fn report(jobs: &[(u64, u64)], trials: &[Trial], poses: bool) {
     println!("calibration: {:.2} s each (trials run in parallel)", seconds / count);
     let iterations = trials.iter().map(|t| t.iterations).sum::<usize>() as f64;
     println!("JRMPC iterations: {:.1} each", iterations / count);
+    let terms = trials.iter().map(|t| t.terms as f64).sum::<f64>();
+    println!("JRMPC's Gaussian terms: {:.2} M each", terms / count * 1e-6);
     println!("levelling warnings: {}", trials.iter().map(|t| t.warnings).sum::<usize>());
     // The reconstruction's convergence: its largest target's fit.
     let (rms, sizes): (Vec<f64>, Vec<f64>) =
