@@ -413,10 +413,11 @@ fn exact_runs_the_exact_e_step_by_flag_or_config() {
 }
 
 /// `study --exact` runs JRMPC's exact E-step (every point against every component, so more
-/// terms than the fast path), and `--poses` prints each trial's error with the precision the
-/// calibration claimed, to weigh a move between two runs against.
+/// terms than the fast path), `--poses` prints each trial's error with the precision the
+/// calibration claimed, to weigh a move between two runs against, and `--jitter` moves the
+/// scans by a few ulps, reproducibly.
 #[test]
-fn study_runs_the_exact_e_step_and_prints_claimed_precision() {
+fn study_runs_the_exact_e_step_jitters_and_prints_claimed_precision() {
     let study = |extra: &[&str]| -> String {
         let out = Command::new(env!("CARGO_BIN_EXE_gmmcalib"))
             .args(["study", "--seeds", "1", "--starts", "1", "--frames", "2", "--poses"])
@@ -433,6 +434,14 @@ fn study_runs_the_exact_e_step_and_prints_claimed_precision() {
     };
     let (fast, exact) = (study(&[]), study(&["--exact"]));
     assert!(terms(&exact) > 1.5 * terms(&fast), "{fast}\n{exact}");
-    let pose = fast.lines().find(|l| l.starts_with("seed 1 start 0 pose: ")).expect(&fast);
-    assert!(pose.contains("; claimed ") && pose.ends_with(" mm"), "{pose}");
+    let pose = |said: &str| -> String {
+        let line = said.lines().find(|l| l.starts_with("seed 1 start 0 pose: "));
+        line.expect(said).to_string()
+    };
+    assert!(pose(&fast).contains("; claimed ") && pose(&fast).ends_with(" mm"), "{fast}");
+    // --jitter moves the scans' last digits: the calibration moves a little, the same on
+    // every run.
+    let jittered = study(&["--jitter", "256"]);
+    assert_ne!(pose(&jittered), pose(&fast));
+    assert_eq!(pose(&study(&["--jitter", "256"])), pose(&jittered));
 }

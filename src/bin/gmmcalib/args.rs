@@ -24,7 +24,7 @@ const OWN_USAGE: &str = "\
                           [--max-angle-deg 3] [--max-yaw-deg DEG] [--max-translation 0.1]
                           [--method gmm] [--target cube:0.5|...|mesh:PATH|none] [--components K]
                           [--iterations N] [--tolerance T]
-                          [--bev on|off] [--planes on|off] [--multiresolution on|off] [--exact] [--level on|off] [--global on|off] [--noise M]
+                          [--bev on|off] [--planes on|off] [--multiresolution on|off] [--exact] [--jitter ULPS] [--level on|off] [--global on|off] [--noise M]
                           [--columns N] [--threads T] [--notes] [--poses]
 ";
 
@@ -40,7 +40,11 @@ const OWN_HELP: &str = "\
   DIR/summary.json, trials.csv, table.md and SVG plots.
   study: accuracy on the twin: seeds 1..=N of the scans, each calibrated from --starts wrong
   nominals (start k of seed s draws from seed 1000 s + k); prints the error distributions,
-  per trial, per sensor, and the precision claimed against the errors.";
+  per trial, per sensor, and the precision claimed against the errors. --poses: each
+  trial's error in full, with the precision it claimed, to compare two runs trial by trial.
+  --exact: JRMPC's exact E-step, the reference for the fast path. --jitter ULPS: every scan
+  coordinate moved up or down by ULPS f32 units in the last place (1 um at 10 m), far below
+  the LiDARs' noise: how much each trial rests on digits its data do not hold.";
 
 /// What the user asked for.
 #[derive(Debug)]
@@ -121,6 +125,8 @@ pub struct StudyArgs {
     pub multiresolution: bool,
     /// JRMPC's exact E-step (`EmSettings::exact`), the reference the fast path is judged by.
     pub exact: bool,
+    /// Every scan coordinate moved by this many f32 units in the last place, up or down.
+    pub jitter: u32,
     /// Ground levelling on or off; default: the method's.
     pub level: Option<bool>,
     /// Global alignment first: `None`, the method's default.
@@ -157,6 +163,7 @@ impl Default for StudyArgs {
             planes: true,
             multiresolution: false,
             exact: false,
+            jitter: 0,
             level: None,
             global: None,
             target: None,
@@ -266,6 +273,9 @@ fn experiment(flags: Vec<(String, String)>) -> Result<Command, String> {
     Ok(Command::Experiment(ExperimentArgs { twin, trials, methods, threads, out }))
 }
 
+/// `--jitter`'s largest move: 2^16 ulps is 0.06 m at 10 m, beyond any LiDAR's noise.
+const MAX_JITTER: u32 = 1 << 16;
+
 fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
     let mut out = StudyArgs::default();
     for (flag, value) in flags {
@@ -294,6 +304,12 @@ fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
             "--notes" => out.notes = true,
             "--poses" => out.poses = true,
             "--exact" => out.exact = true,
+            "--jitter" => {
+                out.jitter = u32::try_from(positive(&flag, &value)?)
+                    .ok()
+                    .filter(|&u| u <= MAX_JITTER)
+                    .ok_or_else(|| format!("{flag}: at most {MAX_JITTER} ulps"))?
+            }
             _ => return Err(unknown(&flag)),
         }
     }
@@ -378,12 +394,15 @@ mod tests {
     fn parses_study() {
         let Ok(Command::Study(s)) = parse(args(
             "study --preset paper-roof --seeds 3 --max-yaw-deg 8 --planes off --notes \
-                        --multiresolution on --exact",
+                        --multiresolution on --exact --jitter 16",
         )) else {
             panic!("expected study");
         };
         assert_eq!((s.preset.as_str(), s.seeds, s.starts), ("paper-roof", 3, 5));
         assert_eq!((s.max_yaw_deg, s.planes, s.bev, s.notes), (Some(8.0), false, true, true));
         assert!(s.multiresolution && s.exact);
+        assert_eq!(s.jitter, 16);
+        assert!(parse(args("study --jitter 0")).is_err());
+        assert!(parse(args("study --jitter 70000")).is_err());
     }
 }

@@ -6,11 +6,13 @@
 
 use std::time::Instant;
 
-use gmmcalib::calib::{Level, Method, Settings};
+use gmmcalib::calib::{Level, Method, Rig, Settings};
 use gmmcalib::eval::{self, SensorError};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::xyz_rpy;
-use gmmcalib::twin::{Miscalibration, Model, Twin};
+use gmmcalib::twin::{self, Miscalibration, Model, Twin};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
 
 use crate::args::StudyArgs;
 use crate::layout::model;
@@ -61,7 +63,7 @@ pub fn run(a: &StudyArgs) -> Result<(), String> {
                 seed: Some(seed * 1000 + start),
             };
             // A calibration that fails is a finding of the study, not the end of it.
-            Ok(trial(&model, a.frames, seed, &draw, &settings, a.notes))
+            Ok(trial(&model, a.frames, seed, &draw, &settings, a.notes, a.jitter))
         },
     )?;
     let mut done = Vec::new();
@@ -128,10 +130,16 @@ fn trial(
     draw: &Miscalibration,
     settings: &Settings,
     notes: bool,
+    jitter_ulps: u32,
 ) -> Result<Trial, String> {
     let twin = Twin::new(model, frames, seed, draw);
+    let mut rig = twin.rig();
+    if jitter_ulps > 0 {
+        let stream = draw.seed.unwrap_or(seed);
+        jitter(&mut rig, jitter_ulps, Pcg64::seed_from_u64(twin::derive_seed(stream, 1)));
+    }
     let clock = Instant::now();
-    let result = gmmcalib::calib::calibrate(&twin.rig(), settings, |_| Control::Continue)
+    let result = gmmcalib::calib::calibrate(&rig, settings, |_| Control::Continue)
         .map_err(|e| format!("seed {seed}: {e}"))?;
     let micros = clock.elapsed().as_micros();
     let errors = eval::sensor_errors(&twin, &result)
@@ -171,6 +179,24 @@ fn trial(
         notes: said,
         target: result.reconstruction.fits.first().map(|f| (f.rms, f.size)),
     })
+}
+
+/// Moves every non-zero coordinate of `rig`'s scans by `ulps` units in the last place of its
+/// f32, up or down as `rng` draws: a change far below any LiDAR's noise (a ulp is 1 µm at
+/// 10 m) that shows how far a trial's calibration rests on digits its data do not hold. Zero
+/// stays zero (the readers' "no return").
+fn jitter(rig: &mut Rig, ulps: u32, mut rng: Pcg64) {
+    for c in rig.scans.iter_mut().flat_map(|s| s.points.iter_mut()).flatten() {
+        let up = rng.random::<bool>();
+        // Away from or towards zero: the bits of an f32's magnitude count its ulps.
+        let (sign, magnitude) = (c.to_bits() & 1 << 31, c.to_bits() & !(1 << 31));
+        let magnitude =
+            if up { magnitude.saturating_add(ulps) } else { magnitude.saturating_sub(ulps) };
+        let moved = f32::from_bits(sign | magnitude);
+        if *c != 0.0 && moved != 0.0 && moved.is_finite() {
+            *c = moved;
+        }
+    }
 }
 
 /// Prints the study's figures.
