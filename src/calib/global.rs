@@ -58,6 +58,62 @@ impl Default for GlobalSettings {
     }
 }
 
+/// Most cells of a grid the global stage may build (`(2 reach / cell)^2`): 64 times the
+/// defaults' fine grid, far below what a page's 4 GiB holds.
+const MAX_GRID_CELLS: f64 = (1u64 << 25) as f64;
+/// Most yaw steps a search may take (each coarse one is an FFT of the grid): the defaults
+/// take 180 coarse, and 8 fine per coarse step.
+const MAX_YAW_STEPS: f64 = 4096.0;
+
+impl GlobalSettings {
+    /// The first setting out of range, named: a number that is not one, or a grid or a search
+    /// these would size beyond what a page's memory and patience hold. Settings reach a pool
+    /// worker's `alignGlobal` from JS, where nothing else checks them.
+    pub fn check(&self) -> Result<(), &'static str> {
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        let (c, u) = (&self.correlate, &self.up);
+        let reach = c.radius + c.max_shift + 2.0 * c.coarse_cell;
+        let grid = |cell: f64| (2.0 * reach / cell).powi(2) <= MAX_GRID_CELLS;
+        let sigmas = [self.tilt_sigma, self.reference_tilt_sigma, self.height_sigma];
+        let problem = if !sigmas.into_iter().all(positive) {
+            "global: tilt_sigma, reference_tilt_sigma and height_sigma must be positive numbers"
+        } else if !positive(self.voxel) || !positive(u.voxel) {
+            "global: voxel and up.voxel must be positive numbers of metres"
+        } else if !(self.ground_doubt.is_finite() && self.ground_doubt >= 0.0) {
+            "global: ground_doubt must be a non-negative number"
+        } else if !positive(u.max_range) || !positive(u.inlier_distance) || !positive(u.behind) {
+            "global: up.max_range, up.inlier_distance and up.behind must be positive numbers"
+        } else if !positive(u.min_extent) || !positive(u.footprint_cell) {
+            "global: up.min_extent and up.footprint_cell must be positive numbers of metres"
+        } else if (2.0 * u.max_range / u.footprint_cell).powi(2) > MAX_GRID_CELLS {
+            "global: up.footprint_cell is too small for up.max_range"
+        } else if !(u.heights.iter().all(|h| h.is_finite()) && u.heights[0] < u.heights[1]) {
+            "global: up.heights must be two numbers, the lower first"
+        } else if !(c.heights.iter().all(|h| h.is_finite()) && c.heights[0] < c.heights[1]) {
+            "global: correlate.heights must be two numbers, the lower first"
+        } else if !positive(c.radius) || !positive(c.max_shift) {
+            "global: correlate.radius and correlate.max_shift must be positive numbers of metres"
+        } else if !positive(c.coarse_cell) || !positive(c.fine_cell) || !positive(c.fine_blur) {
+            "global: correlate's cells and blur must be positive numbers of metres"
+        } else if !grid(c.coarse_cell) || !grid(c.fine_cell) {
+            "global: correlate's cells are too small for its radius and shift"
+        } else if !positive(c.coarse_yaw_step) || !positive(c.fine_yaw_step) {
+            "global: correlate's yaw steps must be positive numbers of radians"
+        } else if std::f64::consts::TAU / c.coarse_yaw_step > MAX_YAW_STEPS
+            || c.coarse_yaw_step / c.fine_yaw_step > MAX_YAW_STEPS
+        {
+            "global: correlate's yaw steps are too small"
+        } else if !positive(c.distinct_yaw) || !positive(c.distinct_shift) {
+            "global: correlate.distinct_yaw and distinct_shift must be positive numbers"
+        } else if !(0.0..=1.0).contains(&c.as_good) {
+            "global: correlate.as_good must be a share between 0 and 1"
+        } else {
+            return Ok(());
+        };
+        Err(problem)
+    }
+}
+
 /// Why a sensor's global alignment was not applied.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum GlobalSkip {
@@ -335,6 +391,35 @@ fn thinned(scan: &[[f32; 3]], pose: &Pose, voxel: f64) -> Vec<Vector3<f64>> {
 mod tests {
     use super::*;
     use crate::se3::pose_from_xyz_rpy;
+
+    /// The defaults pass; a number that is not one, or a grid or search too large for a page,
+    /// is named; and `calibrate` refuses such settings before any stage runs.
+    #[test]
+    fn settings_out_of_range_are_named() {
+        let ok = GlobalSettings::default();
+        assert_eq!(ok.check(), Ok(()));
+        let mut tiny = ok.clone();
+        tiny.correlate.fine_cell = 1e-4;
+        assert_eq!(
+            tiny.check(),
+            Err("global: correlate's cells are too small for its radius and shift")
+        );
+        let mut steps = ok.clone();
+        steps.correlate.coarse_yaw_step = 1e-4;
+        assert_eq!(steps.check(), Err("global: correlate's yaw steps are too small"));
+        let mut nan = ok.clone();
+        nan.height_sigma = f64::NAN;
+        assert!(nan.check().unwrap_err().contains("height_sigma"));
+        let mut heights = ok.clone();
+        heights.up.heights = [2.0, 1.0];
+        assert!(heights.check().unwrap_err().contains("up.heights"));
+        let settings = crate::calib::Settings { global: tiny, ..Default::default() };
+        let draw = crate::twin::Miscalibration::default();
+        let sampled = crate::twin::Model::Sampled(crate::twin::Sampling::default());
+        let rig = crate::twin::Twin::new(&sampled, 1, 1, &draw).rig();
+        let refused = crate::calib::calibrate(&rig, &settings, |_| crate::jrmpc::Control::Continue);
+        assert!(refused.unwrap_err().to_string().contains("correlate's cells are too small"));
+    }
 
     #[test]
     fn levelling_puts_the_ground_under_the_sensor_at_its_height() {

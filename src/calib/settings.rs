@@ -194,7 +194,7 @@ impl Settings {
         if self.components == 0 {
             return Err(CalibError::InvalidSetting("components must be at least 1"));
         }
-        Ok(())
+        self.global.check().map_err(CalibError::InvalidSetting)
     }
 }
 

@@ -344,6 +344,7 @@ fn bigints() -> serde_wasm_bindgen::Serializer {
 pub fn align_global(job: JsValue) -> Result<JsValue, JsError> {
     let wire: GlobalJobWire = serde_wasm_bindgen::from_value(job)
         .map_err(|e| JsError::new(&format!("alignGlobal: invalid job: {e}")))?;
+    wire.settings.check().map_err(|e| JsError::new(&format!("alignGlobal: {e}")))?;
     let scan = cloud_from(&wire.scan.to_vec(), "alignGlobal", "scan")?;
     let flat = wire.reference.to_vec();
     if flat.len() % 3 != 0 {

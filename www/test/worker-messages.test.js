@@ -1,6 +1,6 @@
-// What one worker hands another (a sensor's global job, frame pairs to align), mutated many
-// ways (seeded): each call returns or throws an Error that says what is wrong, and never traps
-// (a Rust panic in wasm is a RuntimeError that leaves the instance unusable).
+// What one worker hands another (a sensor's global job and its settings, frame pairs to align),
+// mutated many ways (seeded): each call returns or throws an Error that says what is wrong, and
+// never traps (a Rust panic in wasm is a RuntimeError that leaves the instance unusable).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFile } from 'node:fs/promises';
@@ -71,6 +71,34 @@ test('mutated global jobs and frame pairs are errors or results, never a trap', 
   }
   const found = wasm.alignGlobal(job);
   assert.ok(found.applied, 'the instance still works after the mutations');
+
+  // Its settings, each number in turn set to one of a few out-of-range values: an Error that
+  // names the setting (a grid or a search too large for the page is one), or a result.
+  const numbers = (o, path = []) => Object.entries(o).flatMap(([k, v]) => {
+    if (typeof v === 'number') return [[...path, k]];
+    return v && typeof v === 'object' && !Array.isArray(v) ? numbers(v, [...path, k]) : [];
+  });
+  const BAD = [0, -1, NaN, 1e-9, 1e9];
+  const settings = { rejected: 0, ran: 0 };
+  numbers(job.settings).forEach((path, i) => {
+    const bad = structuredClone(job.settings);
+    const value = BAD[(i + Math.floor(next() * BAD.length)) % BAD.length];
+    path.slice(0, -1).reduce((o, k) => o[k], bad)[path.at(-1)] = value;
+    const what = `global job, settings.${path.join('.')} = ${value}`;
+    try {
+      const { applied } = wasm.alignGlobal({ ...job, settings: bad });
+      assert.ok([...applied.rotation, ...applied.translation].every(Number.isFinite), what);
+      settings.ran += 1;
+    } catch (error) {
+      assert.ok(!(error instanceof WebAssembly.RuntimeError), `${what}: trapped: ${error}`);
+      assert.match(error.message, /^alignGlobal: /, what);
+      settings.rejected += 1;
+    }
+  });
+  console.log(`settings: ${JSON.stringify(settings)}`);
+  assert.ok(settings.rejected > 5 && settings.ran > 2, JSON.stringify(settings));
+  assert.throws(() => wasm.alignGlobal({ ...job, settings: { ...job.settings, correlate: { ...job.settings.correlate, fine_cell: 1e-6 } } }),
+    /alignGlobal: global: correlate's cells are too small for its radius and shift/);
 
   // Frame pairs: a sampled twin's first pair, its target, source and start mutated.
   const rig = wasm.simulateRig({ preset: 'sampled', sensors: 2, frames: 2, pointsPerView: 600, seed: 5 });
