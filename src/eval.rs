@@ -6,7 +6,10 @@
 
 use nalgebra::{Point3, Vector3};
 
-use crate::calib::{Calibration, Precision};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+
+use crate::calib::{Calibration, Precision, Rig};
 use crate::cloud::is_valid_point;
 use crate::se3::{Pose, rpy};
 use crate::twin::{OrientedBox, Twin};
@@ -299,9 +302,60 @@ pub fn stats(values: &[f64]) -> Option<Stats> {
     })
 }
 
+/// Moves every non-zero coordinate of `rig`'s scans by `ulps` units in the last place of its
+/// f32, up or down as a generator seeded with `seed` draws: a change far below any LiDAR's
+/// noise (a ulp is 1 µm at 10 m) that shows how far a calibration rests on digits its data do
+/// not hold (`study --jitter`, docs/accuracy.md). Zero stays zero (the readers' "no return").
+pub fn jitter(rig: &mut Rig, ulps: u32, seed: u64) {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    for c in rig.scans.iter_mut().flat_map(|s| s.points.iter_mut()).flatten() {
+        let up = rng.random::<bool>();
+        // Away from or towards zero: the bits of an f32's magnitude count its ulps.
+        let (sign, magnitude) = (c.to_bits() & 1 << 31, c.to_bits() & !(1 << 31));
+        let magnitude =
+            if up { magnitude.saturating_add(ulps) } else { magnitude.saturating_sub(ulps) };
+        let moved = f32::from_bits(sign | magnitude);
+        if *c != 0.0 && moved != 0.0 && moved.is_finite() {
+            *c = moved;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each non-zero coordinate moves by exactly `ulps` ulps, up or down; zero stays; the same
+    /// seed moves them the same way.
+    #[test]
+    fn jitter_moves_each_coordinate_by_its_ulps() {
+        let scan = |points: Vec<[f32; 3]>| crate::calib::Scan {
+            sensor: "a".into(),
+            frame: "1".into(),
+            points,
+            source: None,
+        };
+        let points: Vec<[f32; 3]> = (0..200).map(|i| [i as f32 * 0.37 - 30.0, 0.0, 1e-3]).collect();
+        let rig =
+            Rig { scans: vec![scan(points)], nominal: Vec::new(), roi: None, reference: None };
+        let (mut a, mut b) = (rig.clone(), rig.clone());
+        jitter(&mut a, 16, 7);
+        jitter(&mut b, 16, 7);
+        assert_eq!(a.scans[0].points, b.scans[0].points);
+        let pairs = rig.scans[0].points.iter().flatten().zip(a.scans[0].points.iter().flatten());
+        let (mut up, mut down) = (0, 0);
+        for (&before, &after) in pairs {
+            if before == 0.0 {
+                assert_eq!(after, 0.0);
+                continue;
+            }
+            let steps = (after.abs().to_bits() as i64) - (before.abs().to_bits() as i64);
+            assert_eq!(steps.abs(), 16, "{before} -> {after}");
+            assert_eq!(before.signum(), after.signum());
+            if steps > 0 { up += 1 } else { down += 1 }
+        }
+        assert!(up > 100 && down > 100, "{up} up, {down} down");
+    }
     use crate::se3::pose_from_xyz_rpy;
 
     fn close(a: f64, b: f64) -> bool {

@@ -6,13 +6,11 @@
 
 use std::time::Instant;
 
-use gmmcalib::calib::{Level, Method, Rig, Settings};
+use gmmcalib::calib::{Level, Method, Settings};
 use gmmcalib::eval::{self, SensorError};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::xyz_rpy;
 use gmmcalib::twin::{self, Miscalibration, Model, Twin};
-use rand::{RngExt, SeedableRng};
-use rand_pcg::Pcg64;
 
 use crate::args::StudyArgs;
 use crate::layout::model;
@@ -135,8 +133,7 @@ fn trial(
     let twin = Twin::new(model, frames, seed, draw);
     let mut rig = twin.rig();
     if jitter_ulps > 0 {
-        let stream = draw.seed.unwrap_or(seed);
-        jitter(&mut rig, jitter_ulps, Pcg64::seed_from_u64(twin::derive_seed(stream, 1)));
+        eval::jitter(&mut rig, jitter_ulps, twin::derive_seed(draw.seed.unwrap_or(seed), 1));
     }
     let clock = Instant::now();
     let result = gmmcalib::calib::calibrate(&rig, settings, |_| Control::Continue)
@@ -179,24 +176,6 @@ fn trial(
         notes: said,
         target: result.reconstruction.fits.first().map(|f| (f.rms, f.size)),
     })
-}
-
-/// Moves every non-zero coordinate of `rig`'s scans by `ulps` units in the last place of its
-/// f32, up or down as `rng` draws: a change far below any LiDAR's noise (a ulp is 1 µm at
-/// 10 m) that shows how far a trial's calibration rests on digits its data do not hold. Zero
-/// stays zero (the readers' "no return").
-fn jitter(rig: &mut Rig, ulps: u32, mut rng: Pcg64) {
-    for c in rig.scans.iter_mut().flat_map(|s| s.points.iter_mut()).flatten() {
-        let up = rng.random::<bool>();
-        // Away from or towards zero: the bits of an f32's magnitude count its ulps.
-        let (sign, magnitude) = (c.to_bits() & 1 << 31, c.to_bits() & !(1 << 31));
-        let magnitude =
-            if up { magnitude.saturating_add(ulps) } else { magnitude.saturating_sub(ulps) };
-        let moved = f32::from_bits(sign | magnitude);
-        if *c != 0.0 && moved != 0.0 && moved.is_finite() {
-            *c = moved;
-        }
-    }
 }
 
 /// Prints the study's figures.
