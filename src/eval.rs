@@ -324,6 +324,7 @@ pub fn jitter(rig: &mut Rig, ulps: u32, seed: u64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::se3::pose_from_xyz_rpy;
 
     /// Each non-zero coordinate moves by exactly `ulps` ulps, up or down; zero stays; the same
     /// seed moves them the same way.
@@ -356,7 +357,6 @@ mod tests {
         }
         assert!(up > 100 && down > 100, "{up} up, {down} down");
     }
-    use crate::se3::pose_from_xyz_rpy;
 
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-12
