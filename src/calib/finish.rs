@@ -4,13 +4,14 @@
 use nalgebra::Vector3;
 
 use super::CalibError;
-use super::average::robust_average;
+use super::average::{average, robust_average};
 use super::evidence::{ReferenceSurface, sensor_evidence};
 use super::notes::{Note, NoteKind};
-use super::pairs::FramePairs;
+use super::pairs::{FramePairs, PairCorrections, PairFailure, PairStart};
 use super::planes;
 use super::reconstruction::reconstruct;
 use super::result::{Calibration, SensorResult};
+use super::select::{self, Hypothesis, SensorSelection, Source};
 use super::verdict::{self, Level, SensorInputs, Verdict};
 use super::views::{Views, jrmpc_per_pair};
 use crate::jrmpc::Registration;
@@ -24,6 +25,15 @@ pub(super) fn finish(
     pairs: Option<FramePairs>,
 ) -> Result<Calibration, CalibError> {
     let reference_ground = views.reference_ground();
+    let constant = |s: usize, c: Pose| views.per_pair(|_| c).swap_remove(s);
+    // Per sensor, each hypothesis's per-frame corrections (of the pre-aligned views): the
+    // start's hypotheses hold one correction on every frame.
+    let mut frames: Vec<Vec<PairCorrections>> = (0..views.sensors.len())
+        .map(|s| {
+            let undo = views.levelled[s].inverse();
+            views.hypotheses[s].iter().map(|h| constant(s, h.correction * undo)).collect()
+        })
+        .collect();
     let Views {
         settings,
         stages,
@@ -41,27 +51,121 @@ pub(super) fn finish(
         placements,
         same_scans,
         roi,
+        scenes,
+        mut hypotheses,
+        start,
     } = views;
     let name = |view: usize| (sensors[views[view].sensor].clone(), views[view].frame.clone());
-    let mut kept_jrmpc = Vec::new();
+    if registration.is_none() && pairs.is_none() {
+        return Err(CalibError::InvalidSetting("no registration to finish"));
+    }
 
-    // The per-frame corrections: the frame pairs' where they ran, else JRMPC's.
-    let mut per_pair = match (&pairs, &registration) {
-        (Some(pairs), _) => {
-            let (per_pair, failures) = pairs.corrections();
-            for failure in failures {
-                let (sensor, frame) = name(failure.view);
-                let kept = failure.kept_start();
-                let note = Note { sensor, frame: Some(frame), kind: failure.kind };
-                if kept { kept_jrmpc.push(note) } else { skipped.push(note) }
-            }
-            per_pair
-        }
-        (None, Some(registration)) => jrmpc_per_pair(&frame_pairs, registration),
-        (None, None) => return Err(CalibError::InvalidSetting("no registration to finish")),
+    // Each later stage's hypotheses: the registration's, then each start's refinement.
+    let mut add = |s: usize, source: Source, parent: usize, per_frame: PairCorrections| {
+        let Some((mean, _)) = average(&per_frame.iter().map(|(_, c)| *c).collect::<Vec<_>>())
+        else {
+            return None;
+        };
+        let correction = mean * levelled[s];
+        let score = Default::default();
+        hypotheses[s].push(Hypothesis { source, correction, parent: Some(parent), score });
+        frames[s].push(per_frame);
+        Some(hypotheses[s].len() - 1)
     };
+    let mut registered = vec![None; sensors.len()];
+    if let Some(reg) = &registration {
+        let source = if stages.cad.is_some() { Source::Cad } else { Source::Jrmpc };
+        for (s, per_frame) in jrmpc_per_pair(&frame_pairs, reg).into_iter().enumerate() {
+            if s != r {
+                registered[s] = add(s, source, start[s], per_frame);
+            }
+        }
+    }
+    // Per sensor, the frames each refinement failed to register: (hypothesis, failures).
+    let mut failed: Vec<Vec<(usize, Vec<PairFailure>)>> = vec![Vec::new(); sensors.len()];
+    if let Some(pairs) = &pairs {
+        for &origin in pairs.origins() {
+            let (per_pair, failures) = pairs.corrections(origin);
+            for (s, per_frame) in per_pair.into_iter().enumerate().filter(|(s, _)| *s != r) {
+                let (source, parent) = match origin {
+                    PairStart::Registration => match registered[s] {
+                        Some(j) => (Source::Refined, j),
+                        None => continue,
+                    },
+                    PairStart::Start => (Source::RefinedFromStart, start[s]),
+                    PairStart::Nominal => (Source::RefinedFromNominal, 0),
+                };
+                if let Some(h) = add(s, source, parent, per_frame) {
+                    let own = failures.iter().filter(|f| views[f.view].sensor == s);
+                    failed[s].push((h, own.cloned().collect()));
+                }
+            }
+        }
+    }
 
-    // The joint plane adjustment: one motion per sensor on every frame.
+    // The selection: one hypothesis per sensor, on the whole scans. The paper's methods keep
+    // their own result as published; their scores still reach the verdict.
+    let mut chosen: Vec<usize> = hypotheses.iter().map(|h| h.len() - 1).collect();
+    let choose = |hypotheses: &mut Vec<Vec<Hypothesis>>, chosen: &mut Vec<usize>| {
+        let mut picked = chosen.clone();
+        select::choose_all(
+            &scenes,
+            &nominals,
+            r,
+            hypotheses,
+            &mut picked,
+            &settings.select,
+            settings.jrmpc.threads,
+        );
+        if stages.select {
+            *chosen = picked;
+        }
+    };
+    choose(&mut hypotheses, &mut chosen);
+
+    // The chosen and the nominal polished on the whole scans by the score itself, each
+    // sensor against the others' chosen.
+    if stages.select {
+        let poses: Vec<Pose> =
+            (0..sensors.len()).map(|s| hypotheses[s][chosen[s]].correction * nominals[s]).collect();
+        for s in (0..sensors.len()).filter(|&s| s != r) {
+            let mut from = vec![chosen[s]];
+            if chosen[s] != 0 {
+                from.push(0);
+            }
+            let polished =
+                crate::on_threads(&from, crate::threads_here(settings.jrmpc.threads), |&h| {
+                    let mut at = poses.clone();
+                    at[s] = hypotheses[s][h].correction * nominals[s];
+                    scenes.ascend(s, &at)
+                });
+            for (&parent, polished) in from.iter().zip(polished) {
+                let correction = polished * nominals[s].inverse();
+                if correction == hypotheses[s][parent].correction {
+                    continue;
+                }
+                // The parent's frames, moved with it: their spread is the refinement's still.
+                let undo = levelled[s].inverse();
+                let shift = correction * undo * (hypotheses[s][parent].correction * undo).inverse();
+                let moved = frames[s][parent].iter().map(|(k, c)| (*k, shift * c)).collect();
+                let score = Default::default();
+                let parent = Some(parent);
+                hypotheses[s].push(Hypothesis {
+                    source: Source::Polished,
+                    correction,
+                    parent,
+                    score,
+                });
+                frames[s].push(moved);
+            }
+        }
+        choose(&mut hypotheses, &mut chosen);
+    }
+    let mut per_pair: Vec<PairCorrections> =
+        (0..sensors.len()).map(|s| frames[s][chosen[s]].clone()).collect();
+
+    // The joint plane adjustment of the chosen: one motion per sensor on every frame, itself
+    // a hypothesis.
     let clouds: Vec<&[[f32; 3]]> = views.iter().map(|v| v.cloud.points.as_slice()).collect();
     let mut precision = vec![None; sensors.len()];
     let mut plane_adjustment = Vec::new();
@@ -69,23 +173,68 @@ pub(super) fn finish(
         // The clouds are pre-aligned: each sensor sits at its levelled nominal.
         let origins: Vec<Vector3<f64>> = pre_aligned.iter().map(|p| p.translation.vector).collect();
         let ground = reference_ground.map(|(plane, _)| plane);
+        let mut adjusted = per_pair.clone();
         let adjustments = planes::adjust(
             &clouds,
             &origins,
             &frame_pairs,
             r,
-            &mut per_pair,
+            &mut adjusted,
             ground,
             plane_settings,
         );
+        let mut planes_at = vec![None; sensors.len()];
         for a in &adjustments {
             if a.accepted {
-                precision[a.sensor] = a.precision;
+                let s = a.sensor;
+                let parent = chosen[s];
+                let correction = a.motion * hypotheses[s][parent].correction;
+                let score = Default::default();
+                hypotheses[s].push(Hypothesis {
+                    source: Source::Planes,
+                    correction,
+                    parent: Some(parent),
+                    score,
+                });
+                frames[s].push(adjusted[s].clone());
+                planes_at[s] = Some((hypotheses[s].len() - 1, a.precision));
             }
             let kind = a.note(plane_settings.max_departure);
             plane_adjustment.push(Note { sensor: sensors[a.sensor].clone(), frame: None, kind });
         }
+        if planes_at.iter().any(Option::is_some) {
+            if !stages.select {
+                chosen = hypotheses.iter().map(|h| h.len() - 1).collect();
+            }
+            choose(&mut hypotheses, &mut chosen);
+            for s in 0..sensors.len() {
+                per_pair[s] = frames[s][chosen[s]].clone();
+                if let Some((_, p)) = planes_at[s].filter(|(h, _)| *h == chosen[s]) {
+                    precision[s] = p;
+                }
+            }
+        }
     }
+    // The frames the chosen refinement failed to register are left out, and said so.
+    for (s, list) in failed.iter().enumerate() {
+        let mut h = chosen[s];
+        // A plane adjustment's frames are its parent's.
+        if hypotheses[s][h].source == Source::Planes {
+            h = hypotheses[s][h].parent.unwrap_or(h);
+        }
+        for failure in list.iter().filter(|(k, _)| *k == h).flat_map(|(_, f)| f) {
+            let (sensor, frame) = name(failure.view);
+            skipped.push(Note { sensor, frame: Some(frame), kind: failure.kind.clone() });
+        }
+    }
+    let selection: Vec<SensorSelection> = (0..sensors.len())
+        .filter(|&s| s != r)
+        .map(|s| SensorSelection {
+            sensor: sensors[s].clone(),
+            hypotheses: std::mem::take(&mut hypotheses[s]),
+            chosen: chosen[s],
+        })
+        .collect();
 
     // Average over frames, leaving out frames far from the others.
     let reference_nominal = nominals[r];
@@ -156,7 +305,8 @@ pub(super) fn finish(
                 left_out: count(&skipped, name, &|k| {
                     matches!(k, NoteKind::FrameOutlier { .. } | NoteKind::PairFailed { .. })
                 }),
-                rejected: count(&kept_jrmpc, name, &|_| true),
+                selection: selection.iter().find(|x| x.sensor == *name),
+                z: settings.select.z,
                 empty: count(&skipped, name, &|k| matches!(k, NoteKind::NoValidPoints)),
                 same_scans: same_scans.iter().find(|(a, _)| a == name).map(|(_, b)| b.clone()),
                 warning: level.and_then(|l| l.warning),
@@ -191,7 +341,7 @@ pub(super) fn finish(
         cancelled,
         exact: stages.jrmpc && settings.jrmpc.exact,
         skipped,
-        kept_jrmpc,
+        selection,
         plane_adjustment,
         levelling,
         global,

@@ -35,6 +35,7 @@ pub mod region;
 mod result;
 mod rig;
 mod run;
+pub mod select;
 mod settings;
 mod shifts;
 pub mod up;
@@ -50,13 +51,15 @@ pub use global::{
 pub use level::GroundSettings;
 pub use notes::{BevWarning, LevellingSkipped, Note, NoteKind, SearchRange};
 pub use pairs::{
-    FramePair, FramePairs, PairCorrections, PairFailure, PairIcp, PairSettings, align, target,
+    FramePair, FramePairs, PairCorrections, PairFailure, PairIcp, PairSettings, PairStart, align,
+    target,
 };
 pub use planes::{PlaneSettings, Precision};
 pub use progress::{Progress, Stage};
 pub use result::{Calibration, Levelling, Reconstruction, SensorResult, Spread};
 pub use rig::{Rig, Scan};
 pub use run::{MethodOutcome, Phase, Run};
+pub use select::{Hypothesis, SelectSettings, SensorScore, SensorSelection, Source};
 pub use settings::{InitialSigma, Method, Settings, Stages};
 pub use verdict::{Axis, Level, Reason, ReasonKind, SensorVerdict, Verdict};
 pub use views::{JrmpcInput, Views};

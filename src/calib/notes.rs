@@ -48,6 +48,9 @@ pub enum LevellingSkipped {
     NoGround,
     /// The reference sensor shows no ground plane.
     ReferenceWithoutGround { reference: String },
+    /// Levelled (and searched), the sensor's scans landed worse on the others' than from its
+    /// start: the selection kept the start.
+    ScoredWorse,
 }
 
 /// What the bird's-eye search suggests the user check: each points at a nominal extrinsic

@@ -36,11 +36,6 @@ pub struct PairSettings {
     /// of `icp`'s tolerances: they only have to bring the pose within the next stage's reach.
     /// `None`: every stage uses `icp`'s.
     pub early_tolerance: Option<f64>,
-    /// A registration that moves a frame's correction further than this from where it started
-    /// (rad, m) has slid off (on sparse views, poor normals can drag ICP away); the frame keeps
-    /// its starting correction and is reported. JRMPC's errors stay well inside. `None`: no
-    /// guard (the ICP methods, which start from the nominal).
-    pub max_departure: Option<(f64, f64)>,
 }
 
 impl Default for PairSettings {
@@ -62,7 +57,6 @@ impl Default for PairSettings {
             // The early stages need not reach the last stage's precision: on the twin this ends
             // every study as before, with about half the ICP iterations on hard data.
             early_tolerance: Some(1e-3),
-            max_departure: Some((2f64.to_radians(), 0.2)),
         }
     }
 }
@@ -75,7 +69,6 @@ impl PairSettings {
             match_distances: vec![icp.max_correspondence_distance],
             icp: icp.clone(),
             early_tolerance: None,
-            max_departure: None,
         }
     }
 }
@@ -92,8 +85,8 @@ pub struct PairIcp {
 /// One sensor's correction per frame pair `(reference view, sensor view)`.
 pub type PairCorrections = Vec<((usize, usize), Pose)>;
 
-/// A frame pair whose registration failed (the frame is left out of the average) or moved
-/// beyond the guard (the frame keeps its starting correction): what to note, on which view.
+/// A frame pair whose registration failed (the frame is left out of the average): what to
+/// note, on which view.
 #[derive(Clone, Debug)]
 pub struct PairFailure {
     /// Index of the sensor's view.
@@ -101,21 +94,40 @@ pub struct PairFailure {
     pub kind: NoteKind,
 }
 
-impl PairFailure {
-    /// The frame kept its starting correction (rather than being left out).
-    pub fn kept_start(&self) -> bool {
-        matches!(self.kind, NoteKind::RefinementDeparted { .. })
+/// Where a frame pair's ICP starts: each start gives the selection its own hypothesis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PairStart {
+    /// JRMPC's or `cad`'s correction of the frame.
+    Registration,
+    /// The chosen start (the pre-alignment: levelled, searched, globally aligned).
+    Start,
+    /// The nominal as given (the pre-alignment undone).
+    Nominal,
+}
+
+impl PairStart {
+    fn bit(self) -> u8 {
+        1 << (self as u8)
     }
 }
 
 /// One frame pair: sensor `sensor`'s view `view` onto the reference's view `reference_view`,
-/// from the correction `start`.
+/// from the correction `start`, standing for the starts `origins` (a bit per [`PairStart`]:
+/// starts that coincide register once).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FramePair {
     pub sensor: usize,
     pub reference_view: usize,
     pub view: usize,
     pub start: Pose,
+    origins: u8,
+}
+
+impl FramePair {
+    /// This pair stands for `origin`'s start.
+    pub fn starts_from(&self, origin: PairStart) -> bool {
+        self.origins & origin.bit() != 0
+    }
 }
 
 /// The ICP target of reference view `cloud`, with the ground's normals. Build it once per
@@ -177,54 +189,68 @@ pub struct FramePairs {
     pairs: Vec<FramePair>,
     /// Per pair: the registered correction, or why registering failed.
     outcomes: Vec<Option<Result<Pose, String>>>,
-    /// The reference's own pairs, which keep the identity.
-    reference: (usize, Vec<(usize, usize)>),
-    sensors: usize,
+    /// The reference's index and every sensor's `(reference view, view)` pairs, in frame
+    /// order; the reference's keep the identity.
+    reference: usize,
+    frames: Vec<Vec<(usize, usize)>>,
     stopped: bool,
-    /// Starting corrections set aside before registering (noted with the failures).
-    set_aside: Vec<PairFailure>,
+    /// The starts registered from, the first the one progress follows.
+    origins: Vec<PairStart>,
     /// Per view, the ICP target built here when a pair first needed it.
     targets: Vec<Option<Result<icp::TargetCloud, icp::IcpError>>>,
 }
 
 impl FramePairs {
-    /// For each sensor and pair `(reference view, sensor view)` in `pairs`, a frame pair from
-    /// its correction in `starts` (identity when `starts[s]` has none: the nominal
-    /// pre-alignment); `set_aside` notes the starts the caller replaced.
+    /// For each start `(origin, corrections)` in `starts`, each sensor and pair `(reference
+    /// view, sensor view)` in `pairs`: a frame pair from that pair's correction in
+    /// `corrections[s]` (identity where it has none: the pre-alignment). A start equal to an
+    /// earlier origin's for the same pair registers once and stands for both.
     pub fn new(
         icp: PairIcp,
         pairs: &[Vec<(usize, usize)>],
         reference: usize,
-        starts: &[PairCorrections],
-        set_aside: Vec<PairFailure>,
+        starts: &[(PairStart, Vec<PairCorrections>)],
     ) -> Self {
-        let frame_pairs: Vec<FramePair> = pairs
-            .iter()
-            .enumerate()
-            .filter(|(s, _)| *s != reference)
-            .flat_map(|(sensor, frames)| {
-                let starts = &starts[sensor];
-                frames.iter().map(move |&(reference_view, view)| FramePair {
-                    sensor,
-                    reference_view,
-                    view,
-                    start: starts
-                        .iter()
-                        .find(|(p, _)| *p == (reference_view, view))
-                        .map_or_else(Pose::identity, |(_, c)| *c),
-                })
-            })
-            .collect();
+        let mut frame_pairs: Vec<FramePair> = Vec::new();
+        for (sensor, frames) in pairs.iter().enumerate().filter(|(s, _)| *s != reference) {
+            let first = frame_pairs.len();
+            for (origin, corrections) in starts {
+                for &(reference_view, view) in frames {
+                    let start = corrections
+                        .get(sensor)
+                        .and_then(|c| c.iter().find(|(p, _)| *p == (reference_view, view)))
+                        .map_or_else(Pose::identity, |(_, c)| *c);
+                    let same = frame_pairs[first..].iter_mut().find(|p| {
+                        p.view == view && p.reference_view == reference_view && p.start == start
+                    });
+                    match same {
+                        Some(pair) => pair.origins |= origin.bit(),
+                        None => frame_pairs.push(FramePair {
+                            sensor,
+                            reference_view,
+                            view,
+                            start,
+                            origins: origin.bit(),
+                        }),
+                    }
+                }
+            }
+        }
         Self {
             icp,
             outcomes: vec![None; frame_pairs.len()],
             pairs: frame_pairs,
-            reference: (reference, pairs[reference].clone()),
-            sensors: pairs.len(),
+            reference,
+            frames: pairs.to_vec(),
             stopped: false,
-            set_aside,
+            origins: starts.iter().map(|(o, _)| *o).collect(),
             targets: Vec::new(),
         }
+    }
+
+    /// The starts registered from, in the order given.
+    pub fn origins(&self) -> &[PairStart] {
+        &self.origins
     }
 
     /// How every pair registers.
@@ -333,9 +359,11 @@ impl FramePairs {
         self.outcomes.iter().filter(|o| o.is_some()).count()
     }
 
-    /// The mean correction per sensor over the pairs recorded so far (identity for none).
+    /// The mean correction per sensor over the pairs recorded so far from the first start
+    /// (identity for none).
     pub fn running(&self) -> Vec<Pose> {
-        let (corrections, _) = self.corrections();
+        let first = self.origins.first().copied().unwrap_or(PairStart::Start);
+        let (corrections, _) = self.corrections(first);
         corrections
             .iter()
             .map(|c| {
@@ -345,45 +373,64 @@ impl FramePairs {
             .collect()
     }
 
-    /// Per sensor, its recorded pairs' corrections, in pair order (the reference: identities),
-    /// and the pairs that failed or moved beyond the guard. Pairs never recorded (after a
-    /// stop) are left out.
-    pub fn corrections(&self) -> (Vec<PairCorrections>, Vec<PairFailure>) {
-        let mut refined: Vec<PairCorrections> = vec![Vec::new(); self.sensors];
-        let (r, reference_pairs) = &self.reference;
-        refined[*r] = reference_pairs.iter().map(|&pair| (pair, Pose::identity())).collect();
-        let mut failures = self.set_aside.clone();
-        let settings = &self.icp.settings;
-        for (pair, outcome) in self.pairs.iter().zip(&self.outcomes) {
-            let views = (pair.reference_view, pair.view);
-            match outcome {
-                None => {}
-                Some(Ok(pose)) => match departure_beyond(&pair.start, pose, settings.max_departure)
-                {
-                    None => refined[pair.sensor].push((views, *pose)),
-                    Some(kind) => {
-                        failures.push(PairFailure { view: pair.view, kind });
-                        refined[pair.sensor].push((views, pair.start));
-                    }
-                },
-                Some(Err(e)) => failures.push(PairFailure {
-                    view: pair.view,
-                    kind: NoteKind::PairFailed { metric: settings.metric, error: e.clone() },
-                }),
+    /// Per sensor, the corrections of its pairs registered from `origin`, in pair order (the
+    /// reference: identities), and the pairs that failed. Pairs never recorded (after a stop)
+    /// are left out.
+    pub fn corrections(&self, origin: PairStart) -> (Vec<PairCorrections>, Vec<PairFailure>) {
+        let mut refined: Vec<PairCorrections> = vec![Vec::new(); self.frames.len()];
+        let r = self.reference;
+        refined[r] = self.frames[r].iter().map(|&pair| (pair, Pose::identity())).collect();
+        let mut failures = Vec::new();
+        let metric = self.icp.settings.metric;
+        for (s, frames) in self.frames.iter().enumerate().filter(|(s, _)| *s != r) {
+            for &key in frames {
+                let found = self.pairs.iter().zip(&self.outcomes).find(|(p, _)| {
+                    p.sensor == s && (p.reference_view, p.view) == key && p.starts_from(origin)
+                });
+                match found {
+                    None | Some((_, None)) => {}
+                    Some((_, Some(Ok(pose)))) => refined[s].push((key, *pose)),
+                    Some((_, Some(Err(e)))) => failures.push(PairFailure {
+                        view: key.1,
+                        kind: NoteKind::PairFailed { metric, error: e.clone() },
+                    }),
+                }
             }
         }
         (refined, failures)
     }
 }
 
-/// The note for `end` too far from `start` to be trusted, if it is.
-fn departure_beyond(start: &Pose, end: &Pose, limit: Option<(f64, f64)>) -> Option<NoteKind> {
-    let limit = limit?;
-    let d = start.inverse() * end;
-    let (angle, distance) = (d.rotation.angle(), d.translation.vector.norm());
-    (angle > limit.0 || distance > limit.1).then_some(NoteKind::RefinementDeparted {
-        angle,
-        distance,
-        limit,
-    })
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Starts that coincide register once and stand for every origin; the others register
+    /// apart, and each origin's corrections come from its own pairs.
+    #[test]
+    fn coinciding_starts_register_once() {
+        let icp = PairIcp { settings: PairSettings::default(), ground: None };
+        let pairs = vec![vec![(0, 0), (2, 2)], vec![(0, 1), (2, 3)]];
+        let turned = Pose::new(nalgebra::Vector3::new(0.0, 0.0, 1.0), nalgebra::Vector3::zeros());
+        let registration = vec![Vec::new(), vec![((0, 1), turned), ((2, 3), Pose::identity())]];
+        let starts = [
+            (PairStart::Registration, registration),
+            (PairStart::Start, Vec::new()),
+            (PairStart::Nominal, Vec::new()),
+        ];
+        let mut frame_pairs = FramePairs::new(icp, &pairs, 0, &starts);
+        // Frame 1 from JRMPC's turn; frame 2's JRMPC start is the identity, as the others'.
+        assert_eq!(frame_pairs.pairs().len(), 3);
+        for j in 0..3 {
+            let moved =
+                Pose::new(nalgebra::Vector3::new(j as f64, 0.0, 0.0), nalgebra::Vector3::zeros());
+            frame_pairs.record(j, Ok(moved));
+        }
+        let of = |origin| -> Vec<f64> {
+            frame_pairs.corrections(origin).0[1].iter().map(|(_, c)| c.translation.x).collect()
+        };
+        assert_eq!(of(PairStart::Registration), vec![0.0, 1.0]);
+        assert_eq!(of(PairStart::Start), vec![2.0, 1.0]);
+        assert_eq!(of(PairStart::Nominal), vec![2.0, 1.0]);
+    }
 }

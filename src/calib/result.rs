@@ -4,6 +4,7 @@ use super::bev::BevAlignment;
 use super::global::GlobalAlignment;
 use super::notes::{BevWarning, LevellingSkipped, Note};
 use super::planes::Precision;
+use super::select::SensorSelection;
 use super::settings::Method;
 use super::verdict::Verdict;
 use crate::jrmpc;
@@ -86,8 +87,8 @@ pub struct Calibration {
     pub exact: bool,
     /// Views left out (too few points in the ROI, failed registration, outliers).
     pub skipped: Vec<Note>,
-    /// `gmm` frames whose refinement went beyond its guard; they keep the JRMPC correction.
-    pub kept_jrmpc: Vec<Note>,
+    /// Per non-reference sensor, every stage's hypothesis, scored, and the one chosen.
+    pub selection: Vec<SensorSelection>,
     /// `gmm`'s plane adjustment, per non-reference sensor: the motion it applied to every
     /// frame, or why the refinement was kept; empty when it is off.
     pub plane_adjustment: Vec<Note>,

@@ -8,8 +8,9 @@ use super::CalibError;
 use super::bev::BevSettings;
 use super::global::GlobalSettings;
 use super::level::GroundSettings;
-use super::pairs::PairSettings;
+use super::pairs::{PairSettings, PairStart};
 use super::planes::PlaneSettings;
+use super::select::SelectSettings;
 use crate::cad::CadSettings;
 use crate::icp::{self, IcpSettings};
 use crate::jrmpc;
@@ -161,6 +162,8 @@ pub struct Settings {
     /// good. Each of those also moves with the scans jittered far below their noise
     /// (docs/benchmarks.md), so whether that allows it is issue 22's to decide.
     pub gmm_multiresolution: bool,
+    /// The selection among every stage's hypotheses (docs/method.md, "Selection").
+    pub select: SelectSettings,
 }
 
 impl Default for Settings {
@@ -184,6 +187,7 @@ impl Default for Settings {
             cad: CadSettings::default(),
             gmm_em_tolerance: 1e-4,
             gmm_multiresolution: false,
+            select: SelectSettings::default(),
         }
     }
 }
@@ -221,10 +225,17 @@ pub struct Stages {
     pub em_multiresolution: bool,
     /// Register each frame pair by ICP: from JRMPC's corrections (`gmm`) or the nominal.
     pub pairs: Option<PairSettings>,
+    /// The starts each frame pair registers from: for `gmm` and `cad` the registration's
+    /// correction, the chosen start and the nominal, each a hypothesis for the selection; for
+    /// the ICP methods the pre-alignment alone, as published.
+    pub pair_starts: Vec<PairStart>,
     /// The frame pairs' reference points near its ground take the ground's normal (`gmm`).
     pub ground_normals: bool,
     /// The joint plane adjustment of every sensor over all frames.
     pub planes: Option<PlaneSettings>,
+    /// The selection decides among the stages' hypotheses (`gmm`, `cad`); the paper's methods
+    /// keep their own result as published, scored for the verdict.
+    pub select: bool,
 }
 
 impl Stages {
@@ -266,8 +277,15 @@ impl Stages {
                 ..settings.cad.clone()
             }),
             pairs,
+            pair_starts: match method {
+                Method::Gmm | Method::Cad => {
+                    vec![PairStart::Registration, PairStart::Start, PairStart::Nominal]
+                }
+                Method::Jrmpc | Method::Icp(_) => vec![PairStart::Start],
+            },
             ground_normals: method == Method::Gmm,
             planes: settings.planes.clone().filter(|_| matches!(method, Method::Gmm | Method::Cad)),
+            select: matches!(method, Method::Gmm | Method::Cad),
         }
     }
 }

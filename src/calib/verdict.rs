@@ -11,6 +11,7 @@ use super::evidence::{Agreement, Observability, SensorEvidence};
 use super::global::{GlobalAlignment, GlobalSkip};
 use super::notes::{BevWarning, LevellingSkipped};
 use super::result::SensorResult;
+use super::select::{SensorSelection, Source};
 use crate::target::{ShapeFit, Target};
 
 /// Below this share of a sensor's compared points overlapping the reference's surfaces, the
@@ -43,6 +44,9 @@ pub const FAR_FROM_NOMINAL: (f64, f64) = (20.0 * std::f64::consts::PI / 180.0, 1
 /// ambiguous: the scene allows another overlay almost as good (the twin's three cubes in a row:
 /// 0.88 at most).
 pub const AMBIGUOUS: f64 = 0.95;
+/// A rival placement closer than this (rad, m) to the chosen is the same placement seen
+/// through the score's noise, not another one.
+pub const RIVAL_APART: (f64, f64) = (1.0 * std::f64::consts::PI / 180.0, 0.1);
 /// A global overlay scoring at least this share supports a result far from the nominal
 /// (OpenCalib's side LiDARs: 0.86-0.93).
 pub const SUPPORTED_OVERLAY: f64 = 0.5;
@@ -99,14 +103,19 @@ pub enum ReasonKind {
     FramesDisagree { ratio: f64, rotation: f64, translation: f64 },
     /// Frames left out of the average (outliers, failed registrations).
     FramesLeftOut { frames: usize, of: usize },
-    /// Frames whose refinement went beyond its guard.
-    RefinementRejected { frames: usize },
+    /// No stage's hypothesis landed the sensor's scans better on the others' than its
+    /// nominal: the nominal is the answer (`share`: of its points landing).
+    NominalKept { share: f64 },
+    /// A placement elsewhere (another start's family) that the chosen one does not beat:
+    /// `angle` (rad) and `distance` (m) away, landing `share` of the points against the
+    /// chosen's `chosen`.
+    Rival { source: Source, angle: f64, distance: f64, share: f64, chosen: f64 },
+    /// The method's own result lands the scans worse than the nominal did (`share` against
+    /// the nominal's `nominal`): a paper method that slid away.
+    WorseThanNominal { share: f64, nominal: f64 },
     /// The correction moves the sensor this far from its nominal; `supported` when a clear
     /// global alignment found the move (a tape-measure nominal, the data placed it).
     FarFromNominal { angle: f64, distance: f64, supported: bool },
-    /// The global alignment's runner-up overlay scores `ambiguity` of its best: another
-    /// placement, `yaw` (rad) and `shift` (m) away, fits almost as well.
-    Ambiguous { ambiguity: f64, yaw: f64, shift: f64 },
     /// The global alignment was not applied to this sensor: why.
     GlobalSkipped(GlobalSkip),
     /// The sensor sits where `other` sits: one sensor twice, or one sensor's frames as sensors.
@@ -157,7 +166,9 @@ pub(super) struct SensorInputs<'a> {
     pub evidence: Option<SensorEvidence>,
     pub frames: usize,
     pub left_out: usize,
-    pub rejected: usize,
+    /// The selection among the stages' hypotheses, and the `z` it decided with.
+    pub selection: Option<&'a SensorSelection>,
+    pub z: f64,
     pub empty: usize,
     pub same_scans: Option<String>,
     pub warning: Option<BevWarning>,
@@ -192,10 +203,8 @@ pub(super) fn judge_sensor(inputs: SensorInputs, others: &[&SensorResult]) -> Se
         let level = if 2 * inputs.left_out >= of { Level::Check } else { Level::Good };
         say(level, ReasonKind::FramesLeftOut { frames: inputs.left_out, of });
     }
-    // Information: those frames keep JRMPC's correction, and a bad one shows in the frames'
-    // spread (the twin with moving targets rejects frames and ends within 0.01 deg).
-    if inputs.rejected > 0 {
-        say(Level::Good, ReasonKind::RefinementRejected { frames: inputs.rejected });
+    if let Some(selection) = inputs.selection {
+        judge_selection(selection, inputs.z, &mut say);
     }
     if let Some(w) = inputs.warning {
         say(Level::Check, ReasonKind::Search(w));
@@ -211,11 +220,6 @@ pub(super) fn judge_sensor(inputs: SensorInputs, others: &[&SensorResult]) -> Se
         if let Some(overlay) = &g.overlay {
             let ambiguity = overlay.ambiguity();
             supported = overlay.best.score >= SUPPORTED_OVERLAY && ambiguity <= AMBIGUOUS;
-            if let Some(runner) = overlay.runners_up.first().filter(|_| ambiguity > AMBIGUOUS) {
-                let yaw = crate::se3::wrap_angle(runner.yaw - overlay.best.yaw).abs();
-                let shift = (runner.shift - overlay.best.shift).norm();
-                say(Level::Check, ReasonKind::Ambiguous { ambiguity, yaw, shift });
-            }
         }
     }
     let moved = &result.correction;
@@ -230,6 +234,37 @@ pub(super) fn judge_sensor(inputs: SensorInputs, others: &[&SensorResult]) -> Se
         level: reasons.iter().map(|r| r.level).max().unwrap_or(Level::Good),
         reasons,
         evidence: inputs.evidence,
+    }
+}
+
+/// What the selection says: the nominal kept, a rival placement the scans cannot rule out, a
+/// method's own result worse than its nominal.
+fn judge_selection(selection: &SensorSelection, z: f64, say: &mut impl FnMut(Level, ReasonKind)) {
+    let chosen = selection.chosen();
+    let nominal = selection.nominal();
+    if chosen.source == Source::Nominal && selection.hypotheses.len() > 1 {
+        say(Level::Check, ReasonKind::NominalKept { share: nominal.score.value() });
+    }
+    if nominal.score.beats(&chosen.score, z) {
+        let (share, nominal) = (chosen.score.value(), nominal.score.value());
+        say(Level::Failed, ReasonKind::WorseThanNominal { share, nominal });
+    }
+    if let Some(rival) = selection.rival(z) {
+        let d = chosen.correction.inverse() * rival.correction;
+        let (angle, distance) = (d.rotation.angle(), d.translation.vector.norm());
+        // Within the scans' own resolution of each other, it is the same placement.
+        if angle > RIVAL_APART.0 || distance > RIVAL_APART.1 {
+            say(
+                Level::Check,
+                ReasonKind::Rival {
+                    source: rival.source,
+                    angle,
+                    distance,
+                    share: rival.score.value(),
+                    chosen: chosen.score.value(),
+                },
+            );
+        }
     }
 }
 

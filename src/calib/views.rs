@@ -9,10 +9,11 @@ use super::bev;
 use super::global::{GlobalAlignment, GlobalStage};
 use super::level::{self, points_in};
 use super::notes::{LevellingSkipped, Note, NoteKind};
-use super::pairs::{FramePairs, PairCorrections, PairFailure, PairIcp};
+use super::pairs::{FramePairs, PairCorrections, PairIcp, PairStart};
 use super::placed::{self, place_targets, roi_around_targets};
 use super::region;
 use super::result::Levelling;
+use super::select::{self, Hypothesis, Scenes, SensorScore, Source};
 use super::settings::{InitialSigma, Settings, Stages};
 use super::{CalibError, Rig};
 use crate::cloud::{Aabb, Cloud};
@@ -60,6 +61,13 @@ pub struct Views {
     pub(super) same_scans: Vec<(String, String)>,
     /// The region of interest the scans were cropped to.
     pub(super) roi: Aabb,
+    /// Every sensor's whole scans, prepared for the selection score.
+    pub(super) scenes: Scenes,
+    /// Per sensor, its hypotheses so far: the nominal (first), the global stage's candidates,
+    /// the levelled start; the reference has only its nominal.
+    pub(super) hypotheses: Vec<Vec<Hypothesis>>,
+    /// Per sensor, the hypothesis its views are pre-aligned by (`levelled` is its correction).
+    pub(super) start: Vec<usize>,
 }
 
 /// What JRMPC registers: the views, the target's surface at their centroid, and EM's
@@ -104,25 +112,69 @@ impl Views {
         settings.check()?;
         let stages = Stages::of(settings);
         let nominals: Vec<Pose> = sensors.iter().map(|s| rig.nominal_of(s)).collect();
-        let global_motion: Vec<Pose> = (0..sensors.len())
-            .map(|s| global.get(s).map_or_else(Pose::identity, |g| g.applied))
-            .collect();
-        let starts: Vec<Pose> = global_motion.iter().zip(&nominals).map(|(g, n)| g * n).collect();
+        let threads = settings.jrmpc.threads;
+
+        // The start: the nominal or one of the global stage's candidates, by the selection.
+        let scenes = Scenes::new(&frame_scans(rig, &sensors), r, &settings.select, threads);
+        let mut hypotheses: Vec<Vec<Hypothesis>> =
+            (0..sensors.len()).map(|s| roots(global.get(s).filter(|_| s != r))).collect();
+        let mut start: Vec<usize> = hypotheses.iter().map(|h| usize::from(h.len() > 1)).collect();
+        select::choose_all(
+            &scenes,
+            &nominals,
+            r,
+            &mut hypotheses,
+            &mut start,
+            &settings.select,
+            threads,
+        );
+        let starts: Vec<Pose> =
+            (0..sensors.len()).map(|s| hypotheses[s][start[s]].correction * nominals[s]).collect();
         let roi = match rig.roi {
             Some(roi) => roi,
             None => region::overlap_region(&sensor_scans(rig, &sensors), &starts, r)
                 .ok_or(CalibError::NoOverlap)?,
         };
 
-        // Level, then search from above, when the stages say so.
-        let levelling = if stages.level {
+        // Level, then search from above, when the stages say so: a hypothesis like any other.
+        let mut levelling = if stages.level {
             level_grounds(rig, &roi, &sensors, &starts, r, settings, &stages)
         } else {
             Vec::new()
         };
-        let levelled: Vec<Pose> = (0..sensors.len())
-            .map(|s| levelling.get(s).map_or_else(Pose::identity, |l| l.motion) * global_motion[s])
-            .collect();
+        for (s, level) in levelling.iter().enumerate().filter(|(s, _)| *s != r) {
+            if level.skipped.is_none() && level.motion != Pose::identity() {
+                let correction = level.motion * hypotheses[s][start[s]].correction;
+                let parent = Some(start[s]);
+                let score = SensorScore::default();
+                hypotheses[s].push(Hypothesis {
+                    source: Source::Levelled,
+                    correction,
+                    parent,
+                    score,
+                });
+            }
+        }
+        if levelling.iter().any(|l| l.skipped.is_none() && l.motion != Pose::identity()) {
+            select::choose_all(
+                &scenes,
+                &nominals,
+                r,
+                &mut hypotheses,
+                &mut start,
+                &settings.select,
+                threads,
+            );
+        }
+        for (s, level) in levelling.iter_mut().enumerate().filter(|(s, _)| *s != r) {
+            let kept = hypotheses[s][start[s]].source == Source::Levelled;
+            if level.skipped.is_none() && level.motion != Pose::identity() && !kept {
+                level.motion = Pose::identity();
+                level.skipped = Some(LevellingSkipped::ScoredWorse);
+            }
+        }
+        let levelled: Vec<Pose> =
+            (0..sensors.len()).map(|s| hypotheses[s][start[s]].correction).collect();
 
         // Without levelling, the reference's ground is found for the reconstruction's fit and
         // the verdict's structure.
@@ -175,6 +227,9 @@ impl Views {
             placements,
             same_scans,
             roi,
+            scenes,
+            hypotheses,
+            start,
         })
     }
 
@@ -284,34 +339,31 @@ impl Views {
         corrections.iter().zip(&self.levelled).map(|(c, l)| c * l).collect()
     }
 
-    /// The frame pairs to register, when the stages register them: from `registration`'s
-    /// corrections (`gmm`), else from the nominal.
+    /// The frame pairs to register, when the stages register them: from each start the
+    /// stages name — `registration`'s corrections (`gmm`, `cad`), the chosen start, the
+    /// nominal.
     pub fn frame_pairs(&self, registration: Option<&Registration>) -> Option<FramePairs> {
         let settings = self.stages.pairs.clone()?;
         let ground = self.reference_ground().filter(|_| self.stages.ground_normals);
-        let (mut starts, mut set_aside) = (vec![Vec::new(); self.sensors.len()], Vec::new());
-        if let Some(registration) = registration {
-            starts = jrmpc_per_pair(&self.pairs, registration);
-            // JRMPC finds the basin in yaw and shift; the ground both sensors see has fixed
-            // the tilt already, to hundredths of a degree. On a wide ROI that is mostly ground
-            // JRMPC can fold a view over about an axis in the ground (the paper twin's scans
-            // without a ROI: 180 deg); such a start gives way to the levelling.
-            for (s, per_sensor) in starts.iter_mut().enumerate() {
-                if self.levelling.get(s).is_none_or(|l| l.ground.is_none()) {
-                    continue;
+        let starts: Vec<(PairStart, Vec<PairCorrections>)> = (self.stages.pair_starts.iter())
+            .filter_map(|&origin| match origin {
+                PairStart::Registration => {
+                    registration.map(|reg| (origin, jrmpc_per_pair(&self.pairs, reg)))
                 }
-                for ((_, view), start) in per_sensor.iter_mut() {
-                    let angle = (start.rotation * Vector3::z()).angle(&Vector3::z());
-                    if angle > MAX_START_TILT {
-                        let kind = NoteKind::StartTilted { angle, limit: MAX_START_TILT };
-                        set_aside.push(PairFailure { view: *view, kind });
-                        *start = Pose::identity();
-                    }
-                }
-            }
-        }
+                PairStart::Start => Some((origin, Vec::new())),
+                // The pre-alignment undone: the nominal as given.
+                PairStart::Nominal => Some((origin, self.per_pair(|s| self.levelled[s].inverse()))),
+            })
+            .collect();
         let icp = PairIcp { settings, ground };
-        Some(FramePairs::new(icp, &self.pairs, self.reference, &starts, set_aside))
+        Some(FramePairs::new(icp, &self.pairs, self.reference, &starts))
+    }
+
+    /// Every frame pair's correction `of` its sensor.
+    pub(super) fn per_pair(&self, of: impl Fn(usize) -> Pose) -> Vec<PairCorrections> {
+        (self.pairs.iter().enumerate())
+            .map(|(s, frames)| frames.iter().map(|&pair| (pair, of(s))).collect())
+            .collect()
     }
 
     /// The reference's levelled ground plane and the band whose points take its normal.
@@ -321,10 +373,6 @@ impl Views {
     }
 }
 
-/// The most a JRMPC start may tilt a levelled view's up axis (rad): levelling leaves the tilt
-/// between sensors at hundredths of a degree, and JRMPC's corrections after it stay below a
-/// degree on every twin study; a fold over is tens of degrees or more.
-const MAX_START_TILT: f64 = 5.0 * std::f64::consts::PI / 180.0;
 /// Per sensor, JRMPC's correction of each of its frame pairs: `T_ref,f^-1 T_s,f`.
 pub(super) fn jrmpc_per_pair(
     pairs: &[Vec<(usize, usize)>],
@@ -448,6 +496,39 @@ fn sensor_seed(seed: u64, sensors: &[String], s: usize) -> u64 {
     seed.wrapping_add(sensors.iter().filter(|n| **n < sensors[s]).count() as u64)
 }
 
+/// A sensor's root hypotheses: its nominal, then the global stage's candidates (its best
+/// overlay, then the runners-up) when it aligned the sensor.
+fn roots(global: Option<&GlobalAlignment>) -> Vec<Hypothesis> {
+    let root = |source, correction| Hypothesis {
+        source,
+        correction,
+        parent: None,
+        score: SensorScore::default(),
+    };
+    let mut roots = vec![root(Source::Nominal, Pose::identity())];
+    let Some(g) = global.filter(|g| g.skipped.is_none()) else { return roots };
+    roots.push(root(Source::Global { rank: 0 }, g.applied));
+    if let Some(overlay) = &g.overlay {
+        // The runners-up were searched after the same levelling as the best.
+        let level = overlay.best.applied.inverse() * g.applied;
+        for (k, runner) in overlay.runners_up.iter().enumerate() {
+            roots.push(root(Source::Global { rank: k + 1 }, runner.applied * level));
+        }
+    }
+    roots
+}
+
+/// Each sensor's scans, frame by frame, in its own frame: (frame name, points).
+fn frame_scans<'a>(rig: &'a Rig, sensors: &[String]) -> Vec<Vec<(&'a str, &'a [[f32; 3]])>> {
+    sensors
+        .iter()
+        .map(|name| {
+            let own = rig.scans.iter().filter(|v| &v.sensor == name);
+            own.map(|v| (v.frame.as_str(), v.points.as_slice())).collect()
+        })
+        .collect()
+}
+
 /// Each sensor's points over all its scans, in its own frame.
 fn sensor_scans(rig: &Rig, sensors: &[String]) -> Vec<Vec<[f32; 3]>> {
     sensors
@@ -532,25 +613,24 @@ mod tests {
         }
     }
 
-    /// A JRMPC start folded over about an axis in the levelled ground is set aside and noted
-    /// for every frame; a start within the tilt JRMPC corrects is kept.
+    /// A JRMPC registration folded over about an axis in the levelled ground is a hypothesis
+    /// like any other: its refinement lands the scans worse than the refinement from the
+    /// start, and the selection takes the latter; the result is the truth's.
     #[test]
-    fn a_folded_jrmpc_start_gives_way_to_the_levelling() {
+    fn a_folded_jrmpc_result_loses_the_selection() {
         let twin = Twin::new(&Model::RayCast(Preset::paper()), 2, 1, &Miscalibration::default());
         let settings = Settings { align_globally: Some(false), ..Settings::default() };
         let views = Views::new(&twin.rig(), &settings).expect("views");
-        let notes = |angle: f64| {
-            let pairs = views.frame_pairs(Some(&turned(&views, angle))).expect("gmm pairs");
-            pairs.corrections().1
-        };
-        let folded = notes(std::f64::consts::PI);
-        assert_eq!(folded.len(), 2, "{folded:?}");
-        assert!(
-            folded
-                .iter()
-                .all(|f| matches!(f.kind, NoteKind::StartTilted { angle, .. } if angle > 3.1))
-        );
-        assert!(notes(1f64.to_radians()).is_empty());
+        let folded = turned(&views, std::f64::consts::PI);
+        let mut pairs = views.frame_pairs(Some(&folded)).expect("gmm pairs");
+        let count = pairs.pairs().len();
+        pairs.run(&views.clouds(), 0..count, 1, &mut |_| crate::jrmpc::Control::Continue);
+        let c = super::super::finish::finish(views, Some(folded), Some(pairs)).expect("finished");
+        let chosen = c.selection[0].chosen();
+        assert!(!matches!(chosen.source, Source::Jrmpc | Source::Refined), "{:?}", chosen.source);
+        let error = twin.correction(1).inverse() * c.sensors[1].correction;
+        let (angle, distance) = (error.rotation.angle(), error.translation.vector.norm());
+        assert!(angle < 0.1f64.to_radians() && distance < 0.01, "{angle} rad, {distance} m");
     }
 
     /// Without a ROI, the paper twin's full scans are cropped around the four cubes found

@@ -27,8 +27,9 @@ pub struct Report {
     pub reconstruction: ReconstructionReport,
     /// Views left out.
     pub skipped: Vec<NoteReport>,
-    /// `gmm` frames whose refinement was rejected; they keep the JRMPC correction.
-    pub kept_jrmpc: Vec<NoteReport>,
+    /// Per non-reference sensor, every stage's hypothesis, scored on the whole scans, and the
+    /// one chosen (docs/method.md, "Selection").
+    pub selection: Vec<SelectionReport>,
     /// `gmm`'s plane adjustment per non-reference sensor (frame `all`): the motion applied, or
     /// why the refinement was kept; empty when it is off.
     pub plane_adjustment: Vec<NoteReport>,
@@ -233,7 +234,7 @@ impl From<&Calibration> for Report {
                     .collect(),
             },
             skipped: notes(&c.skipped),
-            kept_jrmpc: notes(&c.kept_jrmpc),
+            selection: c.selection.iter().map(SelectionReport::from).collect(),
             plane_adjustment: notes(&c.plane_adjustment),
             levelling: c
                 .levelling
@@ -455,16 +456,21 @@ impl From<&Reason> for ReasonReport {
             ReasonKind::FramesLeftOut { frames, of } => {
                 vec![("frames", Number(*frames as f64)), ("of", Number(*of as f64))]
             }
-            ReasonKind::RefinementRejected { frames } => vec![("frames", Number(*frames as f64))],
+            ReasonKind::NominalKept { share } => vec![("share", Number(*share))],
+            ReasonKind::Rival { source, angle, distance, share, chosen } => vec![
+                ("stage", Text(source.name().into())),
+                ("angle", Number(*angle)),
+                ("distance", Number(*distance)),
+                ("share", Number(*share)),
+                ("chosen", Number(*chosen)),
+            ],
+            ReasonKind::WorseThanNominal { share, nominal } => {
+                vec![("share", Number(*share)), ("nominal", Number(*nominal))]
+            }
             ReasonKind::FarFromNominal { angle, distance, supported } => vec![
                 ("angle", Number(*angle)),
                 ("distance", Number(*distance)),
                 ("supported", Number(f64::from(u8::from(*supported)))),
-            ],
-            ReasonKind::Ambiguous { ambiguity, yaw, shift } => vec![
-                ("ambiguity", Number(*ambiguity)),
-                ("yaw", Number(*yaw)),
-                ("shift", Number(*shift)),
             ],
             ReasonKind::GlobalSkipped(_) => vec![],
             ReasonKind::SamePlace { other, angle, distance } => vec![
@@ -538,4 +544,54 @@ pub struct CandidateReport {
 
 fn candidate(c: &crate::calib::correlate::Candidate) -> CandidateReport {
     CandidateReport { yaw: c.yaw, shift: c.shift.into(), score: c.score }
+}
+
+/// One sensor's selection: every stage's hypothesis and the one chosen.
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct SelectionReport {
+    pub sensor: String,
+    /// Index of the chosen hypothesis.
+    pub chosen: usize,
+    pub hypotheses: Vec<HypothesisReport>,
+}
+
+/// One hypothesis: the stage it came from, its correction on top of the nominal (row-major)
+/// and how it scored.
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct HypothesisReport {
+    /// `nominal`, `global`, `levelled`, `jrmpc`, `cad`, `refinedFromNominal`,
+    /// `refinedFromStart`, `refined` or `planes`.
+    pub stage: &'static str,
+    /// A global candidate's rank (0: the global stage's best overlay).
+    pub rank: Option<usize>,
+    /// The hypothesis it was refined from.
+    pub parent: Option<usize>,
+    pub correction: [f64; 16],
+    /// Share of the points compared that land on another sensor's surfaces (0..1).
+    pub score: f64,
+    /// Share of the points compared with another sensor's surface beside them (0..1).
+    pub overlap: f64,
+}
+
+impl From<&crate::calib::SensorSelection> for SelectionReport {
+    fn from(s: &crate::calib::SensorSelection) -> Self {
+        let hypotheses = s
+            .hypotheses
+            .iter()
+            .map(|h| HypothesisReport {
+                stage: h.source.name(),
+                rank: match h.source {
+                    crate::calib::Source::Global { rank } => Some(rank),
+                    _ => None,
+                },
+                parent: h.parent,
+                correction: to_row_major(&h.correction),
+                score: h.score.value(),
+                overlap: h.score.overlap(),
+            })
+            .collect();
+        Self { sensor: s.sensor.clone(), chosen: s.chosen, hypotheses }
+    }
 }

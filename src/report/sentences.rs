@@ -93,6 +93,9 @@ impl fmt::Display for LevellingSkipped {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             LevellingSkipped::NoGround => f.write_str("no ground plane found near the ROI"),
+            LevellingSkipped::ScoredWorse => {
+                f.write_str("levelled, its scans landed worse on the others' than from its start")
+            }
             LevellingSkipped::ReferenceWithoutGround { reference } => {
                 write!(f, "the reference sensor {reference} shows no ground plane")
             }
@@ -211,9 +214,28 @@ impl fmt::Display for ReasonKind {
             ReasonKind::FramesLeftOut { frames, of } => {
                 write!(f, "{frames} of {of} frames left out (see the notes)")
             }
-            ReasonKind::RefinementRejected { frames } => write!(
+            ReasonKind::NominalKept { share } => write!(
                 f,
-                "{frames} frame(s) kept JRMPC's correction: the refinement went beyond its guard"
+                "no stage landed the scans better on the others' than the nominal ({:.0} % \
+                 land): the nominal is the answer",
+                100.0 * share
+            ),
+            ReasonKind::Rival { source, angle, distance, share, chosen } => write!(
+                f,
+                "the scans cannot rule out another placement {:.1} deg / {distance:.2} m away \
+                 (the {} hypothesis: {:.0} % of the points land, against {:.0} % for the \
+                 result): a symmetric scene; check the sensor landed where it sits",
+                deg(*angle),
+                source.name(),
+                100.0 * share,
+                100.0 * chosen
+            ),
+            ReasonKind::WorseThanNominal { share, nominal } => write!(
+                f,
+                "the result lands the scans worse on the others' than the nominal did ({:.0} % \
+                 against {:.0} %): the method slid away",
+                100.0 * share,
+                100.0 * nominal
             ),
             ReasonKind::FarFromNominal { angle, distance, supported: true } => write!(
                 f,
@@ -226,14 +248,6 @@ impl fmt::Display for ReasonKind {
                 "the result is {:.1} deg / {distance:.2} m from the nominal: the nominal was \
                  wrong, or the result is wrong",
                 deg(*angle)
-            ),
-            ReasonKind::Ambiguous { ambiguity, yaw, shift } => write!(
-                f,
-                "the scene allows another placement almost as good ({:.0} % of the best's \
-                 score, {:.1} deg / {shift:.2} m away): a symmetric scene; check the sensor \
-                 landed where it sits",
-                100.0 * ambiguity,
-                deg(*yaw)
             ),
             ReasonKind::GlobalSkipped(why) => write!(f, "not aligned globally: {why}"),
             ReasonKind::SamePlace { other, angle, distance } => write!(
@@ -313,9 +327,10 @@ impl ReasonKind {
             ReasonKind::Observability { .. } => "observability",
             ReasonKind::FramesDisagree { .. } => "framesDisagree",
             ReasonKind::FramesLeftOut { .. } => "framesLeftOut",
-            ReasonKind::RefinementRejected { .. } => "refinementRejected",
+            ReasonKind::NominalKept { .. } => "nominalKept",
+            ReasonKind::Rival { .. } => "rival",
+            ReasonKind::WorseThanNominal { .. } => "worseThanNominal",
             ReasonKind::FarFromNominal { .. } => "farFromNominal",
-            ReasonKind::Ambiguous { .. } => "ambiguous",
             ReasonKind::GlobalSkipped(_) => "globalSkipped",
             ReasonKind::SamePlace { .. } => "samePlace",
             ReasonKind::SameScans { .. } => "sameScans",

@@ -74,7 +74,7 @@ pub fn summary(c: &Calibration) -> String {
         );
     }
     notes(&mut out, "skipped", &c.skipped);
-    notes(&mut out, "refinement rejected, kept the JRMPC correction", &c.kept_jrmpc);
+    selection(&mut out, c);
     notes(&mut out, "plane adjustment", &c.plane_adjustment);
     warnings(&mut out, "", c);
     out
@@ -122,11 +122,36 @@ pub fn comparison(results: &[&Calibration]) -> String {
     for c in results {
         let label = format!("{}: skipped", c.method.name());
         notes(&mut out, &label, &c.skipped);
-        let label = format!("{}: refinement rejected, kept the JRMPC correction", c.method.name());
-        notes(&mut out, &label, &c.kept_jrmpc);
         warnings(&mut out, &format!("{}: ", c.method.name()), c);
     }
     out
+}
+
+/// Each sensor's hypotheses: the stage, how much of the scans land, how far from the nominal,
+/// the chosen marked.
+fn selection(out: &mut String, c: &Calibration) {
+    if c.selection.is_empty() {
+        return;
+    }
+    let _ =
+        writeln!(out, "\nselection (share of the points landing on the other sensors' surfaces):");
+    for s in &c.selection {
+        let _ = writeln!(out, "  {}", s.sensor);
+        for (i, h) in s.hypotheses.iter().enumerate() {
+            let mark = if i == s.chosen { "*" } else { " " };
+            let stage = match h.source {
+                crate::calib::Source::Global { rank } => format!("global #{}", rank + 1),
+                other => other.name().to_string(),
+            };
+            let _ = writeln!(
+                out,
+                "  {mark} {stage:<20} {:>5.1} %   {:>7.3} deg {:>7.3} m from the nominal",
+                100.0 * h.score.value(),
+                h.correction.rotation.angle().to_degrees(),
+                h.correction.translation.vector.norm()
+            );
+        }
+    }
 }
 
 /// The levelling's warnings (a nominal further off than the bird's-eye search reaches).

@@ -145,8 +145,13 @@ fn trial(
         .ok_or_else(|| format!("seed {seed}: a sensor has no result"))?;
     let mut said = Vec::new();
     if notes {
-        for note in result.plane_adjustment.iter().chain(&result.kept_jrmpc) {
+        for note in &result.plane_adjustment {
             said.push(format!("{}: {}", note.sensor, note.kind));
+        }
+        for s in &result.selection {
+            let h = s.chosen();
+            let score = 100.0 * h.score.value();
+            said.push(format!("{}: chose {} ({score:.1} %)", s.sensor, h.source.name()));
         }
         // Why a trial is not good: the reasons at its level.
         let level = result.verdict.level;
