@@ -67,8 +67,7 @@ pub(super) fn finish(
             return None;
         };
         let correction = mean * levelled[s];
-        let score = Default::default();
-        hypotheses[s].push(Hypothesis { source, correction, parent: Some(parent), score });
+        hypotheses[s].push(Hypothesis::new(source, correction, Some(parent)));
         frames[s].push(per_frame);
         Some(hypotheses[s].len() - 1)
     };
@@ -148,14 +147,7 @@ pub(super) fn finish(
                 let undo = levelled[s].inverse();
                 let shift = correction * undo * (hypotheses[s][parent].correction * undo).inverse();
                 let moved = frames[s][parent].iter().map(|(k, c)| (*k, shift * c)).collect();
-                let score = Default::default();
-                let parent = Some(parent);
-                hypotheses[s].push(Hypothesis {
-                    source: Source::Polished,
-                    correction,
-                    parent,
-                    score,
-                });
+                hypotheses[s].push(Hypothesis::new(Source::Polished, correction, Some(parent)));
                 frames[s].push(moved);
             }
         }
@@ -189,13 +181,7 @@ pub(super) fn finish(
                 let s = a.sensor;
                 let parent = chosen[s];
                 let correction = a.motion * hypotheses[s][parent].correction;
-                let score = Default::default();
-                hypotheses[s].push(Hypothesis {
-                    source: Source::Planes,
-                    correction,
-                    parent: Some(parent),
-                    score,
-                });
+                hypotheses[s].push(Hypothesis::new(Source::Planes, correction, Some(parent)));
                 frames[s].push(adjusted[s].clone());
                 planes_at[s] = Some((hypotheses[s].len() - 1, a.precision));
             }

@@ -13,7 +13,7 @@ use super::pairs::{FramePairs, PairCorrections, PairIcp, PairStart};
 use super::placed::{self, place_targets, roi_around_targets};
 use super::region;
 use super::result::Levelling;
-use super::select::{self, Hypothesis, Scenes, SensorScore, Source};
+use super::select::{self, Hypothesis, Scenes, Source};
 use super::settings::{InitialSigma, Settings, Stages};
 use super::{CalibError, Rig};
 use crate::cloud::{Aabb, Cloud};
@@ -146,13 +146,7 @@ impl Views {
             if level.skipped.is_none() && level.motion != Pose::identity() {
                 let correction = level.motion * hypotheses[s][start[s]].correction;
                 let parent = Some(start[s]);
-                let score = SensorScore::default();
-                hypotheses[s].push(Hypothesis {
-                    source: Source::Levelled,
-                    correction,
-                    parent,
-                    score,
-                });
+                hypotheses[s].push(Hypothesis::new(Source::Levelled, correction, parent));
             }
         }
         if levelling.iter().any(|l| l.skipped.is_none() && l.motion != Pose::identity()) {
@@ -499,12 +493,7 @@ fn sensor_seed(seed: u64, sensors: &[String], s: usize) -> u64 {
 /// A sensor's root hypotheses: its nominal, then the global stage's candidates (its best
 /// overlay, then the runners-up) when it aligned the sensor.
 fn roots(global: Option<&GlobalAlignment>) -> Vec<Hypothesis> {
-    let root = |source, correction| Hypothesis {
-        source,
-        correction,
-        parent: None,
-        score: SensorScore::default(),
-    };
+    let root = |source, correction| Hypothesis::new(source, correction, None);
     let mut roots = vec![root(Source::Nominal, Pose::identity())];
     let Some(g) = global.filter(|g| g.skipped.is_none()) else { return roots };
     roots.push(root(Source::Global { rank: 0 }, g.applied));

@@ -6,7 +6,11 @@
 //! other sensors' surfaces and theirs on its, within their measured noise). The rule
 //! ([`choose`]):
 //!
-//! 1. a hypothesis scoring below the nominal is never taken;
+//! 1. a hypothesis scoring below the nominal is never taken, nor one that moves the sensor
+//!    further from its nominal position than a tape measure errs (`position_tolerance`; no
+//!    limit for a sensor whose nominal is the identity, which says nothing of its place): a
+//!    symmetric scene (a road lined alike on both sides) fits a mirrored placement as well as
+//!    the right one, and only the nominal's position tells them apart;
 //! 2. of the rest, those the best does not beat by more than the score's own noise (a paired
 //!    comparison over spatial blocks, `z` standard errors) are tied with it;
 //! 3. among the tied, the nominal's family (the nominal and what was refined from it) comes
@@ -56,6 +60,9 @@ pub struct SelectSettings {
     pub block: f64,
     /// Standard errors by which one hypothesis must beat another to count as better.
     pub z: f64,
+    /// The farthest (m) a hypothesis may move a sensor from its nominal position: what a tape
+    /// measure or a drawing gets wrong at worst (±1 m per axis is 1.7 m).
+    pub position_tolerance: f64,
 }
 
 impl Default for SelectSettings {
@@ -73,6 +80,7 @@ impl Default for SelectSettings {
             block: 2.0,
             // One-sided 97.7 %: a convention, not a value fitted to any rig.
             z: 2.0,
+            position_tolerance: 2.0,
         }
     }
 }
@@ -132,6 +140,15 @@ pub struct Hypothesis {
     /// (the nominal, a global candidate).
     pub parent: Option<usize>,
     pub score: SensorScore,
+    /// It keeps the sensor within the position tolerance of its nominal position.
+    pub plausible: bool,
+}
+
+impl Hypothesis {
+    /// A hypothesis not scored yet.
+    pub fn new(source: Source, correction: Pose, parent: Option<usize>) -> Self {
+        Self { source, correction, parent, score: SensorScore::default(), plausible: true }
+    }
 }
 
 /// One sensor's hypotheses and the one chosen.
@@ -159,7 +176,7 @@ impl SensorSelection {
         let family = root(&self.hypotheses, self.chosen);
         let chosen = &self.chosen().score;
         (0..self.hypotheses.len())
-            .filter(|&h| root(&self.hypotheses, h) != family)
+            .filter(|&h| root(&self.hypotheses, h) != family && self.hypotheses[h].plausible)
             .filter(|&h| !chosen.beats(&self.hypotheses[h].score, z))
             .max_by(|&a, &b| {
                 let (a, b) = (&self.hypotheses[a].score, &self.hypotheses[b].score);
@@ -173,8 +190,13 @@ impl SensorSelection {
 pub fn choose(hypotheses: &[Hypothesis], z: f64) -> usize {
     let Some(nominal) = hypotheses.first() else { return 0 };
     let value = |h: usize| hypotheses[h].score.value();
-    let best = (0..hypotheses.len()).max_by(|&a, &b| value(a).total_cmp(&value(b))).unwrap_or(0);
+    let allowed = |h: &usize| *h == 0 || hypotheses[*h].plausible;
+    let best = (0..hypotheses.len())
+        .filter(allowed)
+        .max_by(|&a, &b| value(a).total_cmp(&value(b)))
+        .unwrap_or(0);
     let tied: Vec<usize> = (0..hypotheses.len())
+        .filter(allowed)
         .filter(|&h| value(h) >= nominal.score.value())
         .filter(|&h| h == best || !hypotheses[best].score.beats(&hypotheses[h].score, z))
         .collect();
@@ -220,9 +242,31 @@ pub(crate) fn choose_all(
             for (h, score) in hypotheses[s].iter_mut().zip(scores) {
                 h.score = score;
             }
+            let plausible = within_tolerance(&hypotheses[s], &nominals[s], settings);
+            for (h, plausible) in hypotheses[s].iter_mut().zip(plausible) {
+                h.plausible = plausible;
+            }
             chosen[s] = choose(&hypotheses[s], settings.z);
         }
     }
+}
+
+/// Per hypothesis, whether it keeps the sensor within the position tolerance of its nominal
+/// position (all, for a nominal that is the identity: no position given).
+pub fn within_tolerance(
+    hypotheses: &[Hypothesis],
+    nominal: &Pose,
+    settings: &SelectSettings,
+) -> Vec<bool> {
+    let given = *nominal != Pose::identity();
+    let at = nominal.translation.vector;
+    hypotheses
+        .iter()
+        .map(|h| {
+            let moved = ((h.correction * nominal).translation.vector - at).norm();
+            !given || moved <= settings.position_tolerance
+        })
+        .collect()
 }
 
 /// The root of hypothesis `h`'s family: the nominal or the global candidate it descends from.
@@ -242,7 +286,7 @@ mod tests {
         let agreeing = [blocks.iter().sum(), 0.0];
         let blocks = blocks.iter().map(|&b| [b, 0.0]).collect();
         let score = SensorScore { agreeing, overlapping: agreeing, total: [100.0, 0.0], blocks };
-        Hypothesis { source, correction: Pose::identity(), parent, score }
+        Hypothesis { source, correction: Pose::identity(), parent, score, plausible: true }
     }
 
     /// Blocks scoring `level` each, with block-to-block variation whose pattern `seed` sets.
@@ -262,6 +306,10 @@ mod tests {
         // The refinement ties the global candidate and is later; the plane adjustment scores
         // below the nominal.
         assert_eq!(choose(&h, 2.0), 3);
+        // Out of the position tolerance, the refinement gives way to the rest.
+        let mut far = h.to_vec();
+        far[3].plausible = false;
+        assert_eq!(choose(&far, 2.0), 1);
     }
 
     #[test]
