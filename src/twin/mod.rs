@@ -4,8 +4,9 @@
 //!
 //! - [`Preset`]: the ray-cast presets (paper section V): a static scene of ground, boxes and
 //!   meshes ([`MeshObject`]; [`shapes`] builds a chair and a board on a stand),
-//!   rotating LiDARs ([`lidar`]) with exact ray intersection ([`scene`]), so occlusion, ring
-//!   spacing, beam incidence and missing returns look like a real scan.
+//!   LiDARs ([`Lidar`]: rotating, [`spinning`], or solid-state rosette scanners, [`rosette`],
+//!   from a [`catalogue`] of real-sensor-like models) with exact ray intersection ([`scene`]),
+//!   so occlusion, ring spacing, beam incidence and missing returns look like a real scan.
 //! - [`Sampling`]: a cube sampled afresh for every view, for any number of sensors and points.
 //! - [`Twin::new`]: a model's scans plus a nominal per sensor that is wrong by a seeded draw
 //!   ([`Miscalibration`]), and the truth.
@@ -14,12 +15,16 @@
 //! `derive_seed(seed, MISCALIBRATION_STREAM)` unless a draw seed is given (a study draws
 //! several starts for the same scans). Changing the bounds keeps the scans.
 
+pub mod catalogue;
+pub mod float16;
 pub mod lidar;
 mod mesh_object;
 mod preset;
+pub mod rosette;
 mod sampled;
 pub mod scene;
 pub mod shapes;
+pub mod spinning;
 
 use rand::{Rng, RngExt, SeedableRng};
 use rand_pcg::Pcg64;
@@ -31,8 +36,10 @@ use crate::se3::{Pose, pose_from_xyz_rpy};
 pub use lidar::Lidar;
 pub use mesh_object::MeshObject;
 pub use preset::{Preset, SensorSpec};
+pub use rosette::Rosette;
 pub use sampled::Sampling;
 pub use scene::{OrientedBox, Scene};
+pub use spinning::Spinning;
 
 /// Default miscalibration bound per rotation axis (rad): 3 deg, as in the paper.
 pub const MAX_MISCALIBRATION_ANGLE: f64 = 3.0 * std::f64::consts::PI / 180.0;
