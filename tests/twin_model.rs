@@ -22,8 +22,8 @@ fn is_miss(p: &[f32; 3]) -> bool {
 fn paper(columns: usize, noise: f64) -> Preset {
     let mut preset = Preset::paper();
     for s in &mut preset.sensors {
-        s.lidar.horizontal_steps = columns;
-        s.lidar.range_noise = noise;
+        s.lidar.spinning_mut().expect("spinning").horizontal_steps = columns;
+        *s.lidar.range_noise_mut() = noise;
     }
     preset
 }
@@ -96,9 +96,9 @@ fn corrected_nominal_points_land_on_the_truth() {
             // Independently: the world hit of the same beam cast from the true mount. The
             // scan is stored in f32, so allow a relative error of 1e-6.
             let (row, col) = (i / view.width, i % view.width);
-            let dir = truth.rotation * s.lidar.beam(row, col);
+            let dir = truth.rotation * s.lidar.spinning().expect("spinning").beam(row, col);
             let origin = truth.translation.vector;
-            let t = preset.scene.intersect(origin, dir, s.lidar.max_range).unwrap();
+            let t = preset.scene.intersect(origin, dir, s.lidar.max_range()).unwrap();
             let err = (corrected.coords - (origin + dir * t)).norm() / t.max(1.0);
             worst[1] = worst[1].max(err);
         }
@@ -167,12 +167,13 @@ fn os1_128_preset_shares_scene_and_mounts() {
     for (a, b) in paper.sensors.iter().zip(&os1.sensors) {
         assert_eq!(a.mount, b.mount);
         assert_eq!(b.lidar.height(), 128);
-        assert_eq!(b.lidar.max_range, 120.0);
-        let fov = b.lidar.vertical_angles[0] - b.lidar.vertical_angles[127];
+        assert_eq!(b.lidar.max_range(), 120.0);
+        let angles = &b.lidar.spinning().expect("spinning").vertical_angles;
+        let fov = angles[0] - angles[127];
         assert!((fov - 45f64.to_radians()).abs() < 1e-12);
     }
-    let fov =
-        paper.sensors[0].lidar.vertical_angles[0] - paper.sensors[0].lidar.vertical_angles[49];
+    let angles = &paper.sensors[0].lidar.spinning().expect("spinning").vertical_angles;
+    let fov = angles[0] - angles[49];
     assert!((fov - 25f64.to_radians()).abs() < 1e-12);
 }
 

@@ -4,8 +4,11 @@
 //!
 //! - [`Preset`]: the ray-cast presets (paper section V): a static scene of ground, boxes and
 //!   meshes ([`MeshObject`]; [`shapes`] builds a chair and a board on a stand),
-//!   rotating LiDARs ([`lidar`]) with exact ray intersection ([`scene`]), so occlusion, ring
-//!   spacing, beam incidence and missing returns look like a real scan.
+//!   LiDARs ([`Lidar`]: rotating, [`spinning`], or solid-state rosette scanners, [`rosette`],
+//!   from a [`catalogue`] of real-sensor-like models) with exact ray intersection ([`scene`]),
+//!   so occlusion, ring spacing, beam incidence and missing returns look like a real scan.
+//!   The rig zoo ([`zoo`]) adds upside-down and sideways mounts, a Livox Mid-100, a
+//!   five-LiDAR car, a moving car, and half-float coordinates ([`float16`]).
 //! - [`Sampling`]: a cube sampled afresh for every view, for any number of sensors and points.
 //! - [`Twin::new`]: a model's scans plus a nominal per sensor that is wrong by a seeded draw
 //!   ([`Miscalibration`]), and the truth.
@@ -14,12 +17,17 @@
 //! `derive_seed(seed, MISCALIBRATION_STREAM)` unless a draw seed is given (a study draws
 //! several starts for the same scans). Changing the bounds keeps the scans.
 
+pub mod catalogue;
+pub mod float16;
 pub mod lidar;
 mod mesh_object;
 mod preset;
+pub mod rosette;
 mod sampled;
 pub mod scene;
 pub mod shapes;
+pub mod spinning;
+pub mod zoo;
 
 use rand::{Rng, RngExt, SeedableRng};
 use rand_pcg::Pcg64;
@@ -31,8 +39,10 @@ use crate::se3::{Pose, pose_from_xyz_rpy};
 pub use lidar::Lidar;
 pub use mesh_object::MeshObject;
 pub use preset::{Preset, SensorSpec};
+pub use rosette::Rosette;
 pub use sampled::Sampling;
 pub use scene::{OrientedBox, Scene};
+pub use spinning::Spinning;
 
 /// Default miscalibration bound per rotation axis (rad): 3 deg, as in the paper.
 pub const MAX_MISCALIBRATION_ANGLE: f64 = 3.0 * std::f64::consts::PI / 180.0;
@@ -49,9 +59,25 @@ pub enum Model {
 }
 
 /// The presets by name: what the page's demo picker, `gmmcalib simulate --preset` and the
-/// studies take.
-pub const PRESETS: [&str; 7] =
-    ["paper", "paper-roof", "os1-128", "sampled", "paper-chair", "paper-board", "street"];
+/// studies take. The last five are the rig zoo ([`zoo`]).
+pub const PRESETS: [&str; 12] = [
+    "paper",
+    "paper-roof",
+    "os1-128",
+    "sampled",
+    "paper-chair",
+    "paper-board",
+    "street",
+    "stacked",
+    "sideways",
+    "mid100",
+    "surround",
+    "moving",
+];
+
+/// Shots per unit and frame of the `mid100` preset: 0.6 s of a Mid-40, enough to fill its
+/// disc while a study stays quick (the real rig accumulates several seconds, ~330k a unit).
+pub const MID100_POINTS: usize = 60_000;
 
 impl Model {
     /// The preset named `name` (one of [`PRESETS`]).
@@ -64,6 +90,11 @@ impl Model {
             "paper-chair" => Some(Model::RayCast(Preset::paper_chair())),
             "paper-board" => Some(Model::RayCast(Preset::paper_board())),
             "street" => Some(Model::RayCast(Preset::street())),
+            "stacked" => Some(Model::RayCast(Preset::stacked())),
+            "sideways" => Some(Model::RayCast(Preset::sideways())),
+            "mid100" => Some(Model::RayCast(Preset::mid100(MID100_POINTS))),
+            "surround" => Some(Model::RayCast(Preset::surround())),
+            "moving" => Some(Model::RayCast(Preset::moving())),
             _ => None,
         }
     }

@@ -41,6 +41,11 @@ pub struct Preset {
     /// True when the boxes are scenery (buildings, poles, cars), not targets: a scene without a
     /// calibration target, whose [`Preset::targets`] is empty.
     pub targetless: bool,
+    /// A moving vehicle: `T_world_vehicle` of each frame (cycled when there are more frames),
+    /// every sensor of a frame scanning from that pose, as motion-compensated sweeps give it.
+    /// The scene and the ROI stay in the world and vehicle frames. Empty: the vehicle stands
+    /// still with its frame on the world's.
+    pub drive: Vec<Pose>,
 }
 
 /// Edge of the calibration and validation cubes (m).
@@ -50,6 +55,33 @@ const TARGET_PLACES: [(f64, f64, f64); 3] =
     [(12.3, -1.5, 0.0), (12.3, 0.0, 20.0), (12.3, 1.5, 40.0)];
 /// The stream the targets' motion between frames draws from.
 const MOTION_STREAM: u64 = u64::MAX - 1;
+/// The street's ROI: all of it (vehicle frame, m).
+pub(super) const STREET_ROI: Aabb = Aabb { min: [-22.0, -22.0, -0.5], max: [22.0, 22.0, 8.5] };
+
+/// The street of [`Preset::street`] (world frame, m): two building walls at different angles,
+/// poles and parked cars spread over +-20 m around the origin.
+pub(super) fn street_boxes() -> Vec<OrientedBox> {
+    let wall = |x, y, yaw: f64, length, height| {
+        OrientedBox::new([x, y, height / 2.0], yaw.to_radians(), [length, 0.5, height])
+    };
+    let pole = |x, y| OrientedBox::new([x, y, 2.5], 0.0, [0.2, 0.2, 5.0]);
+    let car = |x, y, yaw: f64| OrientedBox::new([x, y, 0.75], yaw.to_radians(), [4.5, 1.8, 1.5]);
+    // Walls not parallel, so together they fix both horizontal directions.
+    vec![
+        wall(6.0, 14.0, 8.0, 30.0, 8.0),
+        wall(-2.0, -15.0, -35.0, 24.0, 6.0),
+        pole(15.0, -5.0),
+        pole(-10.0, 5.0),
+        pole(8.0, 7.5),
+        pole(19.0, 3.0),
+        pole(-14.0, -7.0),
+        car(11.0, -6.0, 3.0),
+        car(-8.0, -4.0, 85.0),
+        car(17.0, 8.0, -15.0),
+        car(-15.0, 9.0, 20.0),
+        car(3.0, 9.5, 0.0),
+    ]
+}
 
 impl Preset {
     /// The paper's simulated rig: two LiDARs front-left and front-right (EDGAR-like, x 2.3 m,
@@ -109,6 +141,7 @@ impl Preset {
             validation_box: Some(3),
             target_motion: None,
             targetless: false,
+            drive: Vec::new(),
         }
     }
 
@@ -153,30 +186,10 @@ impl Preset {
             sensor.mount =
                 pose_from_xyz_rpy([1.0, 0.7 * side, 1.9], [0.0, 5.0 * d, 45.0 * d * side]);
         }
-        let wall = |x, y, yaw: f64, length, height| {
-            OrientedBox::new([x, y, height / 2.0], yaw.to_radians(), [length, 0.5, height])
-        };
-        let pole = |x, y| OrientedBox::new([x, y, 2.5], 0.0, [0.2, 0.2, 5.0]);
-        let car =
-            |x, y, yaw: f64| OrientedBox::new([x, y, 0.75], yaw.to_radians(), [4.5, 1.8, 1.5]);
-        // Walls not parallel, so together they fix both horizontal directions.
-        preset.scene.boxes = vec![
-            wall(6.0, 14.0, 8.0, 30.0, 8.0),
-            wall(-2.0, -15.0, -35.0, 24.0, 6.0),
-            pole(15.0, -5.0),
-            pole(-10.0, 5.0),
-            pole(8.0, 7.5),
-            pole(19.0, 3.0),
-            pole(-14.0, -7.0),
-            car(11.0, -6.0, 3.0),
-            car(-8.0, -4.0, 85.0),
-            car(17.0, 8.0, -15.0),
-            car(-15.0, 9.0, 20.0),
-            car(3.0, 9.5, 0.0),
-        ];
+        preset.scene.boxes = street_boxes();
         preset.validation_box = None;
         preset.targetless = true;
-        preset.roi = Aabb::new([-22.0, -22.0, -0.5], [22.0, 22.0, 8.5]);
+        preset.roi = STREET_ROI;
         preset
     }
 
@@ -191,27 +204,34 @@ impl Preset {
             .map(|(_, b)| b)
     }
 
-    /// `frames` scans per sensor of the static scene from the static vehicle (vehicle frame =
-    /// world frame), each frame with fresh noise and dropout. Views are ordered frame by frame,
+    /// `frames` scans per sensor of the scene from the vehicle (standing on the world's frame,
+    /// or at each frame's pose of `drive`), each frame with fresh noise and dropout. Views are ordered frame by frame,
     /// sensor by sensor within a frame; frames are named "1", "2", ... Seeded: same seed, same
     /// views.
     pub fn simulate(&self, frames: usize, seed: u64) -> Vec<OrganizedScan> {
         let mut rng = Pcg64::seed_from_u64(seed);
         let mut motion = Pcg64::seed_from_u64(super::derive_seed(seed, MOTION_STREAM));
         let mut views = Vec::with_capacity(frames * self.sensors.len());
-        for frame in 1..=frames {
+        for frame in 0..frames {
             let scene = self.scene_of_frame(&mut motion);
             for s in &self.sensors {
+                let pose = self.vehicle_pose(frame).map_or(s.mount, |v| v * s.mount);
                 views.push(OrganizedScan {
                     sensor: s.name.clone(),
-                    frame: frame.to_string(),
-                    cloud: s.lidar.scan(&scene, &s.mount, &mut rng),
+                    frame: (frame + 1).to_string(),
+                    cloud: s.lidar.scan(&scene, &pose, frame, &mut rng),
                     width: s.lidar.width(),
                     height: s.lidar.height(),
                 });
             }
         }
         views
+    }
+
+    /// `T_world_vehicle` of frame `frame` (0-based) of a moving vehicle; `None` when it stands
+    /// still on the world's frame.
+    pub fn vehicle_pose(&self, frame: usize) -> Option<Pose> {
+        (!self.drive.is_empty()).then(|| self.drive[frame % self.drive.len()])
     }
 
     /// The scene of the next frame: the targets moved when `target_motion` is set.

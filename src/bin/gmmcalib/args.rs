@@ -15,11 +15,11 @@ pub fn usage() -> String {
 const OWN_USAGE: &str = "\
        gmmcalib inspect FILE
        gmmcalib simulate --out DIR [--preset paper|paper-roof|paper-chair|...] [--frames F]
-                          [--seed S] [--max-angle-deg 3] [--max-translation 0.1]
-                          [--move SENSOR:ROLL,PITCH,YAW,X,Y,Z]
+                          [--seed S] [--max-angle-deg 3] [--max-yaw-deg DEG]
+                          [--max-translation 0.1] [--move SENSOR:ROLL,PITCH,YAW,X,Y,Z]
        gmmcalib experiment --out DIR [--preset paper|...] [--trials N] [--frames F]
                           [--seed S] [--methods gmm,jrmpc,p2p,p2l,gicp] [--threads T]
-                          [--max-angle-deg 3] [--max-translation 0.1]
+                          [--max-angle-deg 3] [--max-yaw-deg DEG] [--max-translation 0.1]
        gmmcalib study [--preset paper|paper-roof|...] [--seeds 20] [--starts 5] [--frames 5]
                           [--max-angle-deg 3] [--max-yaw-deg DEG] [--max-translation 0.1]
                           [--method gmm] [--target cube:0.5|...|mesh:PATH|none] [--components K]
@@ -31,7 +31,12 @@ const OWN_USAGE: &str = "\
 const OWN_HELP: &str = "\
   inspect: a recording's topics (count, rate, frame id, type) and its /tf_static tree.
   Presets: paper, paper-roof (3 sensors), os1-128, sampled, paper-chair and paper-board (a
-  chair / a board on a stand as the target), street (no target: walls, poles, cars).
+  chair / a board on a stand as the target), street (no target: walls, poles, cars); the rig
+  zoo, no target either: stacked (a mast of two 32-beam LiDARs, the lower upside-down, float16
+  points), sideways (on its side, pitched 50 deg down), mid100 (Livox Mid-100: three rosette
+  units), surround (a Pandar64 and four PandarQT), moving (a car driving through the street).
+  Nominals are wrong by up to --max-angle-deg (yaw: --max-yaw-deg) and --max-translation per
+  axis; a tape measure: --max-angle-deg 45 --max-yaw-deg 180 --max-translation 1.
   simulate: writes the digital twin in that layout (DIR/config.yaml with miscalibrated nominal
   extrinsics, DIR/data/sensor_N/F.pcd) plus DIR/truth.json; the first sensor is the reference
   and keeps its true mount. --move turns and shifts a sensor's true mount in its own frame
@@ -66,6 +71,8 @@ pub struct TwinArgs {
     pub seed: u64,
     /// Miscalibration bound per rotation axis (deg).
     pub max_angle_deg: f64,
+    /// Yaw's bound (deg) when it differs from the other axes'.
+    pub max_yaw_deg: Option<f64>,
     /// Miscalibration bound per translation axis (m).
     pub max_translation: f64,
     /// Sensors whose true mount is moved: `(sensor_N, [roll, pitch, yaw (deg), x, y, z (m)])`,
@@ -81,6 +88,7 @@ impl Default for TwinArgs {
             frames: 5,
             seed: 0,
             max_angle_deg: gmmcalib::twin::MAX_MISCALIBRATION_ANGLE.to_degrees(),
+            max_yaw_deg: None,
             max_translation: gmmcalib::twin::MAX_MISCALIBRATION_TRANSLATION,
             moves: Vec::new(),
         }
@@ -223,6 +231,7 @@ fn twin_flag(twin: &mut TwinArgs, flag: &str, value: &str) -> Result<bool, Strin
                 .map_err(|_| format!("{flag} expects a non-negative integer, got '{value}'"))?
         }
         "--max-angle-deg" => twin.max_angle_deg = non_negative(flag, value)?,
+        "--max-yaw-deg" => twin.max_yaw_deg = Some(non_negative(flag, value)?),
         "--max-translation" => twin.max_translation = non_negative(flag, value)?,
         "--move" => {
             let bad =
@@ -404,5 +413,23 @@ mod tests {
         assert_eq!(s.jitter, 16);
         assert!(parse(args("study --jitter 0")).is_err());
         assert!(parse(args("study --jitter 70000")).is_err());
+    }
+
+    /// A tape measure's nominals: any heading, roll and pitch within 45 deg, 1 m per axis.
+    #[test]
+    fn parses_tape_measure_bounds() {
+        let flags = "--preset stacked --max-angle-deg 45 --max-yaw-deg 180 --max-translation 1";
+        let Ok(Command::Study(s)) = parse(args(&format!("study {flags}"))) else {
+            panic!("expected study");
+        };
+        assert_eq!((s.max_angle_deg, s.max_yaw_deg, s.max_translation), (45.0, Some(180.0), 1.0));
+        let Ok(Command::Simulate(t)) = parse(args(&format!("simulate --out o {flags}"))) else {
+            panic!("expected simulate");
+        };
+        let twin = &t.twin;
+        assert_eq!((twin.preset.as_str(), twin.max_yaw_deg), ("stacked", Some(180.0)));
+        assert_eq!((twin.max_angle_deg, twin.max_translation), (45.0, 1.0));
+        assert_eq!(TwinArgs::default().max_yaw_deg, None, "yaw bound like the others");
+        assert!(parse(args("simulate --out o --max-yaw-deg -1")).is_err());
     }
 }

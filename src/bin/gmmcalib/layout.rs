@@ -44,7 +44,12 @@ impl TwinFiles {
             let delta = pose_from_xyz_rpy([*x, *y, *z], [roll, pitch, yaw].map(|a| a.to_radians()));
             spec.mount *= delta;
         }
-        let bounds = Miscalibration::within(args.max_angle_deg.to_radians(), args.max_translation);
+        let angle = args.max_angle_deg.to_radians();
+        let yaw = args.max_yaw_deg.map_or(angle, f64::to_radians);
+        let bounds = Miscalibration {
+            angle: [angle, angle, yaw],
+            ..Miscalibration::within(angle, args.max_translation)
+        };
         let mut twin = Twin::new(&model, args.frames, seed, &bounds);
         let nominal_numbers: Vec<_> = twin.nominal.iter().map(|(_, p)| xyz_rpy(p)).collect();
         for ((_, nominal), (xyz, rpy)) in twin.nominal.iter_mut().zip(&nominal_numbers) {

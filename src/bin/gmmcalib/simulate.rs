@@ -27,6 +27,9 @@ struct Truth<'a> {
     frames: usize,
     /// Miscalibration bounds: rad per rotation axis, m per translation axis.
     max_angle: f64,
+    /// Yaw's bound (rad) when it differs from `max_angle`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    max_yaw: Option<f64>,
     max_translation: f64,
     reference: &'a str,
     sensors: Vec<SensorTruth<'a>>,
@@ -83,6 +86,7 @@ pub fn write(files: &TwinFiles, args: &TwinArgs, dir: &Path) -> Result<(), Strin
         seed: args.seed,
         frames: args.frames,
         max_angle: args.max_angle_deg.to_radians(),
+        max_yaw: args.max_yaw_deg.map(f64::to_radians),
         max_translation: args.max_translation,
         reference: &files.folders[0],
         sensors: (0..files.folders.len())

@@ -35,8 +35,13 @@ pub fn run(a: &StudyArgs) -> Result<(), String> {
     let mut model = model(&a.preset)?;
     if let Model::RayCast(preset) = &mut model {
         for s in &mut preset.sensors {
-            s.lidar.horizontal_steps = a.columns.unwrap_or(s.lidar.horizontal_steps);
-            s.lidar.range_noise = a.noise.unwrap_or(s.lidar.range_noise);
+            // Columns are a spinning LiDAR's; a rosette keeps its shots.
+            if let (Some(spinning), Some(columns)) = (s.lidar.spinning_mut(), a.columns) {
+                spinning.horizontal_steps = columns;
+            }
+            if let Some(noise) = a.noise {
+                *s.lidar.range_noise_mut() = noise;
+            }
         }
     }
     let mut settings = settings(a)?;
