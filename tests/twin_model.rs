@@ -56,13 +56,14 @@ fn miscalibration_stays_in_bounds_and_is_seeded() {
     let mut largest = [0.0f64; 2];
     for _ in 0..200 {
         let nominal = Miscalibration::within(a, t).draw(&truth, &mut rng);
-        // nominal = delta * truth, so delta = nominal * truth^-1 holds the sampled error.
-        let delta = nominal * truth.inverse();
-        let angles = rpy(&delta.rotation);
+        // The sensor turned about itself and shifted: the turn is nominal's rotation over the
+        // truth's, the shift the difference of their positions.
+        let angles = rpy(&(nominal.rotation * truth.rotation.inverse()));
+        let shift = nominal.translation.vector - truth.translation.vector;
         assert!(angles.iter().all(|x| x.abs() <= a + 1e-12), "{angles:?}");
-        assert!(delta.translation.vector.iter().all(|x| x.abs() <= t + 1e-12));
+        assert!(shift.iter().all(|x| x.abs() <= t + 1e-12));
         largest[0] = angles.iter().fold(largest[0], |m, x| m.max(x.abs()));
-        largest[1] = delta.translation.vector.iter().fold(largest[1], |m, x| m.max(x.abs()));
+        largest[1] = shift.iter().fold(largest[1], |m, x| m.max(x.abs()));
     }
     // The samples use the whole range, not a sliver of it.
     assert!(largest[0] > 0.9 * a && largest[1] > 0.9 * t, "{largest:?}");

@@ -4,7 +4,7 @@
 
 use gmmcalib::calib;
 use gmmcalib::jrmpc::Control;
-use gmmcalib::se3::{pose_from_xyz_rpy, to_row_major, xyz_rpy};
+use gmmcalib::se3::{Pose, pose_from_xyz_rpy, to_row_major, xyz_rpy};
 use gmmcalib::twin::{Miscalibration, Model, Preset, Sampling, Twin};
 use gmmcalib::wasm::{calibrate, methods, parse_cloud, parse_config, simulate_rig};
 use js_sys::{Array, Error, Function, Reflect};
@@ -218,12 +218,18 @@ fn simulate_rig_returns_a_miscalibrated_twin_with_its_truth() {
         "points + misses"
     );
     assert_eq!(out.get(5), JsValue::TRUE, "the reference keeps its true mount");
-    // The nominal is `delta * truth` with delta within the bounds per axis, and not identity.
+    // The nominal is the truth turned about the sensor and shifted, each within its bound per
+    // axis, and not the truth.
     let nominal = pose_from_xyz_rpy(
         [6, 7, 8].map(|i| out.get(i).as_f64().unwrap()),
         [9, 10, 11].map(|i| out.get(i).as_f64().unwrap()),
     );
-    let (dxyz, drpy) = xyz_rpy(&(nominal * preset.sensors[1].mount.inverse()));
+    let mount = preset.sensors[1].mount;
+    let dxyz: [f64; 3] = (nominal.translation.vector - mount.translation.vector).into();
+    let (_, drpy) = xyz_rpy(&Pose::from_parts(
+        nalgebra::Translation3::identity(),
+        nominal.rotation * mount.rotation.inverse(),
+    ));
     assert!(dxyz.iter().all(|v| v.abs() <= 0.05 + 1e-9), "translation off by {dxyz:?}");
     assert!(drpy.iter().all(|v| v.abs() <= 2f64.to_radians() + 1e-9), "rotation off by {drpy:?}");
     assert!(drpy.iter().any(|v| v.abs() > 1e-3) && dxyz.iter().any(|v| v.abs() > 1e-3));

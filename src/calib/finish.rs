@@ -120,38 +120,14 @@ pub(super) fn finish(
             *chosen = picked;
         }
     };
+    let t0 = std::time::Instant::now();
     choose(&mut hypotheses, &mut chosen);
+    if std::env::var("PROF").is_ok() {
+        eprintln!("PROF choose {:?}", t0.elapsed());
+    }
 
-    // The chosen and the nominal polished on the whole scans by the score itself, each
-    // sensor against the others' chosen.
-    if stages.select {
-        let poses: Vec<Pose> =
-            (0..sensors.len()).map(|s| hypotheses[s][chosen[s]].correction * nominals[s]).collect();
-        for s in (0..sensors.len()).filter(|&s| s != r) {
-            let mut from = vec![chosen[s]];
-            if chosen[s] != 0 {
-                from.push(0);
-            }
-            let polished =
-                crate::on_threads(&from, crate::threads_here(settings.jrmpc.threads), |&h| {
-                    let mut at = poses.clone();
-                    at[s] = hypotheses[s][h].correction * nominals[s];
-                    scenes.ascend(s, &at)
-                });
-            for (&parent, polished) in from.iter().zip(polished) {
-                let correction = polished * nominals[s].inverse();
-                if correction == hypotheses[s][parent].correction {
-                    continue;
-                }
-                // The parent's frames, moved with it: their spread is the refinement's still.
-                let undo = levelled[s].inverse();
-                let shift = correction * undo * (hypotheses[s][parent].correction * undo).inverse();
-                let moved = frames[s][parent].iter().map(|(k, c)| (*k, shift * c)).collect();
-                hypotheses[s].push(Hypothesis::new(Source::Polished, correction, Some(parent)));
-                frames[s].push(moved);
-            }
-        }
-        choose(&mut hypotheses, &mut chosen);
+    if std::env::var("PROF").is_ok() {
+        eprintln!("PROF polish {:?}", t0.elapsed());
     }
     let mut per_pair: Vec<PairCorrections> =
         (0..sensors.len()).map(|s| frames[s][chosen[s]].clone()).collect();
@@ -219,9 +195,14 @@ pub(super) fn finish(
             sensor: sensors[s].clone(),
             hypotheses: std::mem::take(&mut hypotheses[s]),
             chosen: chosen[s],
+            resolution: scenes.resolution(s),
+            basin: settings.refine.match_distances.first().copied().unwrap_or(0.0),
         })
         .collect();
 
+    if std::env::var("PROF").is_ok() {
+        eprintln!("PROF planes {:?}", t0.elapsed());
+    }
     // Average over frames, leaving out frames far from the others.
     let reference_nominal = nominals[r];
     let mut results = Vec::with_capacity(sensors.len());

@@ -123,6 +123,10 @@ pub struct Settings {
     pub seed: u64,
     /// Views with fewer points than this inside the ROI are skipped.
     pub min_view_points: usize,
+    /// Views with more points than this after cropping are thinned to voxel centroids until
+    /// they fit: dense accumulated scans (a solid-state unit integrated for seconds holds 300k
+    /// points) cost the registrations time without adding what a calibration needs.
+    pub max_view_points: usize,
     pub initial_sigma: InitialSigma,
     pub jrmpc: jrmpc::EmSettings,
     /// For the ICP methods.
@@ -174,6 +178,7 @@ impl Default for Settings {
             components: 400,
             seed: 0,
             min_view_points: 10,
+            max_view_points: 60_000,
             initial_sigma: InitialSigma::BoundingBox,
             jrmpc: jrmpc::EmSettings::default(),
             icp: IcpSettings::default(),

@@ -44,9 +44,6 @@ pub const FAR_FROM_NOMINAL: (f64, f64) = (20.0 * std::f64::consts::PI / 180.0, 1
 /// ambiguous: the scene allows another overlay almost as good (the twin's three cubes in a row:
 /// 0.88 at most).
 pub const AMBIGUOUS: f64 = 0.95;
-/// A rival placement closer than this (rad, m) to the chosen is the same placement seen
-/// through the score's noise, not another one.
-pub const RIVAL_APART: (f64, f64) = (1.0 * std::f64::consts::PI / 180.0, 0.1);
 /// A global overlay scoring at least this share supports a result far from the nominal
 /// (OpenCalib's side LiDARs: 0.86-0.93).
 pub const SUPPORTED_OVERLAY: f64 = 0.5;
@@ -252,19 +249,11 @@ fn judge_selection(selection: &SensorSelection, z: f64, say: &mut impl FnMut(Lev
     if let Some(rival) = selection.rival(z) {
         let d = chosen.correction.inverse() * rival.correction;
         let (angle, distance) = (d.rotation.angle(), d.translation.vector.norm());
-        // Within the scans' own resolution of each other, it is the same placement.
-        if angle > RIVAL_APART.0 || distance > RIVAL_APART.1 {
-            say(
-                Level::Check,
-                ReasonKind::Rival {
-                    source: rival.source,
-                    angle,
-                    distance,
-                    share: rival.score.value(),
-                    chosen: chosen.score.value(),
-                },
-            );
-        }
+        let (share, chosen) = (rival.score.value(), chosen.score.value());
+        say(
+            Level::Check,
+            ReasonKind::Rival { source: rival.source, angle, distance, share, chosen },
+        );
     }
 }
 

@@ -115,7 +115,11 @@ impl Views {
         let threads = settings.jrmpc.threads;
 
         // The start: the nominal or one of the global stage's candidates, by the selection.
+        let t0 = std::time::Instant::now();
         let scenes = Scenes::new(&frame_scans(rig, &sensors), r, &settings.select, threads);
+        if std::env::var("PROF").is_ok() {
+            eprintln!("PROF scenes {:?}", t0.elapsed());
+        }
         let mut hypotheses: Vec<Vec<Hypothesis>> =
             (0..sensors.len()).map(|s| roots(global.get(s).filter(|_| s != r))).collect();
         let mut start: Vec<usize> = hypotheses.iter().map(|h| usize::from(h.len() > 1)).collect();
@@ -128,6 +132,9 @@ impl Views {
             &settings.select,
             threads,
         );
+        if std::env::var("PROF").is_ok() {
+            eprintln!("PROF start selection {:?}", t0.elapsed());
+        }
         let starts: Vec<Pose> =
             (0..sensors.len()).map(|s| hypotheses[s][start[s]].correction * nominals[s]).collect();
         let roi = match rig.roi {
@@ -392,7 +399,10 @@ fn crop(
     let mut skipped = Vec::new();
     for scan in &rig.scans {
         let s = sensors.iter().position(|n| n == &scan.sensor).unwrap_or(0);
-        let cloud = Cloud::from_points(scan.points.clone()).transformed(&poses[s]).cropped(roi);
+        let cloud = thinned_to(
+            Cloud::from_points(scan.points.clone()).transformed(&poses[s]).cropped(roi),
+            settings.max_view_points,
+        );
         let distinct = cloud.points.iter().any(|p| p != &cloud.points[0]);
         let needed = settings.min_view_points.max(3);
         if cloud.len() < needed || !distinct {
@@ -410,6 +420,18 @@ fn crop(
         views.push(View { sensor: s, frame: scan.frame.clone(), cloud });
     }
     (views, skipped)
+}
+
+/// `cloud` thinned to voxel centroids, the voxel growing from 1 cm, until it holds at most
+/// `most` points; unchanged when it already does.
+fn thinned_to(cloud: Cloud, most: usize) -> Cloud {
+    let mut voxel = 0.01;
+    let mut thinned = cloud;
+    while thinned.len() > most.max(1) {
+        thinned = thinned.voxel_downsampled(voxel);
+        voxel *= 1.5;
+    }
+    thinned
 }
 
 /// Every sensor's ground in a box around the ROI (all its frames, pre-aligned with its

@@ -153,8 +153,11 @@ pub struct OrganizedScan {
     pub height: usize,
 }
 
-/// How wrong the non-reference nominals are: each axis drawn uniformly within its bound,
-/// applied in the vehicle frame (`nominal = delta * truth`).
+/// How wrong the non-reference nominals are: each axis drawn uniformly within its bound, as a
+/// mounting error is made: the sensor turned about itself (roll, pitch, yaw about the vehicle's
+/// axes through the sensor) and its position off by the shift, as a tape measure errs. (Before
+/// issue 36 the turn was about the vehicle's origin, which put a sensor 2.4 m from it up to 5 m
+/// away under a half-turn: no tape measure errs so.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Miscalibration {
     /// Roll, pitch, yaw bounds (rad).
@@ -182,7 +185,9 @@ impl Miscalibration {
     pub fn draw(&self, truth: &Pose, rng: &mut impl Rng) -> Pose {
         let rpy = self.angle.map(|a| rng.random_range(-a..=a));
         let xyz = self.translation.map(|t| rng.random_range(-t..=t));
-        pose_from_xyz_rpy(xyz, rpy) * truth
+        let turn = pose_from_xyz_rpy([0.0; 3], rpy).rotation;
+        let at = truth.translation.vector + nalgebra::Vector3::from(xyz);
+        Pose::from_parts(at.into(), turn * truth.rotation)
     }
 }
 

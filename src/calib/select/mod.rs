@@ -12,7 +12,10 @@
 //!    symmetric scene (a road lined alike on both sides) fits a mirrored placement as well as
 //!    the right one, and only the nominal's position tells them apart;
 //! 2. of the rest, those the best does not beat by more than the score's own noise (a paired
-//!    comparison over spatial blocks, `z` standard errors) are tied with it;
+//!    comparison over spatial blocks: Student's t at the level of `z` standard errors, its
+//!    degrees of freedom the blocks that differ), and those closer to the best than the score
+//!    resolves (the voxel the scans were thinned to: there its differences come from the
+//!    thinning, not the scans), are tied with it;
 //! 3. among the tied, the nominal's family (the nominal and what was refined from it) comes
 //!    first: when the scans cannot tell two placements apart, the user's guess stands; else the
 //!    best's family;
@@ -22,7 +25,6 @@
 //! So a result never scores worse than its nominal, and when nothing beats the nominal the
 //! nominal is the answer.
 
-mod ascent;
 mod score;
 mod surface;
 
@@ -69,13 +71,13 @@ impl Default for SelectSettings {
     fn default() -> Self {
         Self {
             voxel: 0.1,
-            max_points: 30_000,
+            max_points: 20_000,
             neighbours: 10,
             min_extent: 0.02,
             min_noise: 0.003,
             max_noise: 0.1,
             samples: 3000,
-            frames: 3,
+            frames: 2,
             max_gate: 1.0,
             block: 2.0,
             // One-sided 97.7 %: a convention, not a value fitted to any rig.
@@ -105,9 +107,6 @@ pub enum Source {
     RefinedFromStart,
     /// The frame pairs' ICP started from JRMPC's or `cad`'s result.
     Refined,
-    /// The chosen hypothesis polished by climbing the selection score on the whole scans
-    /// ([`Scenes::ascend`]).
-    Polished,
     /// The joint plane adjustment of the chosen refinement.
     Planes,
 }
@@ -124,7 +123,6 @@ impl Source {
             Source::RefinedFromNominal => "refinedFromNominal",
             Source::RefinedFromStart => "refinedFromStart",
             Source::Refined => "refined",
-            Source::Polished => "polished",
             Source::Planes => "planes",
         }
     }
@@ -142,12 +140,16 @@ pub struct Hypothesis {
     pub score: SensorScore,
     /// It keeps the sensor within the position tolerance of its nominal position.
     pub plausible: bool,
+    /// How far (m, root mean square over the sensor's scored points) it places the sensor's
+    /// points from where the chosen hypothesis does.
+    pub apart: f64,
 }
 
 impl Hypothesis {
     /// A hypothesis not scored yet.
     pub fn new(source: Source, correction: Pose, parent: Option<usize>) -> Self {
-        Self { source, correction, parent, score: SensorScore::default(), plausible: true }
+        let score = SensorScore::default();
+        Self { source, correction, parent, score, plausible: true, apart: 0.0 }
     }
 }
 
@@ -158,6 +160,11 @@ pub struct SensorSelection {
     pub hypotheses: Vec<Hypothesis>,
     /// Index of the chosen hypothesis.
     pub chosen: usize,
+    /// The finest motion (m) the score resolves for this sensor ([`Scenes::resolution`]).
+    pub resolution: f64,
+    /// How far (m) a start may lie from a placement and still be pulled into it by the
+    /// refinement (its first match distance): a rival must lie further.
+    pub basin: f64,
 }
 
 impl SensorSelection {
@@ -171,12 +178,14 @@ impl SensorSelection {
     }
 
     /// The best-scoring hypothesis of another family than the chosen one's that the chosen
-    /// does not beat: a placement elsewhere the scans cannot rule out.
+    /// does not beat, beyond the refinement's basin: a placement elsewhere the scans cannot
+    /// rule out.
     pub fn rival(&self, z: f64) -> Option<&Hypothesis> {
         let family = root(&self.hypotheses, self.chosen);
         let chosen = &self.chosen().score;
         (0..self.hypotheses.len())
             .filter(|&h| root(&self.hypotheses, h) != family && self.hypotheses[h].plausible)
+            .filter(|&h| self.hypotheses[h].apart > self.resolution.max(self.basin))
             .filter(|&h| !chosen.beats(&self.hypotheses[h].score, z))
             .max_by(|&a, &b| {
                 let (a, b) = (&self.hypotheses[a].score, &self.hypotheses[b].score);
@@ -186,8 +195,9 @@ impl SensorSelection {
     }
 }
 
-/// The hypothesis the rule picks (see the module's doc); `hypotheses[0]` is the nominal.
-pub fn choose(hypotheses: &[Hypothesis], z: f64) -> usize {
+/// The hypothesis the rule picks (see the module's doc); `hypotheses[0]` is the nominal, and
+/// `same(a, b)` says two hypotheses are one placement to the score.
+pub fn choose(hypotheses: &[Hypothesis], z: f64, same: impl Fn(usize, usize) -> bool) -> usize {
     let Some(nominal) = hypotheses.first() else { return 0 };
     let value = |h: usize| hypotheses[h].score.value();
     let allowed = |h: &usize| *h == 0 || hypotheses[*h].plausible;
@@ -198,7 +208,9 @@ pub fn choose(hypotheses: &[Hypothesis], z: f64) -> usize {
     let tied: Vec<usize> = (0..hypotheses.len())
         .filter(allowed)
         .filter(|&h| value(h) >= nominal.score.value())
-        .filter(|&h| h == best || !hypotheses[best].score.beats(&hypotheses[h].score, z))
+        .filter(|&h| {
+            h == best || same(best, h) || !hypotheses[best].score.beats(&hypotheses[h].score, z)
+        })
         .collect();
     let family =
         if tied.iter().any(|&h| root(hypotheses, h) == 0) { 0 } else { root(hypotheses, best) };
@@ -246,7 +258,13 @@ pub(crate) fn choose_all(
             for (h, plausible) in hypotheses[s].iter_mut().zip(plausible) {
                 h.plausible = plausible;
             }
-            chosen[s] = choose(&hypotheses[s], settings.z);
+            let at: Vec<Pose> = hypotheses[s].iter().map(|h| h.correction * nominals[s]).collect();
+            let resolution = scenes.resolution(s);
+            let same = |a: usize, b: usize| scenes.apart(s, &at[a], &at[b]) <= resolution;
+            chosen[s] = choose(&hypotheses[s], settings.z, same);
+            for (h, pose) in hypotheses[s].iter_mut().zip(&at) {
+                h.apart = scenes.apart(s, pose, &at[chosen[s]]);
+            }
         }
     }
 }
@@ -270,7 +288,7 @@ pub fn within_tolerance(
 }
 
 /// The root of hypothesis `h`'s family: the nominal or the global candidate it descends from.
-fn root(hypotheses: &[Hypothesis], mut h: usize) -> usize {
+pub(crate) fn root(hypotheses: &[Hypothesis], mut h: usize) -> usize {
     // Parents precede their children, so the walk ends.
     while let Some(p) = hypotheses[h].parent.filter(|&p| p < h) {
         h = p;
@@ -286,7 +304,14 @@ mod tests {
         let agreeing = [blocks.iter().sum(), 0.0];
         let blocks = blocks.iter().map(|&b| [b, 0.0]).collect();
         let score = SensorScore { agreeing, overlapping: agreeing, total: [100.0, 0.0], blocks };
-        Hypothesis { source, correction: Pose::identity(), parent, score, plausible: true }
+        Hypothesis {
+            source,
+            correction: Pose::identity(),
+            parent,
+            score,
+            plausible: true,
+            apart: 1.0,
+        }
     }
 
     /// Blocks scoring `level` each, with block-to-block variation whose pattern `seed` sets.
@@ -305,11 +330,11 @@ mod tests {
         ];
         // The refinement ties the global candidate and is later; the plane adjustment scores
         // below the nominal.
-        assert_eq!(choose(&h, 2.0), 3);
+        assert_eq!(choose(&h, 2.0, |_, _| false), 3);
         // Out of the position tolerance, the refinement gives way to the rest.
         let mut far = h.to_vec();
         far[3].plausible = false;
-        assert_eq!(choose(&far, 2.0), 1);
+        assert_eq!(choose(&far, 2.0, |_, _| false), 1);
     }
 
     #[test]
@@ -319,11 +344,11 @@ mod tests {
             hypothesis(Source::Global { rank: 0 }, None, &blocks(2.005, 7)),
             hypothesis(Source::Refined, Some(1), &blocks(2.006, 8)),
         ];
-        assert_eq!(choose(&h, 2.0), 0);
+        assert_eq!(choose(&h, 2.0, |_, _| false), 0);
         // A refinement of the nominal that ties is taken over the nominal itself.
         let mut with = h.to_vec();
         with.push(hypothesis(Source::RefinedFromNominal, Some(0), &blocks(2.004, 9)));
-        assert_eq!(choose(&with, 2.0), 3);
+        assert_eq!(choose(&with, 2.0, |_, _| false), 3);
     }
 
     #[test]
@@ -333,9 +358,15 @@ mod tests {
             hypothesis(Source::Global { rank: 0 }, None, &blocks(3.0, 11)),
             hypothesis(Source::Global { rank: 1 }, None, &blocks(2.99, 12)),
         ];
-        let chosen = choose(&h, 2.0);
+        let chosen = choose(&h, 2.0, |_, _| false);
         assert_eq!(chosen, 1);
-        let selection = SensorSelection { sensor: "s".into(), hypotheses: h, chosen };
+        let selection = SensorSelection {
+            sensor: "s".into(),
+            hypotheses: h,
+            chosen,
+            resolution: 0.1,
+            basin: 0.5,
+        };
         assert_eq!(selection.rival(2.0).map(|r| r.source), Some(Source::Global { rank: 1 }));
     }
 }

@@ -15,7 +15,6 @@ use crate::se3::Pose;
 pub struct Scenes {
     /// Per sensor, its scored frames: (frame name, surface).
     surfaces: Vec<Vec<(String, Surface)>>,
-    settings: SelectSettings,
 }
 
 /// One sensor's placement among the others, scored: per class of point (0 the scans'
@@ -70,12 +69,46 @@ impl SensorScore {
         if n < 2 {
             return self.value() > other.value();
         }
-        let d: Vec<f64> = (0..n).map(|b| mine[b] - theirs[b]).collect();
+        // Only blocks where the two differ carry evidence: their count sets the degrees of
+        // freedom, so a difference resting on a handful of blocks must be larger to count.
+        let d: Vec<f64> = (0..n).map(|b| mine[b] - theirs[b]).filter(|d| *d != 0.0).collect();
         let sum: f64 = d.iter().sum();
-        let mean = sum / n as f64;
-        let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-        sum > z * (n as f64 * var).sqrt()
+        if d.len() < 2 {
+            return false;
+        }
+        let m = d.len() as f64;
+        let mean = sum / m;
+        let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0);
+        sum > student_t(z, d.len() - 1) * (m * var).sqrt()
     }
+}
+
+/// The Student-t quantile with `df` degrees of freedom at the normal quantile `z`'s level:
+/// exact for one and two degrees of freedom, Cornish-Fisher beyond (within 1 % from three).
+pub(crate) fn student_t(z: f64, df: usize) -> f64 {
+    let p = 0.5 * (1.0 + erf(z / std::f64::consts::SQRT_2));
+    match df {
+        0 => f64::INFINITY,
+        1 => (std::f64::consts::PI * (p - 0.5)).tan(),
+        2 => (2.0 * p - 1.0) * (2.0 / (4.0 * p * (1.0 - p))).sqrt(),
+        _ => {
+            let v = df as f64;
+            let (z3, z5) = (z.powi(3), z.powi(5));
+            z + (z3 + z) / (4.0 * v)
+                + (5.0 * z5 + 16.0 * z3 + 3.0 * z) / (96.0 * v * v)
+                + (3.0 * z.powi(7) + 19.0 * z5 + 17.0 * z3 - 15.0 * z) / (384.0 * v.powi(3))
+        }
+    }
+}
+
+/// The error function (Abramowitz and Stegun 7.1.26, error below 1.5e-7).
+fn erf(x: f64) -> f64 {
+    let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
+    let poly = t
+        * (0.254_829_592
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    (1.0 - poly * (-x * x).exp()).copysign(x)
 }
 
 impl Scenes {
@@ -109,7 +142,7 @@ impl Scenes {
                 surfaces[s].push((frame.to_string(), surface));
             }
         }
-        Self { surfaces, settings: settings.clone() }
+        Self { surfaces }
     }
 
     /// Sensor `s` placed at `poses[s]` among the others at theirs (`T_vehicle_sensor` each):
@@ -123,8 +156,31 @@ impl Scenes {
     }
 
     /// Sensor `s`'s scored surfaces.
-    pub(super) fn surfaces_of(&self, s: usize) -> impl Iterator<Item = &Surface> {
+    fn surfaces_of(&self, s: usize) -> impl Iterator<Item = &Surface> {
         self.surfaces.get(s).into_iter().flatten().map(|(_, surface)| surface)
+    }
+
+    /// The finest motion (m) the score resolves for sensor `s`: the coarsest voxel its scans
+    /// were thinned to. Placements closer than this are one placement to the score, whose
+    /// differences there come from the thinning, not the scans.
+    pub fn resolution(&self, s: usize) -> f64 {
+        self.surfaces_of(s).map(|surface| surface.voxel).fold(0.0, f64::max)
+    }
+
+    /// How far apart (m, root mean square over its scored points) sensor `s`'s points lie under
+    /// two placements `a` and `b` (`T_vehicle_sensor` each).
+    pub fn apart(&self, s: usize, a: &Pose, b: &Pose) -> f64 {
+        let (mut sum, mut n) = (0.0, 0usize);
+        let motion = a * b.inverse();
+        for surface in self.surfaces_of(s) {
+            for &i in &surface.samples {
+                let p = surface.points[i].map(f64::from);
+                let q = b * Point3::new(p[0], p[1], p[2]);
+                sum += (motion * q - q).norm_squared();
+                n += 1;
+            }
+        }
+        if n == 0 { 0.0 } else { (sum / n as f64).sqrt() }
     }
 
     /// Calls `f(source, target, T_target_source, source is s, T_vehicle_source)` for every
@@ -152,7 +208,7 @@ impl Scenes {
 
     /// `source`'s samples mapped by `t_target_source` onto `target`, added to `score` (its
     /// blocks appended).
-    fn compare(
+    pub(super) fn compare(
         &self,
         source: &Surface,
         target: &Surface,
@@ -166,16 +222,7 @@ impl Scenes {
             score.total[class] += weight;
             let p = source.points[i].map(f64::from);
             let q = (t_target_source * Point3::new(p[0], p[1], p[2])).coords;
-            let Some(near) = target.tree.nearest_within([q.x, q.y, q.z], self.settings.max_gate)
-            else {
-                continue;
-            };
-            let j = near.index;
-            // Beside the other scan's surface, within its sampling distance, or not on it.
-            if near.sq_distance.sqrt() > 2.0 * target.reach[j] as f64 {
-                continue;
-            }
-            let Some(normal) = target.normals[j] else { continue };
+            let Some((j, normal)) = target.landing([q.x, q.y, q.z]) else { continue };
             score.overlapping[class] += weight;
             let x = target.points[j].map(f64::from);
             let e = normal.x * (q.x - x[0]) + normal.y * (q.y - x[1]) + normal.z * (q.z - x[2]);
@@ -184,5 +231,21 @@ impl Scenes {
             score.agreeing[class] += landed;
             score.blocks[at + source.blocks[k] as usize][class] += landed;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::student_t;
+
+    /// Against tables (one-sided 97.7 %, z = 2): few blocks ask for a larger difference.
+    #[test]
+    fn the_critical_value_grows_as_the_blocks_get_few() {
+        let table = [(1, 13.97), (2, 4.53), (3, 3.31), (5, 2.65), (10, 2.28), (30, 2.08)];
+        for (df, t) in table {
+            let got = student_t(2.0, df);
+            assert!((got - t).abs() < 0.02 * t, "df {df}: {got} against {t}");
+        }
+        assert!((student_t(2.0, 10_000) - 2.0).abs() < 1e-3);
     }
 }

@@ -37,9 +37,25 @@ pub struct Surface {
     /// Per sample, its block (a cell of `block` m in the sensor's frame), numbered densely.
     pub blocks: Vec<u32>,
     pub block_count: usize,
+    /// The farthest (m) a point may be from this scan's nearest point to land on it.
+    gate: f64,
+    /// The voxel edge (m) the scan was thinned to: the finest motion the score resolves.
+    pub voxel: f64,
 }
 
 impl Surface {
+    /// The point of this surface a point `q` (this scan's frame) lands beside, and its
+    /// normal: the nearest point, when `q` lies within twice its neighbourhood's reach (the
+    /// surface's sampling there) and the neighbourhood is a surface.
+    pub fn landing(&self, q: [f64; 3]) -> Option<(usize, Vector3<f64>)> {
+        let near = self.tree.nearest_within(q, self.gate)?;
+        let j = near.index;
+        if near.sq_distance.sqrt() > 2.0 * self.reach[j] as f64 {
+            return None;
+        }
+        Some((j, self.normals[j]?))
+    }
+
     /// `None` when the scan holds too few valid points to say anything.
     pub fn new(scan: &[[f32; 3]], settings: &SelectSettings) -> Option<Self> {
         let valid: Vec<[f32; 3]> = scan.iter().copied().filter(is_valid_point).collect();
@@ -52,7 +68,10 @@ impl Surface {
         let mut voxel = settings.voxel;
         let mut points = cloud.voxel_downsampled(voxel).points;
         while points.len() > settings.max_points {
-            voxel *= 1.25;
+            // A surface's voxels go as the inverse square of their edge: one guess, then
+            // small steps.
+            let ratio = (points.len() as f64 / settings.max_points as f64).sqrt();
+            voxel *= ratio.max(1.1);
             points = cloud.voxel_downsampled(voxel).points;
         }
         if points.len() < settings.neighbours {
@@ -98,6 +117,8 @@ impl Surface {
             weights,
             blocks,
             block_count,
+            gate: settings.max_gate,
+            voxel,
         })
     }
 }
