@@ -120,15 +120,7 @@ pub(super) fn finish(
             *chosen = picked;
         }
     };
-    let t0 = std::time::Instant::now();
     choose(&mut hypotheses, &mut chosen);
-    if std::env::var("PROF").is_ok() {
-        eprintln!("PROF choose {:?}", t0.elapsed());
-    }
-
-    if std::env::var("PROF").is_ok() {
-        eprintln!("PROF polish {:?}", t0.elapsed());
-    }
     let mut per_pair: Vec<PairCorrections> =
         (0..sensors.len()).map(|s| frames[s][chosen[s]].clone()).collect();
 
@@ -199,10 +191,6 @@ pub(super) fn finish(
             basin: settings.refine.match_distances.first().copied().unwrap_or(0.0),
         })
         .collect();
-
-    if std::env::var("PROF").is_ok() {
-        eprintln!("PROF planes {:?}", t0.elapsed());
-    }
     // Average over frames, leaving out frames far from the others.
     let reference_nominal = nominals[r];
     let mut results = Vec::with_capacity(sensors.len());

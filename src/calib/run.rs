@@ -282,8 +282,6 @@ impl<'r> Run<'r> {
         progress: &mut impl FnMut(Method, &Progress) -> Control,
     ) {
         while let Some((_, method)) = self.method() {
-            let t0 = std::time::Instant::now();
-            let phase = self.phase();
             let progress = &mut |p: &Progress| progress(method, p);
             match self.phase() {
                 Phase::Global => self.drive_global(threads, progress),
@@ -305,14 +303,7 @@ impl<'r> Run<'r> {
                 }
                 Phase::Done => return,
             }
-            if std::env::var("PROF").is_ok() {
-                eprintln!("PROF phase {phase:?} {:?}", t0.elapsed());
-            }
-            let t0 = std::time::Instant::now();
             self.advance();
-            if std::env::var("PROF").is_ok() {
-                eprintln!("PROF advance {:?}", t0.elapsed());
-            }
         }
     }
 

@@ -115,11 +115,7 @@ impl Views {
         let threads = settings.jrmpc.threads;
 
         // The start: the nominal or one of the global stage's candidates, by the selection.
-        let t0 = std::time::Instant::now();
         let scenes = Scenes::new(&frame_scans(rig, &sensors), r, &settings.select, threads);
-        if std::env::var("PROF").is_ok() {
-            eprintln!("PROF scenes {:?}", t0.elapsed());
-        }
         let mut hypotheses: Vec<Vec<Hypothesis>> =
             (0..sensors.len()).map(|s| roots(global.get(s).filter(|_| s != r))).collect();
         let mut start: Vec<usize> = hypotheses.iter().map(|h| usize::from(h.len() > 1)).collect();
@@ -132,9 +128,6 @@ impl Views {
             &settings.select,
             threads,
         );
-        if std::env::var("PROF").is_ok() {
-            eprintln!("PROF start selection {:?}", t0.elapsed());
-        }
         let starts: Vec<Pose> =
             (0..sensors.len()).map(|s| hypotheses[s][start[s]].correction * nominals[s]).collect();
         let roi = match rig.roi {
