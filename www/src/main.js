@@ -14,7 +14,8 @@ import { exportsOf, renderExports, resultJson } from './exports.js';
 import { targetBounds } from './target.js';
 import { writeHash } from './url.js';
 import { describeDone } from './progress.js';
-import { clearState, createState, nominalPoses, pointBounds, rebuildRig, shownPoses, sortScans } from './state.js';
+import { clearState, createState, nominalPoses, rebuildRig, shownPoses, sortScans } from './state.js';
+import { focusBox, openingBox } from './view/focus.js';
 import { runCalibration } from './run.js';
 import { nextTask } from './tasks.js';
 import { describeInstants, isRecording, renderRecording } from './recording.js';
@@ -41,7 +42,7 @@ const tools = initViewTools({
     legend: $('legend'), measure: $('measure'), save: $('save-png'), readout: $('readout'),
     scale: $('scale'), scaleTitle: $('scale-title'), scaleLo: $('scale-lo'), scaleHi: $('scale-hi'),
   },
-  focusBounds,
+  focusBounds: (key) => focusBox(state, key),
   onChange: () => redraw(),
   onError: showError,
 });
@@ -66,7 +67,7 @@ function forgetResults() {
   setStale(null);
   inset.show(false);
   $('convergence-box').hidden = true;
-  tools.setTargets([]);
+  tools.renderFocus();
   state.show = 'before';
   document.querySelector('input[name=show][value=before]').checked = true;
   $('show-after').disabled = true;
@@ -114,6 +115,7 @@ function renderPanels() {
   renderFiles($('files'), { scans: state.scans, bad: state.bad, sensors: state.rig.sensors }, reassign);
   if (state.rig.sensors.length) renderRig($('rig'), state.rig, rigChanged);
   tools.renderLegend();
+  tools.renderFocus();
   updateSummaries();
   updateCalibrate();
 }
@@ -353,24 +355,14 @@ async function showResults(results, failures, json) {
     targetViewer.lookAt(bounds);
   }
   inset.show(Boolean(bounds));
-  tools.setTargets(results[0].reconstruction.fits);
-}
-
-// The box to frame for a focus choice: 'all' (every point shown, placed), 'roi', 'target:i'.
-function focusBounds(key) {
-  if (key === 'all') return pointBounds(state, shownPoses(state), state.hidden);
-  if (key === 'roi') return state.rig.roi ?? state.results?.[0]?.roi ?? pointBounds(state, shownPoses(state), state.hidden);
-  const fit = state.results?.[0]?.reconstruction.fits[Number(key.split(':')[1])];
-  if (!fit) return null;
-  const half = Math.max(...fit.extents) / 2 + 0.3;
-  return { min: fit.centre.map((c) => c - half), max: fit.centre.map((c) => c + half) };
+  tools.renderFocus();
 }
 
 // --- controls ---------------------------------------------------------------------------------
 
 function viewerLookAt() {
-  const bounds = state.rig.roi ?? pointBounds(state);
-  if (bounds) mainViewer.lookAt(bounds);
+  const box = openingBox(state);
+  if (box) mainViewer.lookAt(box);
 }
 
 $('file-input').addEventListener('change', async (e) => {

@@ -64,24 +64,3 @@ export function shownPoses(state) {
 
 // The library's entry for method `name` ({jrmpc, pairs} say which stages it runs).
 export const methodInfo = (state, name) => state.methods.find((m) => m.name === name) ?? { name, jrmpc: false, pairs: false };
-
-// The box around the points of `state`'s scans, or null: placed by `poses` (sensor ->
-// row-major T_vehicle_sensor) when given, else in the sensor frames (near enough to frame the
-// view before a calibration); sensors in `hidden` left out.
-export function pointBounds(state, poses = null, hidden = new Set()) {
-  const min = [Infinity, Infinity, Infinity], max = [-Infinity, -Infinity, -Infinity];
-  for (const scan of state.scans) {
-    if (hidden.has(scan.sensor)) continue;
-    const p = scan.points;
-    const m = poses?.[scan.sensor] ?? [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0];
-    // Every 16th point is plenty to frame a view.
-    for (let i = 0; i + 2 < p.length; i += 48) {
-      for (let a = 0; a < 3; a++) {
-        const v = m[4 * a] * p[i] + m[4 * a + 1] * p[i + 1] + m[4 * a + 2] * p[i + 2] + m[4 * a + 3];
-        min[a] = Math.min(min[a], v);
-        max[a] = Math.max(max[a], v);
-      }
-    }
-  }
-  return Number.isFinite(min[0]) ? { min, max } : null;
-}

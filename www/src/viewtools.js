@@ -107,9 +107,15 @@ export function initViewTools({ viewer, state, el, focusBounds, onChange, onErro
       el.scaleHi.textContent = range ? `${range[1].toFixed(mode === 'intensity' ? 0 : 2)}${mode === 'distance' ? ' and beyond' : ''}` : '';
       el.scale.dataset.mode = mode;
     },
-    // Focus choices: everything, the ROI, each target fitted by the last result.
-    setTargets(fits) {
-      el.focus.replaceChildren(...[['', '…'], ['all', 'everything'], ['roi', 'the ROI'], ...fits.map((_, i) => [`target:${i}`, `target ${i + 1}`])].map(([v, t]) => new Option(t, v)));
+    // Focus choices: everything, the ROI (given, or the one the last result cropped to), each
+    // sensor, each target the last result fitted.
+    renderFocus() {
+      const roi = state.rig.roi ?? state.results?.[0]?.roi;
+      const fits = state.results?.[0]?.reconstruction.fits ?? [];
+      const choices = [['', '…'], ['all', 'everything'], ...(roi ? [['roi', 'the ROI']] : []),
+        ...state.rig.sensors.map((s) => [`sensor:${s}`, `sensor ${s}`]),
+        ...fits.map((_, i) => [`target:${i}`, fits.length === 1 ? 'the target' : `target ${i + 1}`])];
+      el.focus.replaceChildren(...choices.map(([v, t]) => new Option(t, v)));
     },
     clearPicks: () => setMeasuring(false),
   };
