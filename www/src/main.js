@@ -5,23 +5,25 @@
 import { WorkerClient } from './rpc.js';
 import { Viewer } from './viewer.js';
 import { Display, livePoses, sensorColour } from './display.js';
-import { fromDrop, fromInput, groupNameless, isMesh, pair, readEntries, splitNameless } from './files.js';
+import { fromDrop, fromInput, groupNameless, isMesh, pair, readEntries, sensorsBySuffix, splitNameless } from './files.js';
 import { renderLooseQuestion } from './loose.js';
 import { renderFiles } from './filelist.js';
-import { renderRig } from './rig.js';
+import { renderRig, showRoi } from './rig.js';
 import { drawConvergence, renderResults } from './results.js';
 import { exportsOf, renderExports, resultJson } from './exports.js';
 import { targetBounds } from './target.js';
 import { writeHash } from './url.js';
-import { describeDone } from './progress.js';
+import { describeDone, describeTime } from './progress.js';
 import { clearState, createState, nominalPoses, rebuildRig, shownPoses, sortScans } from './state.js';
 import { focusBox, openingBox } from './view/focus.js';
+import { initRoiEditor } from './view/roi-editor.js';
+import { adviceForError, adviceForResult, autoRoiFound } from './panels/advice.js';
 import { runCalibration } from './run.js';
 import { nextTask } from './tasks.js';
 import { describeInstants, isRecording, renderRecording } from './recording.js';
 import { foldSetup, initInset, initLayout } from './layout.js';
 import { initViewTools } from './viewtools.js';
-import { calibrateBlocker, describeRig, describeScans } from './summary.js';
+import { calibrateBlocker, countLine, describeRig, describeScans } from './summary.js';
 import { initSettings } from './settings.js';
 import { initDrift } from './drift.js';
 
@@ -47,23 +49,82 @@ const tools = initViewTools({
   onError: showError,
 });
 
+// The ROI's handles in the view: a drag moves a face, the panel's numbers follow, and the
+// result goes out of date once the face is let go.
+const roiEditor = initRoiEditor({
+  viewer: mainViewer,
+  canvas: $('view'),
+  wrap: $('view').parentElement,
+  getRoi: () => state.rig.roi,
+  onDrag: (roi) => {
+    state.rig.roi = roi;
+    showRoi($('rig'), roi);
+    redraw();
+  },
+  onDrop: (roi) => {
+    state.rig.roi = roi;
+    rigChanged('roi');
+  },
+});
+
 const settings = initSettings({ $, state, client, changed, targetLoaded: () => forgetResults(), setStatus: (text) => setStatus(text), showError });
 const drift = initDrift($('drift'), (request) => client.request('compare', request));
 
-function showError(error) {
+// The error line, and under it what to do about it where the page knows (panels/advice.js),
+// with its one action as a button.
+function showError(error, advice = null) {
   $('error').hidden = !error;
   $('error').textContent = error ? String(error.message ?? error) : '';
+  $('error-advice').hidden = !advice;
+  $('error-advice').replaceChildren();
+  if (!advice) return;
+  const button = Object.assign(document.createElement('button'), { type: 'button', textContent: advice.action.label });
+  button.addEventListener('click', () => applyAdvice(advice.action));
+  $('error-advice').append(`${advice.text} `, button);
+}
+
+// An advice's action: make a sensor the reference, set the target, or start drawing the ROI.
+function applyAdvice({ what, value }) {
+  showError(null);
+  if (what === 'reference') {
+    state.rig.reference = value;
+    $('rig-panel').open = true;
+    renderPanels();
+    rigChanged('reference');
+    setStatus(`${value} is the reference now: Calibrate again.`);
+  } else if (what === 'target') {
+    settings.setTarget(value);
+    setStatus(`The target is ${value} now: Calibrate again.`);
+  } else if (what === 'roi') {
+    state.rig.roi = startRoi();
+    $('rig-panel').open = true;
+    renderPanels();
+    rigChanged('roi');
+    mainViewer.lookAt(state.rig.roi, 'top');
+    setStatus('Drag the white handles of the ROI in the view around the targets (or type its bounds), then Calibrate.');
+  }
+}
+
+// The box a user starts drawing the ROI from: the last auto ROI, else the data's robust extent
+// (to the centimetre).
+function startRoi() {
+  const box = state.results?.[0]?.roi ?? focusBox(state, 'all') ?? { min: [-5, -5, -2], max: [5, 5, 3] };
+  const cm = (v) => Math.round(v * 100) / 100;
+  return { min: box.min.map(cm), max: box.max.map(cm) };
 }
 const setStatus = (text) => ($('status').textContent = text);
 
 // --- view -------------------------------------------------------------------------------------
 
-const redraw = (poses = shownPoses(state), options) => display.update(state, poses, options);
+function redraw(poses = shownPoses(state), options) {
+  display.update(state, poses, options);
+  roiEditor.update();
+}
 
 // --- loading ----------------------------------------------------------------------------------
 
 function forgetResults() {
-  state.results = null;
+  Object.assign(state, { results: null, failures: [], resultJson: null });
   setStale(null);
   inset.show(false);
   $('convergence-box').hidden = true;
@@ -113,7 +174,7 @@ function showLoaded(config) {
 
 function renderPanels() {
   renderFiles($('files'), { scans: state.scans, bad: state.bad, sensors: state.rig.sensors }, reassign);
-  if (state.rig.sensors.length) renderRig($('rig'), state.rig, rigChanged);
+  if (state.rig.sensors.length) renderRig($('rig'), state.rig, rigChanged, { found: autoRoiFound(state.results?.[0], state.resultContext), startRoi });
   tools.renderLegend();
   tools.renderFocus();
   updateSummaries();
@@ -138,11 +199,19 @@ function reassign(scan, sensor, frame = scan.frame) {
   sortScans(state);
   rigFrom();
   renderPanels();
+  // The count first: it is what the reassignment changed (a stale result's line follows).
+  setStatus(`${countLine(state)} loaded; ${scan.path} is now ${sensor}'s, frame ${frame}.`);
   changed(what);
   redraw();
 }
 
 function rigChanged(what) {
+  // The vehicle frame's name changes no number: the result and its exports take it at once.
+  if (what === 'parent') {
+    if (state.results) renderOutcome(state.results, state.failures ?? [], state.resultJson);
+    updateSummaries();
+    return;
+  }
   changed({ reference: 'reference sensor', roi: 'ROI', nominal: 'nominal extrinsics' }[what] ?? 'rig');
   redraw();
 }
@@ -168,15 +237,16 @@ async function loadFiles(entries) {
   const fresh = scans.map((s) => ({ id: `scan:${nextScanId++}`, ...s }));
   state.scans = [...state.scans.filter((v) => !paths.has(v.path)), ...fresh];
   const loose = groupNameless(fresh, state.scans.filter((v) => !paths.has(v.path)).map((v) => v.sensor));
+  const bySuffix = sensorsBySuffix(fresh);
   const paired = pair(state.scans, fresh);
   state.bad.push(...bad);
   sortScans(state);
   state.settings.demo = '';
   writeHash(state.settings);
   showLoaded(config);
-  const sensors = state.rig.sensors.length;
   const assumed = loose ? `; ${loose.scans.length} files without a sensor in their names taken as frames of ${loose.sensor}` : '';
-  setStatus(`${state.scans.length} scans of ${sensors} sensor${sensors === 1 ? '' : 's'} loaded${paired ? ` (${paired})` : ''}${assumed}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
+  const suffixed = bySuffix ? `; the names end in a sensor, not a frame number: sensors ${bySuffix.sensors.join(', ')}, frame ${bySuffix.frame}` : '';
+  setStatus(`${countLine(state)} loaded${paired ? ` (${paired})` : ''}${assumed}${suffixed}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
   renderLooseQuestion($('loose'), loose, () => {
     splitNameless(loose.scans);
     sortScans(state);
@@ -218,10 +288,13 @@ async function loadRecording(path, handle, options) {
     // Loading again (other topics, other instants) replaces this recording's scans.
     state.scans = state.scans.filter((s) => s.recording !== path);
     const format = path.split('.').at(-1);
-    state.scans.push(...rig.scans.map((v) => ({ id: `scan:${nextScanId++}`, path: `${path} ${v.sensor} #${v.frame}`, recording: path, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: 0, format })));
-    state.exportFrames = { parent: rig.baseFrame, frameIds: rig.frameIds };
+    // Sensors are named by their frame ids; the file table names the topic each came from.
+    const topicOf = Object.fromEntries(Object.entries(rig.sensors).map(([topic, sensor]) => [sensor, topic]));
+    state.scans.push(...rig.scans.map((v) => ({ id: `scan:${nextScanId++}`, path: `${path} ${topicOf[v.sensor] ?? v.sensor} #${v.frame}`, recording: path, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: 0, format })));
     sortScans(state);
-    showLoaded({ nominal: rig.nominal, reference: rig.reference });
+    // The reference the user picked, else (none picked) the sensor with the most points; the
+    // vehicle frame is the tree's base frame, by its name, everywhere.
+    showLoaded({ nominal: rig.nominal, reference: options.reference ? rig.reference : null, parent: rig.baseFrame });
     setStatus(`${rig.scans.length} scans of ${options.topics.length} sensors loaded from ${path} (${describeInstants(rig)}).`);
     if (rig.problems.length) showError(rig.problems.join('\n'));
   } catch (error) {
@@ -293,13 +366,20 @@ async function calibrate() {
   showError(null);
   forgetResults();
   setRunning(true);
+  // What the advice on the result needs to know of the run: the target and the ROI it had.
+  state.resultContext = { target: state.settings.target, roiAuto: !state.rig.roi };
   const nominal = nominalPoses(state);
   const started = performance.now();
+  $('progress').value = 0;
+  $('progress-time').textContent = '';
   setStatus('starting…');
   try {
     let drawnAt = -Infinity;
-    const { results, failures, json } = await runCalibration(client, state, ({ fraction, text, progress }) => {
-      $('progress').value = fraction;
+    const { results, failures, json } = await runCalibration(client, state, ({ fraction, text, elapsed, left, progress }) => {
+      // The bar never goes back (a tick's estimate may run ahead of the next message).
+      $('progress').value = Math.max($('progress').value, fraction);
+      $('progress-time').textContent = describeTime({ elapsed, left });
+      if (!progress) return;
       setStatus(text);
       if (performance.now() - drawnAt >= mainViewer.frameMs / PREVIEW_SHARE) {
         drawnAt = performance.now();
@@ -307,39 +387,47 @@ async function calibrate() {
       }
     });
     $('progress').value = 1;
+    $('progress-time').textContent = '';
     await showResults(results, failures, json);
     setStatus(describeDone(results, (performance.now() - started) / 1000, failures));
   } catch (error) {
     $('progress').value = 0;
+    $('progress-time').textContent = '';
     setStatus(error.cancelled ? 'Cancelled.' : 'Failed.');
-    if (!error.cancelled) showError(error);
+    if (!error.cancelled) showError(error, adviceForError(String(error.message ?? error), state));
     redraw();
   } finally {
     setRunning(false);
   }
 }
 
-// In three tasks of a few ms each: on a busy machine a task waits for a core several times as
-// long as it computes, and the page must not stall (issue 7). A result forgotten meanwhile (new
-// files, a new run) stops here.
-// `failures`: {method, error} of the methods that failed; `json`: what the JSON view holds (the
-// report, or every method's outcome in order when comparing, as the CLI writes it).
+// A result in (`results` the reports that ran; `failures` {method, error} of the methods that
+// failed; `json` what the JSON view holds: the report, or every method's outcome in order when
+// comparing, as the CLI writes it): the view shows the calibrated poses, the setup panels fold to
+// their one-line summaries so the verdict and the extrinsics are in view.
 async function showResults(results, failures, json) {
-  state.results = results;
+  Object.assign(state, { results, failures, resultJson: json });
   state.show = 'after';
   $('show-after').disabled = false;
   $('show-after').checked = true;
   redraw();
-  renderResults($('results'), results, state.truth, failures);
-  // The verdict is the answer: the setup panels fold to their one-line summaries so it and the
-  // extrinsics are in view.
   foldSetup([$('load-panel'), $('rig-panel')], $('side'));
+  await renderOutcome(results, failures, json);
+}
+
+// Everything a result shows, in three tasks of a few ms each: on a busy machine a task waits for
+// a core several times as long as it computes, and the page must not stall (issue 7). A result
+// forgotten meanwhile (new files, a new run) stops here.
+async function renderOutcome(results, failures, json) {
+  const parent = state.rig.parent;
+  renderResults($('results'), results, state.truth, failures, { parent, advice: adviceForResult(results[0], state.resultContext) });
+  renderPanels();
   await nextTask();
   if (state.results !== results) return;
   $('convergence-box').hidden = results[0].history.meanSigma.length < 2;
   drawConvergence($('convergence'), results[0].history);
   const ros = (extrinsics) => client.request('exports', { extrinsics });
-  const items = await exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, ...state.exportFrames }, ros);
+  const items = await exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, parent }, ros);
   if (state.results !== results) return;
   renderExports($('exports'), items);
   // The drift check compares what the JSON export holds.
@@ -355,7 +443,6 @@ async function showResults(results, failures, json) {
     targetViewer.lookAt(bounds);
   }
   inset.show(Boolean(bounds));
-  tools.renderFocus();
 }
 
 // --- controls ---------------------------------------------------------------------------------
@@ -378,6 +465,10 @@ $('clear').addEventListener('click', () => {
   setStatus('Cleared.');
 });
 $('demo').addEventListener('click', loadDemo);
+$('results').addEventListener('click', (e) => {
+  const button = e.target.closest('button[data-advice]');
+  if (button) applyAdvice(JSON.parse(button.dataset.advice));
+});
 $('calibrate').addEventListener('click', calibrate);
 $('cancel').addEventListener('click', () => client.cancel());
 for (const radio of document.querySelectorAll('input[name=show]')) {

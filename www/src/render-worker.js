@@ -32,6 +32,8 @@ scene.background = new THREE.Color(0x15181d);
 const camera = new THREE.PerspectiveCamera(50, 1, 0.05, 500);
 camera.up.set(0, 0, 1); // vehicle frame: z up
 const ORBIT_POINTS = 100_000;
+const HANDLE_SIZE = 10; // px: the ROI's handles
+const HANDLE_COLOUR = 0xffffff; // no sensor's colour
 const RUN_POINTS = 30_000;
 const objects = new Map(); // id -> Object3D
 const budget = { preview: false, interacting: false };
@@ -264,8 +266,21 @@ const handlers = {
   },
   // The axes of a frame (x red, y green, z blue), `length` m.
   axes: ({ id, length }) => put(id, new THREE.AxesHelper(length)),
-  // An axis-aligned box as lines.
-  box: ({ id, min, max, color }) => put(id, new THREE.Box3Helper(new THREE.Box3(new THREE.Vector3(...min), new THREE.Vector3(...max)), color)),
+  // An axis-aligned box as lines; with `handles`, a square on each face's centre (roi-editor.js
+  // drags them), drawn over everything so a face behind the data can still be grabbed.
+  box({ id, min, max, color, handles }) {
+    const group = new THREE.Group();
+    group.add(new THREE.Box3Helper(new THREE.Box3(new THREE.Vector3(...min), new THREE.Vector3(...max)), color));
+    if (handles) {
+      const centre = min.map((v, i) => (v + max[i]) / 2);
+      const faces = [min, max].flatMap((side) => [0, 1, 2].map((a) => centre.map((c, i) => (i === a ? side[a] : c))));
+      const geometry = new THREE.BufferGeometry().setAttribute('position', new THREE.Float32BufferAttribute(faces.flat(), 3));
+      const squares = new THREE.Points(geometry, new THREE.PointsMaterial({ size: HANDLE_SIZE, sizeAttenuation: false, color: HANDLE_COLOUR, depthTest: false }));
+      squares.renderOrder = 2;
+      group.add(squares);
+    }
+    put(id, group);
+  },
   target: ({ id, target }) => put(id, targetObject(target)),
   // Places an object by a row-major 4x4 (THREE's Matrix4.set takes row-major too).
   pose({ id, matrix }) {

@@ -7,7 +7,7 @@ const SETTING_INPUTS = ['method', 'components', 'iterations', 'initialSigma', 'w
 
 // `$`: the page's elements by id; `client`: the worker client; `changed(what)`: a setting
 // changed after a run; `targetLoaded()`: a new CAD model replaces the target (the result goes);
-// `setStatus`, `showError`: the page's lines. Returns {sync, loadTargetMesh}.
+// `setStatus`, `showError`: the page's lines. Returns {sync, loadTargetMesh, setTarget}.
 export function initSettings({ $, state, client, changed, targetLoaded, setStatus, showError }) {
   function syncSettingsInputs() {
     for (const key of SETTING_INPUTS) $(key).value = state.settings[key];
@@ -84,5 +84,13 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
   }
   $('target-size').addEventListener('change', targetChanged);
 
-  return { sync: syncSettingsInputs, loadTargetMesh };
+  // The target set from elsewhere (an advice's button): as if picked.
+  function setTarget(target) {
+    state.settings.target = target;
+    syncSettingsInputs();
+    writeHash(state.settings);
+    changed('target');
+  }
+
+  return { sync: syncSettingsInputs, loadTargetMesh, setTarget };
 }

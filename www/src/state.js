@@ -12,7 +12,7 @@ export function createState() {
     settings: readHash(),
     scans: [], // {id, path, sensor, frame, points, intensity?, count, dropped, format}
     bad: [], // {path, error}
-    rig: { sensors: [], nominal: {}, roi: null, reference: '' },
+    rig: { sensors: [], nominal: {}, roi: null, reference: '', parent: 'vehicle' },
     truth: null, // sensor -> {xyz, rpy}, for a demo
     results: null, // reports of the last run, one per method that ran
     methods: [], // the library's methods: {name, label, jrmpc, pairs}
@@ -23,13 +23,12 @@ export function createState() {
     stale: null, // what changed since the result shown (it is out of date), or null
     running: false,
     recording: null, // {handle, path}: the recording open in the worker
-    exportFrames: {}, // {parent, frameIds}: a recording's base frame and each topic's frame id
   };
 }
 
 // Forgets the loaded scans, the rig and the results.
 export function clearState(state) {
-  Object.assign(state, { scans: [], bad: [], truth: null, results: null, exportFrames: {}, rig: { sensors: [], nominal: {}, roi: null, reference: '' } });
+  Object.assign(state, { scans: [], bad: [], truth: null, results: null, rig: { sensors: [], nominal: {}, roi: null, reference: '', parent: 'vehicle' } });
 }
 
 // Sensors from the scans (natural order); nominal, ROI, reference and settings taken from
@@ -42,11 +41,23 @@ export function rebuildRig(state, config = {}) {
   for (const s of rig.sensors) rig.nominal[s] ??= { xyz: [0, 0, 0], rpy: [0, 0, 0] };
   if (config.roi) rig.roi = { min: [...config.roi.min], max: [...config.roi.max] };
   if (config.reference) rig.reference = String(config.reference);
-  if (!rig.sensors.includes(rig.reference)) rig.reference = rig.sensors[0] ?? '';
+  if (config.parent) rig.parent = String(config.parent);
+  if (!rig.sensors.includes(rig.reference)) rig.reference = mostPoints(state.scans) ?? '';
   for (const [key, value] of Object.entries(config)) if (key in DEFAULTS && value != null) state.settings[key] = value;
   // `exact` is a choice of the E-step setting.
   if (config.exact === true) state.settings.estep = 'exact';
   if (config.exact === false && state.settings.estep === 'exact') state.settings.estep = DEFAULTS.estep;
+}
+
+// The sensor with the most points (the first such in natural order), or null: the reference
+// when nothing names one. A sensor that sees most of the scene is the one the others overlap;
+// the alphabetically first could be a side unit that sees the ground only.
+export function mostPoints(scans) {
+  const counts = new Map();
+  for (const v of scans) counts.set(v.sensor, (counts.get(v.sensor) ?? 0) + v.points.length / 3);
+  let best = null;
+  for (const [name, n] of [...counts].sort(([a], [b]) => natural(a, b))) if (best === null || n > counts.get(best)) best = name;
+  return best;
 }
 
 export const sortScans = (state) => state.scans.sort((a, b) => natural(a.sensor, b.sensor) || natural(a.frame, b.frame));

@@ -146,9 +146,9 @@ export class Viewer {
     this.#post({ type: 'axes', id, length });
   }
 
-  // An axis-aligned box {min, max} as lines.
-  setBox(id, { min, max }, color = 0xffcc44) {
-    this.#post({ type: 'box', id, min, max, color });
+  // An axis-aligned box {min, max} as lines, with `handles` a square on each face's centre.
+  setBox(id, { min, max }, color = 0xffcc44, handles = false) {
+    this.#post({ type: 'box', id, min, max, color, handles });
   }
 
   // The reconstructed target (target.js builds it in the worker).
