@@ -9,10 +9,10 @@ import { fromDrop, fromInput, groupNameless, isMesh, pair, readEntries, sensorsB
 import { renderLooseQuestion } from './loose.js';
 import { renderFiles } from './filelist.js';
 import { renderRig, showRoi } from './rig.js';
-import { drawConvergence, renderResults } from './results.js';
+import { drawConvergence, renderResults, verdictTitle } from './results.js';
 import { exportsOf, renderExports, resultJson } from './exports.js';
 import { targetBounds } from './target.js';
-import { writeHash } from './url.js';
+import { DEFAULTS, explicitSettings, readRig, writeHash } from './url.js';
 import { describeDone, describeTime } from './progress.js';
 import { clearState, createState, nominalPoses, rebuildRig, shownPoses, sortScans } from './state.js';
 import { focusBox, openingBox } from './view/focus.js';
@@ -26,6 +26,9 @@ import { initViewTools } from './viewtools.js';
 import { calibrateBlocker, countLine, describeRig, describeScans } from './summary.js';
 import { initSettings } from './settings.js';
 import { initDrift } from './drift.js';
+import * as store from './state/store.js';
+import { keptScans, restoreSession, sessionOf } from './state/session.js';
+import { isResultFile, readResult } from './panels/result-file.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
@@ -47,6 +50,12 @@ const tools = initViewTools({
   focusBounds: (key) => focusBox(state, key),
   onChange: () => redraw(),
   onError: showError,
+  verdictLine: () => {
+    const r = state.results?.[0];
+    if (!r) return null;
+    const out = state.stale ? ` (out of date: the ${state.stale} changed)` : '';
+    return { level: r.verdict.level, text: `${verdictTitle(r.verdict.level)}${out} — ${r.method}, reference ${r.reference}` };
+  },
 });
 
 // The ROI's handles in the view: a drag moves a face, the panel's numbers follow, and the
@@ -119,6 +128,19 @@ const setStatus = (text) => ($('status').textContent = text);
 function redraw(poses = shownPoses(state), options) {
   display.update(state, poses, options);
   roiEditor.update();
+  if (!options?.preview) persist();
+}
+
+// --- kept in the browser ----------------------------------------------------------------------
+
+// The work is kept (state/store.js) a moment after each change, not during a run (its cores are
+// the calculation's), and the link follows the settings and the rig.
+const PERSIST_MS = 300;
+let persistTimer = null;
+function persist() {
+  clearTimeout(persistTimer);
+  writeHash(state.settings, state.rig);
+  persistTimer = setTimeout(() => (state.running ? persist() : store.save(keptScans(state), sessionOf(state))), PERSIST_MS);
 }
 
 // --- loading ----------------------------------------------------------------------------------
@@ -156,6 +178,7 @@ function changed(what) {
   }
   updateSummaries();
   updateCalibrate();
+  persist();
 }
 
 function rigFrom(config) {
@@ -224,8 +247,39 @@ async function loadFiles(entries) {
   // model with the target's "CAD model…").
   const model = entries.find((e) => isMesh(e.path));
   if (model) await settings.loadTargetMesh(model);
-  entries = entries.filter((e) => !isRecording(e.path) && !isMesh(e.path));
-  if (!entries.length) return;
+  // A result saved as a file opens once the scans beside it are in.
+  const resultFile = entries.findLast((e) => isResultFile(e.path));
+  entries = entries.filter((e) => !isRecording(e.path) && !isMesh(e.path) && !isResultFile(e.path));
+  if (entries.length) await loadScans(entries);
+  if (resultFile) await openResult(resultFile);
+}
+
+// A result file ({path, file}): the results panel shows it as it was, the view places the
+// loaded scans by it. A file that is no result is named, and nothing changes.
+async function openResult({ path, file }) {
+  let opened;
+  try {
+    opened = readResult(await file.text(), path);
+  } catch (error) {
+    showError(error);
+    return;
+  }
+  // What the run had is not in the file: no advice on its target.
+  state.resultContext = null;
+  setStale(null);
+  try {
+    await showResults(opened.results, opened.failures, opened.json);
+  } catch (error) {
+    forgetResults();
+    showError(`${path}: ${error.message}`);
+    return;
+  }
+  const sensors = opened.results[0].sensors.map((s) => s.name);
+  const missing = sensors.filter((name) => !state.rig.sensors.includes(name));
+  setStatus(`Opened ${path}: ${opened.results[0].method}'s result for ${sensors.join(', ')}${missing.length ? `; load the scans of ${missing.join(', ')} to see them placed` : ''}.`);
+}
+
+async function loadScans(entries) {
   if (state.truth) clearAll(); // user files replace a demo
   const read = {
     cloud: (bytes, name) => client.request('parse', { bytes, name }, { transfer: [bytes] }),
@@ -242,7 +296,7 @@ async function loadFiles(entries) {
   state.bad.push(...bad);
   sortScans(state);
   state.settings.demo = '';
-  writeHash(state.settings);
+  writeHash(state.settings, state.rig);
   showLoaded(config);
   const assumed = loose ? `; ${loose.scans.length} files without a sensor in their names taken as frames of ${loose.sensor}` : '';
   const suffixed = bySuffix ? `; the names end in a sensor, not a frame number: sensors ${bySuffix.sensors.join(', ')}, frame ${bySuffix.frame}` : '';
@@ -323,7 +377,7 @@ async function loadDemo() {
   s.demo = $('demo-preset').value || 'paper';
   s.seed = Number($('demo-seed').value);
   s.frames = Number($('demo-frames').value);
-  writeHash(s);
+  writeHash(s, state.rig);
   setStatus(`Simulating ${s.frames} frames of the ${s.demo} rig…`);
   $('demo').disabled = true;
   try {
@@ -460,9 +514,22 @@ $('folder-input').addEventListener('change', async (e) => {
   await loadFiles(fromInput(e.target.files));
   e.target.value = '';
 });
-$('clear').addEventListener('click', () => {
+$('clear').addEventListener('click', async () => {
   clearAll();
-  setStatus('Cleared.');
+  clearTimeout(persistTimer);
+  await store.clear();
+  writeHash(state.settings, state.rig);
+  setStatus('Cleared: the scans, the rig and the result are forgotten, also in this browser\'s storage.');
+});
+// The link to this page with its settings and rig (and a demo's parameters), copied.
+$('copy-link').addEventListener('click', async () => {
+  writeHash(state.settings, state.rig);
+  try {
+    await navigator.clipboard.writeText(location.href);
+    setStatus(`Link copied: ${location.href}${state.scans.length && !state.settings.demo ? ' (it holds the settings; the scans stay in this browser)' : ''}`);
+  } catch (error) {
+    showError(`Could not copy the link (${error.message}); it is the address in the address bar.`);
+  }
 });
 $('demo').addEventListener('click', loadDemo);
 $('results').addEventListener('click', (e) => {
@@ -507,6 +574,47 @@ async function loadMethods() {
   $('method').value = state.settings.method;
 }
 
+// On opening: the work kept in this browser comes back, unless the link asks for another demo
+// than the one kept; a link's settings win over the kept ones.
+async function start() {
+  await loadMethods();
+  const link = explicitSettings();
+  const kept = await store.load();
+  const sameDemo = (k) => ['demo', 'seed', 'frames', 'maxAngleDeg', 'maxTranslation'].every((key) => (link[key] ?? DEFAULTS[key]) === (k.session.settings[key] ?? DEFAULTS[key]));
+  if (kept && (kept.scans.length || kept.session.results) && (!link.demo || sameDemo(kept))) await restore(kept, link);
+  else if (state.settings.demo) await loadDemo();
+}
+
+async function restore(kept, link) {
+  try {
+    nextScanId = restoreSession(state, kept, link);
+    const rigLink = readRig();
+    if (rigLink.roi) state.rig.roi = rigLink.roi;
+    if (rigLink.parent) state.rig.parent = rigLink.parent;
+    if (rigLink.reference && state.rig.sensors.includes(rigLink.reference)) state.rig.reference = rigLink.reference;
+    settings.sync();
+    $('colour').value = state.colour;
+    $('all-frames').checked = state.allFrames;
+    renderPanels();
+    const stale = kept.session.stale;
+    if (state.results) {
+      const show = state.show;
+      await showResults(state.results, state.failures, state.resultJson);
+      if (show === 'before') document.querySelector('input[name=show][value=before]').click();
+      if (stale) setStale(stale);
+    }
+    redraw();
+    viewerLookAt();
+    const what = [state.scans.length && `${countLine(state)}`, 'the rig and the settings', state.results && `the last result${stale ? ' (out of date)' : ''}`].filter(Boolean);
+    setStatus(`Restored from this browser: ${what.join(', ')}. Clear forgets them.`);
+  } catch (error) {
+    // A record this page cannot read (an older version's) is no reason to fail: start afresh.
+    clearAll();
+    await store.clear();
+    setStatus('Load scans or run the demo.');
+  }
+}
+
 settings.sync();
 updateCalibrate();
-loadMethods().then(() => state.settings.demo && loadDemo(), showError);
+start().catch(showError);

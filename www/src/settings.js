@@ -30,7 +30,7 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
         return;
       }
       state.settings[key] = value;
-      writeHash(state.settings);
+      writeHash(state.settings, state.rig);
       changed('settings');
     });
   }
@@ -43,7 +43,7 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
       if (state.targetMesh) state.settings.target = `mesh:${state.targetMesh.name}`;
       else $('mesh-input').click(); // the kind shows once a model is loaded
       syncSettingsInputs();
-      writeHash(state.settings);
+      writeHash(state.settings, state.rig);
       return;
     }
     const [previousKind] = state.settings.target.split(':');
@@ -55,7 +55,7 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
     else if (valid) state.settings.target = `${kind}:${size.join(',')}`;
     else if (kind !== previousKind) state.settings.target = kind === 'box' ? 'box:0.5,0.5,0.5' : `${kind}:0.5`;
     syncSettingsInputs();
-    writeHash(state.settings);
+    writeHash(state.settings, state.rig);
     changed('target');
   }
   $('target-kind').addEventListener('change', targetChanged);
@@ -75,7 +75,7 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
       state.settings.target = `mesh:${path}`;
       targetLoaded();
       syncSettingsInputs();
-      writeHash(state.settings);
+      writeHash(state.settings, state.rig);
       setStatus(`Target: ${path}, ${state.targetMesh.triangles} triangles, ${mesh.extents.map((x) => x.toFixed(2)).join(' × ')} m; where it stands is found from the data.`);
     } catch (error) {
       showError(`${error.message ?? error}`);
@@ -88,7 +88,7 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
   function setTarget(target) {
     state.settings.target = target;
     syncSettingsInputs();
-    writeHash(state.settings);
+    writeHash(state.settings, state.rig);
     changed('target');
   }
 

@@ -2,19 +2,24 @@
 // changed through these functions, so what invalidates a result is decided in one place.
 import { natural } from './files.js';
 import { matrixFromXyzRpy } from './transforms.js';
-import { DEFAULTS, readHash } from './url.js';
+import { DEFAULTS, readHash, readRig } from './url.js';
 
 // The ROI a user starts editing from when they turn 'auto' off (m, vehicle frame).
 export const DEFAULT_ROI = Object.freeze({ min: Object.freeze([-5, -5, -2]), max: Object.freeze([5, 5, 3]) });
 
+// The state a page opens with: the link's settings and rig (ROI, reference, vehicle frame).
 export function createState() {
+  const link = readRig();
   return {
     settings: readHash(),
     scans: [], // {id, path, sensor, frame, points, intensity?, count, dropped, format}
     bad: [], // {path, error}
-    rig: { sensors: [], nominal: {}, roi: null, reference: '', parent: 'vehicle' },
+    rig: { sensors: [], nominal: {}, roi: link.roi, reference: link.reference ?? '', parent: link.parent ?? 'vehicle' },
     truth: null, // sensor -> {xyz, rpy}, for a demo
     results: null, // reports of the last run, one per method that ran
+    failures: [], // {method, error} of the methods of the last run that failed
+    resultJson: null, // what the JSON view holds: the report, or every method's outcome
+    resultContext: null, // what the last run had: {target, roiAuto}
     methods: [], // the library's methods: {name, label, jrmpc, pairs}
     show: 'before',
     colour: 'sensor',

@@ -135,9 +135,9 @@ export class Viewer {
     return hit;
   }
 
-  // The view, drawn in full, as a PNG blob.
-  async snapshot() {
-    const { blob } = await this.#ask({ type: 'snapshot' });
+  // The view, drawn in full, as a PNG blob, with `overlay` drawn over it (view/snapshot.js).
+  async snapshot(overlay = null) {
+    const { blob } = await this.#ask({ type: 'snapshot', overlay });
     return blob;
   }
 

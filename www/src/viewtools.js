@@ -2,7 +2,7 @@
 // the colour scale, preset views and focus, picking a point (its sensor, frame and vehicle
 // coordinates), measuring between two picks, and saving the view as PNG.
 import { sensorColour } from './display.js';
-import { rampCss } from './colouring.js';
+import { rampCss, rampStops } from './colouring.js';
 
 const CLICK_SLOP_PX = 4; // a press that moves further is an orbit, not a pick
 const SCALE_TITLES = {
@@ -15,8 +15,9 @@ const hex = (c) => `#${c.toString(16).padStart(6, '0')}`;
 const fmt = (p) => p.map((v) => v.toFixed(3)).join(', ');
 
 // `el`: the toolbar's elements by id; `focusBounds(key)`: the box to frame for a focus choice;
-// `onChange()`: redraw the view after a show/hide.
-export function initViewTools({ viewer, state, el, focusBounds, onChange, onError }) {
+// `onChange()`: redraw the view after a show/hide; `verdictLine()`: {level, text} of the result
+// shown, or null, for the PNG.
+export function initViewTools({ viewer, state, el, focusBounds, onChange, onError, verdictLine = () => null }) {
   let measuring = false;
   let picks = []; // [{sensor, frame, point}]
 
@@ -67,9 +68,21 @@ export function initViewTools({ viewer, state, el, focusBounds, onChange, onErro
     showPicks();
   });
 
+  // What the PNG carries besides the points: the verdict line, the sensors' legend (coloured by
+  // sensor) or the colour bar (coloured by a value), and what is shown.
+  const overlay = () => {
+    const byValue = !el.scale.hidden;
+    return {
+      verdict: verdictLine(),
+      legend: byValue ? [] : state.rig.sensors.map((name, i) => ({ name, colour: hex(sensorColour(i)) })).filter((s) => !state.hidden.has(s.name)),
+      scale: byValue ? { title: el.scaleTitle.textContent, lo: el.scaleLo.textContent, hi: el.scaleHi.textContent, stops: rampStops() } : null,
+      caption: state.results && state.show === 'after' ? 'after calibration' : 'before calibration (nominal extrinsics)',
+    };
+  };
+
   el.save.addEventListener('click', async () => {
     try {
-      const blob = await viewer.snapshot();
+      const blob = await viewer.snapshot(overlay());
       const url = URL.createObjectURL(blob);
       const a = Object.assign(document.createElement('a'), { href: url, download: 'gmmcalib-view.png' });
       a.click();

@@ -87,7 +87,7 @@ test('GMMCalib config: nested and plain lists, our keys, errors naming file and 
   assert.equal(config.edge, 0.4);
   assert.equal(config.exact, null, 'not set');
   // The config's settings reach the page's: `exact: true` is the E-step setting's 'exact'.
-  const state = { scans: [{ sensor: 'sensor_1' }], rig: { sensors: [], nominal: {}, roi: null, reference: '' }, settings: { ...DEFAULTS } };
+  const state = { scans: [{ sensor: 'sensor_1', points: new Float32Array(3) }], rig: { sensors: [], nominal: {}, roi: null, reference: '' }, settings: { ...DEFAULTS } };
   rebuildRig(state, parseConfig('transform_sensor_1: [0, 0, 0, 1, 2, 3]\nmethod: jrmpc\ncomponents: 50\nexact: true\n', 'c.yaml'));
   assert.deepEqual([state.settings.method, state.settings.components, state.settings.estep], ['jrmpc', 50, 'exact']);
   rebuildRig(state, parseConfig('transform_sensor_1: [0, 0, 0, 1, 2, 3]\nexact: false\n', 'c.yaml'));
