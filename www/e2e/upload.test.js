@@ -184,7 +184,10 @@ test('a known-bad upload, one sensor given twice, shows failed with its reason',
   const verdict = page.getByTestId('verdict');
   assert.equal(await verdict.getAttribute('data-level'), 'failed');
   assert.match(await verdict.textContent(), /Failed: do not use this extrinsic/);
-  assert.match(await verdict.textContent(), /sensor_2: a scan of this sensor is, point for point, a scan of sensor_1/);
+  // The reason is said once, on sensor_2's card; the verdict points there.
+  assert.match(await verdict.textContent(), /Reasons on the card of (sensor_1, )?sensor_2 below/);
+  assert.match(await page.locator('.answer-sensor[data-sensor=sensor_2] [data-testid=sensor-reasons]').textContent(), /a scan of this sensor is, point for point, a scan of sensor_1/);
+  assert.equal((await page.locator('#results').textContent()).split('point for point, a scan of sensor_1').length, 2, 'said once');
   assert.ok(await verdict.evaluate((el) => { const r = el.getBoundingClientRect(); return r.top >= 0 && r.bottom <= innerHeight; }), 'the verdict is inside the viewport');
   const result = JSON.parse(await page.getByTestId('result-json').textContent());
   assert.equal(result.verdict.sensors.sensor_2.level, 'failed');

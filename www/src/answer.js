@@ -106,6 +106,18 @@ function sensorCard(s, r, { truth, parent, warnings }) {
     ${errorText}${relative}${precision}${spread}</section>`;
 }
 
+// The reference's card, only when it has concerns of its own (a scan given twice): they belong
+// to it, and nowhere else.
+function referenceCard(s, r, warnings) {
+  const reasons = [...concerns(r.verdict.sensors[s.name]?.reasons ?? []).map((x) => `<li class="${x.level}">${esc(x.text)}</li>`),
+    ...warnings.map((w) => `<li class="check" data-testid="warning">${esc(w)}</li>`)];
+  if (!reasons.length) return '';
+  const level = r.verdict.sensors[s.name]?.level ?? '';
+  return `<section class="answer-sensor" id="card-${esc(s.name)}" data-sensor="${esc(s.name)}">
+    <h3>${esc(s.name)} (reference) <span class="sensor-verdict ${level}">${level}</span></h3>
+    <ul class="reasons" data-testid="sensor-reasons">${reasons.join('')}</ul></section>`;
+}
+
 // The answer of result `r`: the table of extrinsics (the reference last), the run line, then a
 // card per non-reference sensor. `parent`: the vehicle frame's name; `warnings`: sensor -> lines
 // to show on its card besides its verdict's reasons.
@@ -116,7 +128,8 @@ export function answerHtml(r, { truth = null, parent = 'vehicle', warnings = {} 
     <p class="direction"><code>T_${esc(parent)}_s</code>: maps each sensor's points into <b>${esc(parent)}</b></p>
     <table class="extrinsics">${others.map((s) => extrinsicRow(s, r, parent)).join('')}${reference ? referenceRow(reference, parent, truth) : ''}</table></div>
     ${runLine(r)}
-    ${others.map((s) => sensorCard(s, r, { truth, parent, warnings: warnings[s.name] ?? [] })).join('')}`;
+    ${others.map((s) => sensorCard(s, r, { truth, parent, warnings: warnings[s.name] ?? [] })).join('')}
+    ${reference ? referenceCard(reference, r, warnings[reference.name] ?? []) : ''}`;
 }
 
 // Copy buttons of a container (data-copy): one listener, set once per render.

@@ -28,10 +28,10 @@ export function renderFiles(container, { scans, bad, sensors }, onReassign) {
     frame.style.width = frameWidth;
     frame.setAttribute('aria-label', `frame of ${view.path}`);
     frame.addEventListener('change', () => frame.value.trim() && onReassign(view, view.sensor, frame.value.trim()));
-    const cells = [view.path, sensor, frame, view.format, view.count.toLocaleString('en'), view.dropped.toLocaleString('en')];
+    const cells = [breakable(view.path), sensor, frame, breakable(view.format), view.count.toLocaleString('en'), view.dropped.toLocaleString('en')];
     for (const c of cells) {
       const td = document.createElement('td');
-      td.append(c);
+      td.append(...[c].flat());
       tr.append(td);
     }
     tr.firstChild.title = view.path;
@@ -46,4 +46,10 @@ export function renderFiles(container, { scans, bad, sensors }, onReassign) {
     table.append(tr);
   }
   container.replaceChildren(list, table);
+}
+
+// Text that may wrap after a '/', '_' or '-' (a path, 'PCD binary_compressed') rather than
+// anywhere, as nodes for append.
+function breakable(text) {
+  return String(text).split(/(?<=[/_-])/).flatMap((part, i) => (i ? [document.createElement('wbr'), part] : [part]));
 }

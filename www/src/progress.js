@@ -17,6 +17,10 @@ const SHARES = { global: 0.35, jrmpc: 0.52, cad: 0.52, framePairs: 0.13 };
 // long job of its own: one is a measure.
 export const MIN_MEASURED = 3;
 const MIN_MEASURED_GLOBAL = 1;
+// Before a sensor of the global stage has been measured the bar creeps towards this share of the
+// next sensor's mark, with this time constant (s): it shows work going on, and claims nothing.
+const CREEP_UNMEASURED = 0.6;
+const CREEP_SECONDS = 8;
 
 // The time left in a stage from the times of its progress messages: the rate since the stage's
 // first message, once MIN_MEASURED iterations (`min`) have run since; null before and at the end.
@@ -102,7 +106,7 @@ export class RunProgress {
     }
     const last = this.#last;
     const left = last.clock.left(p, now);
-    Object.assign(last, { p, leftAt: left === null ? null : { left, at: now } });
+    Object.assign(last, { p, at: now, leftAt: left === null ? null : { left, at: now } });
     return this.at(now);
   }
 
@@ -114,11 +118,15 @@ export class RunProgress {
     const { p } = last;
     const left = last.leftAt && Math.max(0, last.leftAt.left - (now - last.leftAt.at));
     let done = p.iteration / p.maxIterations;
-    // The global stage reports after each sensor, seconds apart: between its messages the bar
-    // moves by the time measured per sensor, never to the next sensor's mark.
-    if (p.stage === 'global' && last.leftAt && p.iteration < p.maxIterations) {
-      const perSensor = last.leftAt.left / (p.maxIterations - p.iteration);
-      done += Math.min(0.9, (now - last.leftAt.at) / perSensor) / p.maxIterations;
+    // The global stage reports after each sensor, seconds apart (17-23 s on the Livox rig, its
+    // sensors aligned side by side): between its messages the bar moves by the time measured per
+    // sensor, or before there is a measure by a slow creep that never reaches the next mark.
+    if (p.stage === 'global' && p.iteration < p.maxIterations) {
+      const since = now - last.at;
+      const partial = last.leftAt
+        ? Math.min(0.9, since / (last.leftAt.left / (p.maxIterations - p.iteration)))
+        : CREEP_UNMEASURED * (1 - Math.exp(-since / CREEP_SECONDS));
+      done += partial / p.maxIterations;
     }
     const stages = this.#plans.get(p.method) ?? [p.stage];
     const { fraction, text } = describeProgress(stages, p, null, done);

@@ -179,6 +179,8 @@ test('a run\'s time: elapsed always, the time left once measured, and the bar mo
   const g = (iteration) => ({ method: 'gmm', stage: 'global', iteration, maxIterations: 3, meanSigma: 0 });
   assert.equal(run.message(g(0), 101).left, null);
   assert.equal(run.at(108).left, null, 'no sensor aligned yet: no estimate');
+  assert.ok(run.at(108).fraction > run.at(102).fraction, 'the bar creeps before any measure');
+  assert.ok(run.at(1000).fraction < describeProgress(['global', 'framePairs'], g(1)).fraction, 'never to the first sensor\'s mark');
   const one = run.message(g(1), 110); // 9 s for the first sensor
   assert.equal(one.left, 18);
   assert.equal(run.at(114).left, 14, 'the estimate counts down');

@@ -9,17 +9,24 @@ import { esc } from '../answer.js';
 // `value`) or 'roi' (draw the ROI), or null. A reference that cannot be registered against
 // gets the sensor to choose instead: the one with the most points after it.
 export function adviceForError(message, { scans, rig, settings }) {
-  const failed = /no frame of sensor '(.+?)' could be registered|sensor '(.+?)' has no usable points in the ROI/.exec(message);
+  const failed = /no frame of sensor '(.+?)' could be registered/.exec(message);
   if (failed) {
     const points = new Map();
     for (const v of scans) points.set(v.sensor, (points.get(v.sensor) ?? 0) + v.points.length / 3);
     const others = rig.sensors.filter((s) => s !== rig.reference).sort((a, b) => points.get(b) - points.get(a));
     const instead = others[0];
     if (!instead) return null;
-    const sensor = failed[1] ?? failed[2];
+    const sensor = failed[1];
     return {
       text: `${sensor} could not be registered onto ${rig.reference}, the reference. Choose another reference: ${instead} has the most points after ${rig.reference}${instead === sensor ? '' : ` (or try ${sensor})`}.`,
       action: { label: `Make ${instead} the reference`, what: 'reference', value: instead },
+    };
+  }
+  const empty = /sensor '(.+?)' has no usable points in the ROI/.exec(message);
+  if (empty) {
+    return {
+      text: `Draw the ROI where ${empty[1]} sees what ${rig.reference} sees${settings.global === 'off' ? ', or turn the global alignment on: the nominal may be far off' : ''}.`,
+      action: { label: 'Draw the ROI', what: 'roi' },
     };
   }
   if (/was found standing nowhere|overlap nowhere/.test(message)) {
