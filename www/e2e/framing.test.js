@@ -8,6 +8,7 @@ import { mkdirSync } from 'node:fs';
 import { SHOTS, browserSession, loadedPoints, waitForStatus, waitForView } from './harness.js';
 import { haveData, opencalibFolder } from './realrigs.js';
 import { afterFrame, dataPixels } from './pixels.js';
+import { fileTableFits, glance } from './glance.js';
 
 const session = browserSession();
 mkdirSync(SHOTS, { recursive: true });
@@ -20,6 +21,7 @@ test('OpenCalib 0001: framed on the data, centred by every preset, focus on each
   await page.locator('#view').drop({ files });
   await waitForStatus(page, /^3 scans of 3 sensors loaded, 1 file\(s\) with problems\.$/);
   assert.match(await page.getByTestId('error').textContent(), /^0001\/stitching\.pcd: ignored: not a device in its folder's lidar_cloud_path\.txt$/);
+  await fileTableFits(page);
   await waitForView(page, await loadedPoints(page));
   // On opening, the road fills the view: not a few dots in its middle.
   const opened = await dataPixels(page);
@@ -54,5 +56,13 @@ test('OpenCalib 0001: framed on the data, centred by every preset, focus on each
   console.log(`focus on left: spread ${left.spread.map((v) => v.toFixed(2))}`);
   await page.screenshot({ path: `${SHOTS}/framing-opencalib-focus-left-1280x720.png` });
   assert.ok(Math.max(...left.spread) > 0.3 && Math.abs(left.centre[0] - 0.5) < 0.2, JSON.stringify(left));
+  await page.getByLabel('show top').check();
+  await page.getByLabel('show right').check();
+  // Calibrated (no target: a road): the results at a glance, framed on the result.
+  await page.locator('#target-kind').selectOption('none');
+  await page.getByTestId('calibrate').click();
+  await waitForStatus(page, /^Done/, 180_000);
+  await page.locator('#focus').selectOption('all');
+  await glance(page, 'opencalib-0001');
   assert.deepEqual(problems, []);
 });

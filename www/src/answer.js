@@ -14,8 +14,9 @@ const cols = (v, d, w) => v.map((x) => x.toFixed(d).padStart(w)).join(' ');
 const numbers = (m) => `xyz ${cols(xyzOf(m), 4, 8)} m\nrpy ${cols(rpyOf(m).map(degrees), 3, 8)} °`;
 export const esc = (s) => String(s).replace(/[&<>"]/g, (c) => `&#${c.charCodeAt(0)};`);
 
-// Two poses closer than this print as one (rad and m): the same transform, up to rounding.
-const SAME = 1e-9;
+// Two matrices whose entries differ by less than this print alike at the digits shown: one
+// transform, said once.
+const SAME = 1e-8;
 
 // Error of a sensor's calibrated extrinsic against the truth: deg and mm.
 export function errorVsTruth(sensor, truth) {
@@ -85,10 +86,7 @@ function sensorCard(s, r, { truth, parent, warnings }) {
   const verdict = r.verdict.sensors[s.name];
   const reasons = [...(verdict ? concerns(verdict.reasons).map((x) => `<li class="${x.level}">${esc(x.text)}</li>`) : []),
     ...warnings.map((w) => `<li class="check" data-testid="warning">${esc(w)}</li>`)];
-  const sameAsExtrinsic = (() => {
-    const { angle, distance } = poseDifference(s.extrinsic, s.relative);
-    return angle < SAME && distance < SAME;
-  })();
+  const sameAsExtrinsic = Array.from(s.extrinsic).every((v, i) => Math.abs(v - s.relative[i]) < SAME);
   const relative = sameAsExtrinsic
     ? `<p class="direction" data-testid="relative" data-sensor="${esc(s.name)}"><code>T_${esc(r.reference)}_${esc(s.name)}</code> = <code>T_${esc(parent)}_${esc(s.name)}</code> (the table above): ${esc(r.reference)} sits at ${esc(parent)}'s origin. Quaternion (x y z w) ${f(quaternionOf(s.extrinsic), 7)}</p>`
     : transformHtml(`T_${r.reference}_${s.name}`, s.name, r.reference, s.relative, 'relative');

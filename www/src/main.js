@@ -433,8 +433,9 @@ async function calibrate() {
       // The bar never goes back (a tick's estimate may run ahead of the next message).
       $('progress').value = Math.max($('progress').value, fraction);
       $('progress-time').textContent = describeTime({ elapsed, left });
+      // A tick says what a silent stage does; a message, what the stage reports.
+      if (text && text !== $('status').textContent) setStatus(text);
       if (!progress) return;
-      setStatus(text);
       if (performance.now() - drawnAt >= mainViewer.frameMs / PREVIEW_SHARE) {
         drawnAt = performance.now();
         redraw(livePoses(progress, nominal), { preview: true });

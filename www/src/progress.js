@@ -5,22 +5,32 @@
 // (`gmm`, `jrmpc`) or `cad`'s, then the frame pairs registered (`gmm`'s refinement, the ICP
 // methods). Each stage has its share of one bar, so the bar moves in every stage.
 
-// Shares of a method's bar by stage, before normalising over the stages it runs. Measured in the
-// page on the real rigs (2 workers): the global stage takes a third to three quarters of a
-// targetless road rig's run (the Livox rig: 17-23 s of about 30), JRMPC about four fifths of the
-// rest when frame pairs follow (browser bench, both scales).
-const SHARES = { global: 0.35, jrmpc: 0.52, cad: 0.52, framePairs: 0.13 };
+// Shares of a method's bar by stage, before normalising over the stages it runs. Two of them
+// report nothing while they run: `views` (after the global stage, or first: each sensor's ground
+// levelled, the bird's-eye search, the crop to the ROI, the targets found) and `finish` (the
+// plane adjustment, the verdict's evidence, the report). Measured in the page on the real rigs
+// (2 workers): on the Livox rig the global stage takes 1.5 s, `views` 15 s, its two frame pairs
+// 6 s each; on the twins JRMPC takes about four fifths of what follows `views`.
+const SHARES = { global: 0.08, views: 0.3, jrmpc: 0.42, cad: 0.42, framePairs: 0.15, finish: 0.05 };
+
+// What a silent stage does, for the status line while it runs.
+const SILENT = {
+  views: 'levelling the grounds, the bird\'s-eye search and the crop to the ROI',
+  finish: 'the plane adjustment and the verdict',
+};
 
 // Iterations measured before a time left is given: the first ones carry the setup (the input
 // copied, the workers started, the first E-step's caches), so a rate from them overstates the rest
-// (28.6 s left at the first iteration of a 2.1 s run). The global stage counts sensors, each a
-// long job of its own: one is a measure.
+// (28.6 s left at the first iteration of a 2.1 s run). The global stage counts sensors and the
+// frame pairs count pairs, each a long job of its own (6 s a pair on the Livox rig): one is a
+// measure.
 export const MIN_MEASURED = 3;
-const MIN_MEASURED_GLOBAL = 1;
-// Before a sensor of the global stage has been measured the bar creeps towards this share of the
-// next sensor's mark, with this time constant (s): it shows work going on, and claims nothing.
+const MIN_MEASURED_JOBS = 1;
+// Before a stage has a measure (and all through a silent one) the bar creeps towards this share
+// of the next mark, with this time constant (s): it shows work going on, and claims nothing.
 const CREEP_UNMEASURED = 0.6;
 const CREEP_SECONDS = 8;
+const creep = (seconds) => CREEP_UNMEASURED * (1 - Math.exp(-seconds / CREEP_SECONDS));
 
 // The time left in a stage from the times of its progress messages: the rate since the stage's
 // first message, once MIN_MEASURED iterations (`min`) have run since; null before and at the end.
@@ -43,14 +53,17 @@ export class StageClock {
 
 // The stages a method runs, as the library's `methods()` lists them ({jrmpc, pairs, global,
 // name}), with `globalSetting` ('auto' | 'on' | 'off') deciding the global stage and the
-// target ('none': `gmm` runs no JRMPC on a whole scene, the library's rule in Stages::of).
+// target ('none': `gmm` runs no JRMPC on a whole scene, the library's rule in Stages::of), and
+// the silent stages between them.
 export function stagesOf(info, globalSetting = 'auto', target = '') {
   const global = globalSetting === 'on' || (globalSetting === 'auto' && Boolean(info.global));
   const stages = [];
   if (global) stages.push('global');
+  stages.push('views');
   if (info.name === 'cad') stages.push('cad');
   else if (info.jrmpc && !(info.name === 'gmm' && target === 'none')) stages.push('jrmpc');
   if (info.pairs) stages.push('framePairs');
+  stages.push('finish');
   return stages;
 }
 
@@ -83,14 +96,14 @@ export function describeProgress(stages, p, left = null, done = p.iteration / p.
 
 // One run's progress over its methods (`plans`: method -> stages, in order) and stages, on a
 // clock of seconds (`now`). `message(p, now)` takes each progress message; `at(now)` says where
-// the run stands at any moment, so a time line can tick between messages: {fraction, text,
-// elapsed, left} with `left` the seconds left in the current stage (counted down since it was
-// measured) or null.
+// the run stands at any moment, so the bar, the status line and a time line move between
+// messages, and through the stages that send none: {fraction, text, elapsed, left} with `left`
+// the seconds left in the current stage (counted down since it was measured) or null.
 export class RunProgress {
   #plans;
   #names;
   #started;
-  #last = null; // {p, clock, key, stageStart, leftAt: {left, at} | null, fraction, text}
+  #last = null; // {key, clock, p, at, leftAt: {left, at} | null}
 
   constructor(plans, now) {
     this.#plans = plans;
@@ -101,8 +114,8 @@ export class RunProgress {
   message(p, now) {
     const key = `${p.method}/${p.stage}`;
     if (key !== this.#last?.key) {
-      const min = p.stage === 'global' ? MIN_MEASURED_GLOBAL : MIN_MEASURED;
-      this.#last = { key, clock: new StageClock(min), stageStart: now };
+      const min = p.stage === 'global' || p.stage === 'framePairs' ? MIN_MEASURED_JOBS : MIN_MEASURED;
+      this.#last = { key, clock: new StageClock(min) };
     }
     const last = this.#last;
     const left = last.clock.left(p, now);
@@ -114,25 +127,35 @@ export class RunProgress {
   at(now) {
     const elapsed = now - this.#started;
     const last = this.#last;
-    if (!last) return { fraction: 0, text: null, elapsed, left: null };
+    const method = last?.p.method ?? this.#names[0];
+    const stages = this.#plans.get(method) ?? [];
+    const index = Math.max(0, this.#names.indexOf(method));
+    const label = this.#names.length > 1 ? `${method} (${index + 1}/${this.#names.length}): ` : '';
+    const of = (fraction) => (index + fraction) / this.#names.length;
+    if (!last) {
+      // Before the first message: the views are prepared first when there is no global stage.
+      const first = stages[0] === 'views' ? shareOf(stages, 'views') : null;
+      return { fraction: first ? of(first.start + first.share * creep(elapsed)) : 0, text: first ? label + SILENT.views : null, elapsed, left: null };
+    }
     const { p } = last;
+    const since = now - last.at;
     const left = last.leftAt && Math.max(0, last.leftAt.left - (now - last.leftAt.at));
+    // A stage done, the next one silent: the bar creeps through it and the status says what it does.
+    const next = stages[stages.indexOf(p.stage) + 1];
+    if (p.iteration >= p.maxIterations && SILENT[next]) {
+      const place = shareOf(stages, next);
+      const { text } = describeProgress(stages, p);
+      return { fraction: of(place.start + place.share * creep(since)), text: `${label}${text}; now ${SILENT[next]}`, elapsed, left: null };
+    }
+    // Between messages seconds apart (a sensor aligned, a frame pair), the bar moves by the time
+    // measured per step, or by the creep before there is a measure; never to the next mark.
     let done = p.iteration / p.maxIterations;
-    // The global stage reports after each sensor, seconds apart (17-23 s on the Livox rig, its
-    // sensors aligned side by side): between its messages the bar moves by the time measured per
-    // sensor, or before there is a measure by a slow creep that never reaches the next mark.
-    if (p.stage === 'global' && p.iteration < p.maxIterations) {
-      const since = now - last.at;
-      const partial = last.leftAt
-        ? Math.min(0.9, since / (last.leftAt.left / (p.maxIterations - p.iteration)))
-        : CREEP_UNMEASURED * (1 - Math.exp(-since / CREEP_SECONDS));
+    if ((p.stage === 'global' || p.stage === 'framePairs') && p.iteration < p.maxIterations) {
+      const partial = last.leftAt ? Math.min(0.9, since / (last.leftAt.left / (p.maxIterations - p.iteration))) : creep(since);
       done += partial / p.maxIterations;
     }
-    const stages = this.#plans.get(p.method) ?? [p.stage];
     const { fraction, text } = describeProgress(stages, p, null, done);
-    const index = Math.max(0, this.#names.indexOf(p.method));
-    const label = this.#names.length > 1 ? `${p.method} (${index + 1}/${this.#names.length}): ` : '';
-    return { fraction: (index + fraction) / this.#names.length, text: label + text, elapsed, left };
+    return { fraction: of(fraction), text: label + text, elapsed, left };
   }
 }
 
