@@ -8,7 +8,7 @@ import { before, after } from 'node:test';
 import { chromium } from 'playwright-core';
 
 // GMMCALIB_DIST: another build to serve (bench/page.mjs compares two side by side).
-const DIST = process.env.GMMCALIB_DIST ?? new URL('../dist/', import.meta.url).pathname;
+const DIST = process.env.GMMCALIB_DIST || new URL('../dist/', import.meta.url).pathname;
 // Where screenshots go: e2e/artifacts/, or SHOTS.
 export const SHOTS = process.env.SHOTS ?? new URL('./artifacts/', import.meta.url).pathname;
 const TYPES = {

@@ -13,6 +13,8 @@ const f = (v, d) => v.map((x) => x.toFixed(d)).join(' ');
 const cols = (v, d, w) => v.map((x) => x.toFixed(d).padStart(w)).join(' ');
 const numbers = (m) => `xyz ${cols(xyzOf(m), 4, 8)} m\nrpy ${cols(rpyOf(m).map(degrees), 3, 8)} °`;
 export const esc = (s) => String(s).replace(/[&<>"]/g, (c) => `&#${c.charCodeAt(0)};`);
+// A name that may wrap after '_', '/' or '-' (lidar_front_left), never inside a word.
+const breakable = (name) => esc(name).replace(/([_/-])/g, '$1<wbr>');
 
 // Two matrices whose entries differ by less than this print alike at the digits shown: one
 // transform, said once.
@@ -66,7 +68,7 @@ function extrinsicRow(s, r, parent) {
   const level = r.verdict.sensors[s.name]?.level ?? '';
   const name = `T_${parent}_${s.name}`;
   return `<tr data-testid="extrinsic" data-sensor="${esc(s.name)}">
-    <th scope="row"><a href="#card-${esc(s.name)}">${esc(s.name)}</a><span class="sensor-verdict ${level}" data-testid="sensor-verdict" data-sensor="${esc(s.name)}" data-level="${level}">${level}</span></th>
+    <th scope="row"><a href="#card-${esc(s.name)}">${breakable(s.name)}</a><span class="sensor-verdict ${level}" data-testid="sensor-verdict" data-sensor="${esc(s.name)}" data-level="${level}">${level}</span></th>
     <td class="numbers">${numbers(s.extrinsic)}</td>
     <td>${copyButton(name, s.name, parent, s.extrinsic)}</td></tr>`;
 }
@@ -75,9 +77,10 @@ function extrinsicRow(s, r, parent) {
 function referenceRow(s, parent, truth) {
   const error = errorVsTruth(s, truth);
   return `<tr class="reference" data-testid="reference-line" data-sensor="${esc(s.name)}">
-    <th scope="row">${esc(s.name)}<span class="hint">reference</span></th>
+    <th scope="row">${breakable(s.name)}<span class="hint">reference</span></th>
     <td class="numbers">${numbers(s.extrinsic)}</td>
-    <td class="hint" title="${esc(s.name)} is the reference: it keeps its nominal T_${esc(parent)}_${esc(s.name)}; the others are calibrated to it">nominal${error ? `<br><span class="truth ${truthClass(error)}" data-sensor="${esc(s.name)}">truth: <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></span>` : ''}</td></tr>`;
+    <td class="hint" title="${esc(s.name)} is the reference: it keeps its nominal T_${esc(parent)}_${esc(s.name)}; the others are calibrated to it">nominal</td></tr>
+    ${error ? `<tr><td colspan="3" class="hint"><span class="truth ${truthClass(error)}" data-sensor="${esc(s.name)}">${esc(s.name)}'s nominal vs the simulated truth: <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></span></td></tr>` : ''}`;
 }
 
 // A sensor's card: its reasons, truth, T_ref_s, precision, spread.
