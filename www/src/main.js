@@ -4,15 +4,14 @@
 // files.
 import { WorkerClient } from './rpc.js';
 import { Viewer } from './viewer.js';
-import { Display, livePoses, sensorColour } from './display.js';
-import { fromDrop, fromInput, groupNameless, isMesh, pair, readEntries, sensorsBySuffix, splitNameless } from './files.js';
-import { renderLooseQuestion } from './loose.js';
+import { Display, livePoses } from './display.js';
+import { fromDrop, fromInput } from './files.js';
 import { renderFiles } from './filelist.js';
 import { renderRig, showRoi } from './rig.js';
 import { drawConvergence, renderResults, verdictTitle } from './results.js';
 import { exportsOf, renderExports, resultJson } from './exports.js';
 import { targetBounds } from './target.js';
-import { DEFAULTS, explicitSettings, readRig, writeHash } from './url.js';
+import { writeHash } from './url.js';
 import { describeDone, describeTime } from './progress.js';
 import { clearState, createState, nominalPoses, rebuildRig, shownPoses, sortScans } from './state.js';
 import { focusBox, openingBox } from './view/focus.js';
@@ -20,15 +19,13 @@ import { initRoiEditor } from './view/roi-editor.js';
 import { adviceForError, adviceForResult, autoRoiFound } from './panels/advice.js';
 import { runCalibration } from './run.js';
 import { nextTask } from './tasks.js';
-import { describeInstants, isRecording, renderRecording } from './recording.js';
 import { foldSetup, initInset, initLayout } from './layout.js';
 import { initViewTools } from './viewtools.js';
 import { calibrateBlocker, countLine, describeRig, describeScans } from './summary.js';
 import { initSettings } from './settings.js';
 import { initDrift } from './drift.js';
-import * as store from './state/store.js';
-import { keptScans, restoreSession, sessionOf } from './state/session.js';
-import { isResultFile, readResult } from './panels/result-file.js';
+import { initKeeping } from './state/keep.js';
+import { initLoading } from './panels/loading.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
@@ -78,6 +75,18 @@ const roiEditor = initRoiEditor({
 
 const settings = initSettings({ $, state, client, changed, targetLoaded: () => forgetResults(), setStatus: (text) => setStatus(text), showError });
 const drift = initDrift($('drift'), (request) => client.request('compare', request));
+// What the browser keeps for the next visit, and the link; restored on opening.
+const keeping = initKeeping({
+  $, state, settings, setNextId: (n) => (nextScanId = n), setStatus: (text) => setStatus(text), renderPanels: () => renderPanels(),
+  showResults: (...a) => showResults(...a), setStale: (what) => setStale(what), redraw: () => redraw(), viewerLookAt: () => viewerLookAt(), clearAll: () => clearAll(),
+});
+const persist = () => keeping.persist();
+const { loadFiles } = initLoading({
+  $, state, client, settings, nextId: () => `scan:${nextScanId++}`, setStatus: (text) => setStatus(text), showError,
+  clearAll: () => clearAll(), showLoaded: (config) => showLoaded(config), showResults: (...a) => showResults(...a),
+  forgetResults: () => forgetResults(), setStale: (what) => setStale(what), rigFrom: (config) => rigFrom(config),
+  renderPanels: () => renderPanels(), changed: (what) => changed(what), redraw: () => redraw(),
+});
 
 // The error line, and under it what to do about it where the page knows (panels/advice.js),
 // with its one action as a button.
@@ -129,18 +138,6 @@ function redraw(poses = shownPoses(state), options) {
   display.update(state, poses, options);
   roiEditor.update();
   if (!options?.preview) persist();
-}
-
-// --- kept in the browser ----------------------------------------------------------------------
-
-// The work is kept (state/store.js) a moment after each change, not during a run (its cores are
-// the calculation's), and the link follows the settings and the rig.
-const PERSIST_MS = 300;
-let persistTimer = null;
-function persist() {
-  clearTimeout(persistTimer);
-  writeHash(state.settings, state.rig);
-  persistTimer = setTimeout(() => (state.running ? persist() : store.save(keptScans(state), sessionOf(state))), PERSIST_MS);
 }
 
 // --- loading ----------------------------------------------------------------------------------
@@ -237,124 +234,6 @@ function rigChanged(what) {
   }
   changed({ reference: 'reference sensor', roi: 'ROI', nominal: 'nominal extrinsics' }[what] ?? 'rig');
   redraw();
-}
-
-async function loadFiles(entries) {
-  showError(null);
-  const recording = entries.find((e) => isRecording(e.path));
-  if (recording) await openRecording(recording);
-  // An .obj or .stl among the files is the target's CAD model (a .ply is a scan: pick a PLY
-  // model with the target's "CAD model…").
-  const model = entries.find((e) => isMesh(e.path));
-  if (model) await settings.loadTargetMesh(model);
-  // A result saved as a file opens once the scans beside it are in.
-  const resultFile = entries.findLast((e) => isResultFile(e.path));
-  entries = entries.filter((e) => !isRecording(e.path) && !isMesh(e.path) && !isResultFile(e.path));
-  if (entries.length) await loadScans(entries);
-  if (resultFile) await openResult(resultFile);
-}
-
-// A result file ({path, file}): the results panel shows it as it was, the view places the
-// loaded scans by it. A file that is no result is named, and nothing changes.
-async function openResult({ path, file }) {
-  let opened;
-  try {
-    opened = readResult(await file.text(), path);
-  } catch (error) {
-    showError(error);
-    return;
-  }
-  // What the run had is not in the file: no advice on its target.
-  state.resultContext = null;
-  setStale(null);
-  try {
-    await showResults(opened.results, opened.failures, opened.json);
-  } catch (error) {
-    forgetResults();
-    showError(`${path}: ${error.message}`);
-    return;
-  }
-  const sensors = opened.results[0].sensors.map((s) => s.name);
-  const missing = sensors.filter((name) => !state.rig.sensors.includes(name));
-  setStatus(`Opened ${path}: ${opened.results[0].method}'s result for ${sensors.join(', ')}${missing.length ? `; load the scans of ${missing.join(', ')} to see them placed` : ''}.`);
-}
-
-async function loadScans(entries) {
-  if (state.truth) clearAll(); // user files replace a demo
-  const read = {
-    cloud: (bytes, name) => client.request('parse', { bytes, name }, { transfer: [bytes] }),
-    config: (text, name) => client.request('config', { text, name }),
-    opencalib: (paths, pathsName, guess, guessName) => client.request('opencalib', { paths, pathsName, guess, guessName }),
-  };
-  const { scans, bad, config } = await readEntries(entries, read, (path, i, n) => setStatus(`Reading ${path} (${i}/${n})…`));
-  const paths = new Set(scans.map((s) => s.path));
-  const fresh = scans.map((s) => ({ id: `scan:${nextScanId++}`, ...s }));
-  state.scans = [...state.scans.filter((v) => !paths.has(v.path)), ...fresh];
-  const loose = groupNameless(fresh, state.scans.filter((v) => !paths.has(v.path)).map((v) => v.sensor));
-  const bySuffix = sensorsBySuffix(fresh);
-  const paired = pair(state.scans, fresh);
-  state.bad.push(...bad);
-  sortScans(state);
-  state.settings.demo = '';
-  writeHash(state.settings, state.rig);
-  showLoaded(config);
-  const assumed = loose ? `; ${loose.scans.length} files without a sensor in their names taken as frames of ${loose.sensor}` : '';
-  const suffixed = bySuffix ? `; the names end in a sensor, not a frame number: sensors ${bySuffix.sensors.join(', ')}, frame ${bySuffix.frame}` : '';
-  setStatus(`${countLine(state)} loaded${paired ? ` (${paired})` : ''}${assumed}${suffixed}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
-  renderLooseQuestion($('loose'), loose, () => {
-    splitNameless(loose.scans);
-    sortScans(state);
-    rigFrom();
-    renderPanels();
-    changed('sensors');
-    redraw();
-    setStatus(`Each of the ${loose.scans.length} files is a sensor of its own: ${state.rig.sensors.length} sensors.`);
-  });
-  if (state.bad.length) showError(state.bad.map((b) => `${b.path}: ${b.error}`).join('\n'));
-}
-
-// A recording is opened in the worker (read where it lies) and its topics offered; its scans
-// load when the user asks (loadRecording).
-async function openRecording({ path, file }) {
-  setStatus(`Opening ${path}…`);
-  try {
-    if (state.recording) client.request('closeRecording', { handle: state.recording.handle }).catch(() => {});
-    const onProgress = ({ done, total }) => setStatus(`Scanning ${path} (${Math.round((100 * done) / Math.max(total, 1))} %)…`);
-    const opened = await client.request('openRecording', { file }, { onProgress });
-    state.recording = { handle: opened.handle, path };
-    renderRecording($('recording'), path, opened, (options) => loadRecording(path, opened.handle, options));
-    const clouds = opened.topics.filter((t) => t.kind === 'pointCloud' && t.count > 0).length;
-    setStatus(clouds ? `${path}: pick the topics, then Load scans.` : `${path}: no point-cloud messages.`);
-    // Damage that leaves the rest readable (a truncated tail, a corrupt chunk) is named.
-    if (opened.problems.length) showError(opened.problems.join('\n'));
-  } catch (error) {
-    setStatus('Failed.');
-    showError(error);
-  }
-}
-
-async function loadRecording(path, handle, options) {
-  showError(null);
-  setStatus(`Reading ${options.topics.length} topics at ${options.frames} instants from ${path}…`);
-  try {
-    const rig = await client.request('recordingRig', { handle, options });
-    if (state.truth) clearAll(); // a recording replaces a demo
-    // Loading again (other topics, other instants) replaces this recording's scans.
-    state.scans = state.scans.filter((s) => s.recording !== path);
-    const format = path.split('.').at(-1);
-    // Sensors are named by their frame ids; the file table names the topic each came from.
-    const topicOf = Object.fromEntries(Object.entries(rig.sensors).map(([topic, sensor]) => [sensor, topic]));
-    state.scans.push(...rig.scans.map((v) => ({ id: `scan:${nextScanId++}`, path: `${path} ${topicOf[v.sensor] ?? v.sensor} #${v.frame}`, recording: path, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: 0, format })));
-    sortScans(state);
-    // The reference the user picked, else (none picked) the sensor with the most points; the
-    // vehicle frame is the tree's base frame, by its name, everywhere.
-    showLoaded({ nominal: rig.nominal, reference: options.reference ? rig.reference : null, parent: rig.baseFrame });
-    setStatus(`${rig.scans.length} scans of ${options.topics.length} sensors loaded from ${path} (${describeInstants(rig)}).`);
-    if (rig.problems.length) showError(rig.problems.join('\n'));
-  } catch (error) {
-    setStatus('Failed.');
-    showError(error);
-  }
 }
 
 function clearAll() {
@@ -517,9 +396,7 @@ $('folder-input').addEventListener('change', async (e) => {
 });
 $('clear').addEventListener('click', async () => {
   clearAll();
-  clearTimeout(persistTimer);
-  await store.clear();
-  writeHash(state.settings, state.rig);
+  await keeping.forget();
   setStatus('Cleared: the scans, the rig and the result are forgotten, also in this browser\'s storage.');
 });
 // The link to this page with its settings and rig (and a demo's parameters), copied.
@@ -575,47 +452,6 @@ async function loadMethods() {
   $('method').value = state.settings.method;
 }
 
-// On opening: the work kept in this browser comes back, unless the link asks for another demo
-// than the one kept; a link's settings win over the kept ones.
-async function start() {
-  await loadMethods();
-  const link = explicitSettings();
-  const kept = await store.load();
-  const sameDemo = (k) => ['demo', 'seed', 'frames', 'maxAngleDeg', 'maxTranslation'].every((key) => (link[key] ?? DEFAULTS[key]) === (k.session.settings[key] ?? DEFAULTS[key]));
-  if (kept && (kept.scans.length || kept.session.results) && (!link.demo || sameDemo(kept))) await restore(kept, link);
-  else if (state.settings.demo) await loadDemo();
-}
-
-async function restore(kept, link) {
-  try {
-    nextScanId = restoreSession(state, kept, link);
-    const rigLink = readRig();
-    if (rigLink.roi) state.rig.roi = rigLink.roi;
-    if (rigLink.parent) state.rig.parent = rigLink.parent;
-    if (rigLink.reference && state.rig.sensors.includes(rigLink.reference)) state.rig.reference = rigLink.reference;
-    settings.sync();
-    $('colour').value = state.colour;
-    $('all-frames').checked = state.allFrames;
-    renderPanels();
-    const stale = kept.session.stale;
-    if (state.results) {
-      const show = state.show;
-      await showResults(state.results, state.failures, state.resultJson);
-      if (show === 'before') document.querySelector('input[name=show][value=before]').click();
-      if (stale) setStale(stale);
-    }
-    redraw();
-    viewerLookAt();
-    const what = [state.scans.length && `${countLine(state)}`, 'the rig and the settings', state.results && `the last result${stale ? ' (out of date)' : ''}`].filter(Boolean);
-    setStatus(`Restored from this browser: ${what.join(', ')}. Clear forgets them.`);
-  } catch (error) {
-    // A record this page cannot read (an older version's) is no reason to fail: start afresh.
-    clearAll();
-    await store.clear();
-    setStatus('Load scans or run the demo.');
-  }
-}
-
 settings.sync();
 updateCalibrate();
-start().catch(showError);
+keeping.start(loadMethods, loadDemo).catch(showError);
