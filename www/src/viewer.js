@@ -21,6 +21,7 @@ export class Viewer {
   #nextId = 1;
   #onScale;
   #framed = null; // the box the last lookAt framed: preset views frame it again
+  #size = { width: 1, height: 1 }; // the canvas's CSS size, as the last resize gave it
   #onCamera = new Set();
 
   // `onError(error)`: the renderer failed (no WebGL, a crashed worker). `onScale({mode, range,
@@ -84,6 +85,7 @@ export class Viewer {
   #resize() {
     const { clientWidth: width, clientHeight: height } = this.#canvas;
     if (!width || !height) return;
+    this.#size = { width, height };
     this.#post({ type: 'size', width, height, pixelRatio: Math.min(window.devicePixelRatio, 2) });
     this.#camera.aspect = width / height;
     this.#camera.updateProjectionMatrix();
@@ -204,7 +206,9 @@ export class Viewer {
   // Canvas pixel (CSS, relative to the canvas) of each point ([x, y, z], vehicle frame), or
   // null for one behind the camera.
   project(points) {
-    const { clientWidth: w, clientHeight: h } = this.#canvas;
+    // The size kept from the last resize: reading the canvas's would force a layout, and this
+    // runs after every change to the page (the handles follow the camera and the ROI).
+    const { width: w, height: h } = this.#size;
     this.#camera.updateMatrixWorld();
     return points.map((p) => {
       const v = new Vector3(...p).project(this.#camera);
@@ -214,7 +218,7 @@ export class Viewer {
 
   // The ray under a canvas pixel (CSS, relative to the canvas): {origin, direction}.
   ray(x, y) {
-    const { clientWidth: w, clientHeight: h } = this.#canvas;
+    const { width: w, height: h } = this.#size;
     const caster = new Raycaster();
     caster.setFromCamera(new Vector2((x / w) * 2 - 1, 1 - (y / h) * 2), this.#camera);
     return { origin: caster.ray.origin.toArray(), direction: caster.ray.direction.toArray() };

@@ -47,7 +47,8 @@ export function initRoiEditor({ viewer, canvas, wrap, getRoi, onDrag, onDrop }) 
   };
   const update = () => {
     const handles = shown().filter((h) => h.px);
-    canvas.dataset.handles = handles.length ? JSON.stringify(Object.fromEntries(handles.map((h) => [h.key, h.px.map((v) => +v.toFixed(1))]))) : '';
+    const value = handles.length ? JSON.stringify(Object.fromEntries(handles.map((h) => [h.key, h.px.map((v) => +v.toFixed(1))]))) : '';
+    if (canvas.dataset.handles !== value) canvas.dataset.handles = value;
   };
   const at = (e) => {
     const r = canvas.getBoundingClientRect();
