@@ -8,6 +8,7 @@ import { mkdirSync } from 'node:fs';
 import { SHOTS, browserSession, waitForStatus } from './harness.js';
 import { chairFolder, cubeFolder, haveData } from './realrigs.js';
 import { fileTableFits, glance } from './glance.js';
+import { pcdAscii } from './rigfiles.js';
 
 const session = browserSession();
 mkdirSync(SHOTS, { recursive: true });
@@ -28,3 +29,31 @@ for (const [name, files, target] of [['cube', cubeFolder, /^cube:0\.5$/], ['chai
     assert.deepEqual(problems, []);
   });
 }
+
+// The issue's `down` and `up`: a reference the other sensor cannot be registered onto (here a
+// flat patch and a rolling surface 30 m away, ROI given) ends the run with an error that names
+// the sensor to choose instead, and its button makes it the reference.
+test('a reference that cannot be registered against: the error names the sensor to choose, one click away', async () => {
+  const grid = (x0, n, z) => {
+    const p = [];
+    for (let i = 0; i < n; i++) for (let j = 0; j < n; j++) p.push(x0 + i * 0.1, x0 + j * 0.1, z(x0 + i * 0.1, x0 + j * 0.1));
+    return p;
+  };
+  const files = [['up_1.pcd', grid(30, 60, (x, y) => Math.sin(x) + Math.cos(y))], ['down_1.pcd', grid(0, 40, () => 0)]]
+    .map(([name, points]) => ({ name, mimeType: 'application/octet-stream', buffer: pcdAscii(points) }));
+  const { page, problems } = await session.open('#target=none&method=p2l&roi=-1,-1,-3,40,40,3');
+  await page.locator('#view').drop({ files });
+  await waitForStatus(page, /^2 scans of 2 sensors loaded\.$/);
+  // Nothing names a reference: the sensor with the most points.
+  assert.equal(await page.getByRole('radio', { name: 'reference up', exact: true }).isChecked(), true);
+  await page.getByTestId('calibrate').click();
+  await waitForStatus(page, /^Failed\.$/);
+  assert.match(await page.getByTestId('error').textContent(), /no frame of sensor 'down' could be registered/);
+  const advice = page.getByTestId('error-advice');
+  assert.match(await advice.textContent(), /^down could not be registered onto up, the reference\. Choose another reference: down has the most points after up\./);
+  await advice.getByRole('button', { name: 'Make down the reference' }).click();
+  assert.equal(await page.getByRole('radio', { name: 'reference down', exact: true }).isChecked(), true);
+  await waitForStatus(page, /^down is the reference now: Calibrate again\.$/);
+  assert.equal(await page.getByTestId('error').isHidden(), true);
+  assert.deepEqual(problems, []);
+});

@@ -115,6 +115,8 @@ test('loose files dropped on the view are grouped by <sensor>_<frame> and can be
   await page.getByLabel('sensor of right_002.pcd').fill('rear');
   await page.getByLabel('sensor of right_002.pcd').dispatchEvent('change');
   assert.deepEqual(await rows(), ['left/001', 'left/002', 'rear/002', 'right/001']);
+  // The status line counts again: three sensors now.
+  await waitForStatus(page, /^4 scans of 3 sensors loaded; right_002\.pcd is now rear's, frame 002\.$/);
   assert.equal(await page.getByRole('radio', { name: 'reference left' }).isChecked(), true);
   assert.equal(await page.getByLabel('rear x', { exact: true }).count(), 1);
   assert.deepEqual(problems, []);
