@@ -31,8 +31,9 @@ const VERDICT_TITLE = {
   failed: 'Failed: do not use this extrinsic.',
 };
 
-// The verdict in one line, as a PNG of the view carries it.
-export const verdictTitle = (level) => VERDICT_TITLE[level] ?? level;
+// The verdict in a few words, as a PNG of the view carries it across its top.
+const VERDICT_SHORT = { good: 'Good: the evidence supports this calibration', check: 'Check: read the reasons before using this calibration', failed: 'Failed: do not use this extrinsic' };
+export const verdictTitle = (level) => VERDICT_SHORT[level] ?? level;
 
 // An advice of the page (panels/advice.js) with its buttons; main.js acts on their data-advice.
 export const adviceHtml = ({ html, actions = [] }) => `<p class="advice" data-testid="advice">${html}${actions.map((a) => ` <button type="button" data-advice="${esc(JSON.stringify({ what: a.what, value: a.value }))}">${esc(a.label)}</button>`).join('')}</p>`;
