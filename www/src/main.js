@@ -194,12 +194,14 @@ function showLoaded(config) {
 
 function renderPanels() {
   renderFiles($('files'), { scans: state.scans, bad: state.bad, sensors: state.rig.sensors }, reassign);
-  if (state.rig.sensors.length) renderRig($('rig'), state.rig, rigChanged, { found: autoRoiFound(state.results?.[0], state.resultContext), startRoi });
+  if (state.rig.sensors.length) renderRigPanel();
   tools.renderLegend();
   tools.renderFocus();
   updateSummaries();
   updateCalibrate();
 }
+
+const renderRigPanel = () => renderRig($('rig'), state.rig, rigChanged, { found: autoRoiFound(state.results?.[0], state.resultContext), startRoi });
 
 function updateSummaries() {
   $('load-summary').textContent = describeScans(state);
@@ -355,7 +357,10 @@ async function showResults(results, failures, json) {
 async function renderOutcome(results, failures, json) {
   const parent = state.rig.parent;
   renderResults($('results'), results, state.truth, failures, { parent, advice: adviceForResult(results[0], state.resultContext) });
-  renderPanels();
+  // What the result changes elsewhere: what ROI auto held (the rig panel) and the targets to
+  // focus on; the file table stays as it is.
+  if (!state.rig.roi && state.rig.sensors.length) renderRigPanel();
+  tools.renderFocus();
   await nextTask();
   if (state.results !== results) return;
   $('convergence-box').hidden = results[0].history.meanSigma.length < 2;
