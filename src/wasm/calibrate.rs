@@ -110,6 +110,8 @@ struct MethodInfo {
     jrmpc: bool,
     /// Registers frame pairs by ICP.
     pairs: bool,
+    /// Aligns globally first unless told otherwise (`alignGlobally` absent).
+    global: bool,
 }
 
 /// The methods `calibrate` takes (besides `all`, which compares them), with a label and the
@@ -125,6 +127,7 @@ pub fn methods() -> Result<JsValue, JsError> {
                 label: method.label(),
                 jrmpc: stages.jrmpc,
                 pairs: stages.pairs.is_some(),
+                global: stages.global.is_some(),
             }
         })
         .collect();

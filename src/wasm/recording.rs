@@ -76,8 +76,11 @@ struct RigOutput {
     nominal: BTreeMap<String, XyzRpy>,
     reference: String,
     base_frame: String,
-    /// Topic -> its frame id (the child of each export).
+    /// Topic -> its frame id.
     frame_ids: BTreeMap<String, String>,
+    /// Topic -> its sensor's name (the frame id, unless empty or shared; the child of each
+    /// export).
+    sensors: BTreeMap<String, String>,
     /// Per instant: the reference's time (s) and each other topic's offset (ms).
     instants: Vec<(f64, Vec<f64>)>,
     moving: bool,
@@ -173,6 +176,7 @@ impl RecordingFile {
             reference: rig.reference,
             base_frame: rig.base,
             frame_ids: rig.frames.into_iter().collect(),
+            sensors: rig.sensors.into_iter().collect(),
             instants: rig
                 .picks
                 .iter()

@@ -7,7 +7,10 @@ import { extname, join, normalize } from 'node:path';
 import { before, after } from 'node:test';
 import { chromium } from 'playwright-core';
 
-const DIST = new URL('../dist/', import.meta.url).pathname;
+// GMMCALIB_DIST: another build to serve (bench/page.mjs compares two side by side).
+const DIST = process.env.GMMCALIB_DIST || new URL('../dist/', import.meta.url).pathname;
+// Where screenshots go: e2e/artifacts/, or SHOTS.
+export const SHOTS = process.env.SHOTS ?? new URL('./artifacts/', import.meta.url).pathname;
 const TYPES = {
   '.html': 'text/html', '.js': 'text/javascript', '.css': 'text/css',
   '.wasm': 'application/wasm', '.json': 'application/json', '.svg': 'image/svg+xml',
@@ -95,7 +98,7 @@ export async function waitForStatus(page, pattern, timeout = 60_000) {
 
 // Points of the loaded scans, from the file table; `frame`: that frame's only.
 export async function loadedPoints(page, frame = null) {
-  const rows = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => {
+  const rows = await page.locator('#files tr:not(.bad)').evaluateAll((trs) => trs.slice(1).map((tr) => {
     const cells = tr.querySelectorAll('td');
     return [cells[2].firstChild.value, Number(cells[4].textContent.replaceAll(',', ''))];
   }));

@@ -33,16 +33,19 @@ test('the answer first: verdict and the first extrinsic in view at 1280x720 with
   assert.ok(await inViewport(page.getByTestId('verdict')), 'the verdict is in view');
   const extrinsic = page.getByTestId('extrinsic').first();
   assert.ok(await inViewport(extrinsic), 'the first sensor\'s extrinsic is in view');
-  // Each transform says which way it maps; the sensor-to-sensor transform is there; the
-  // reference is one line.
-  assert.match(await extrinsic.textContent(), /T_vehicle_front_right: maps front_right's points into vehicle/);
-  assert.match(await extrinsic.textContent(), /xyz \(m\)\s+-?\d+\.\d{6} -?\d+\.\d{6} -?\d+\.\d{6}\s+rpy \(deg\)\s+(-?\d+\.\d{5} ?){3}\s+quat \(x y z w\)\s+(-?\d\.\d{7} ?){4}/);
+  // The table says which way its transforms map; each row holds a sensor's xyz and rpy as the
+  // JSON has them; the sensor-to-sensor transform is on the sensor's card; the reference is a
+  // row of its own.
+  assert.equal(await page.locator('.answer-table > .direction').textContent(), 'T_vehicle_s: maps each sensor\'s points into vehicle');
+  const result = JSON.parse(await page.getByTestId('result-json').textContent());
+  const [xyz, rpy] = (await extrinsic.locator('td.numbers').textContent()).split('\n').map((line) => line.trim().split(/\s+/).slice(1, 4).map(Number));
+  assert.deepEqual(xyz, [3, 7, 11].map((k) => +result.sensors[1].extrinsic[k].toFixed(4)));
+  assert.deepEqual(rpy, result.sensors[1].rpy.map((r) => +((r * 180) / Math.PI).toFixed(3)));
   const relative = page.getByTestId('relative').first();
   assert.match(await relative.textContent(), /T_front_left_front_right: maps front_right's points into front_left/);
-  const result = JSON.parse(await page.getByTestId('result-json').textContent());
   const shownXyz = (await relative.locator('pre').textContent()).split('\n')[0].trim().split(/\s+/).slice(2).map(Number);
   assert.deepEqual(shownXyz, [3, 7, 11].map((k) => +result.sensors[1].relative[k].toFixed(6)));
-  assert.match(await page.getByTestId('reference-line').textContent(), /front_left is the reference: it keeps its nominal/);
+  assert.match(await page.getByTestId('reference-line').textContent(), /front_left\s*reference/);
   // Copy gives the block as users paste it, its direction first.
   await page.evaluate(() => (navigator.clipboard.writeText = async (text) => (window.copied = text)));
   await page.getByRole('button', { name: 'Copy T_vehicle_front_right' }).click();
@@ -75,21 +78,27 @@ test('state never goes stale: edits mark the result out of date, Clear resets, C
   // worker's progress, posted at most every 100 ms, to reach the page about ten times.
   const { page, problems } = await session.open('#demo=paper&frames=8&components=2000&iterations=100');
   await waitForStatus(page, /Calibrate next/);
-  // The time left comes from measured iterations: none for the first few.
+  // The time left comes from measured iterations: none for the first few. The status line says
+  // what runs, the time line under the bar how long it has and will take.
   await page.evaluate(() => {
     window.statuses = [];
+    window.times = [];
     const status = document.querySelector('[data-testid=status]');
+    const time = document.querySelector('[data-testid=progress-time]');
     new MutationObserver(() => window.statuses.push(status.textContent)).observe(status, { childList: true, characterData: true, subtree: true });
+    new MutationObserver(() => window.times.push([status.textContent, time.textContent])).observe(time, { childList: true, characterData: true, subtree: true });
   });
   await page.getByTestId('calibrate').click();
   await waitForStatus(page, /^Done/, 180_000);
   const statuses = await page.evaluate(() => window.statuses);
-  const early = statuses.filter((t) => /^JRMPC iteration [123]\//.test(t));
-  assert.ok(early.length && early.every((t) => !/left/.test(t)), JSON.stringify(early));
-  assert.ok(statuses.some((t) => /^JRMPC iteration \d+\/100, .*about \d+\.\d s left/.test(t)), JSON.stringify(statuses));
+  const times = await page.evaluate(() => window.times);
+  const early = times.filter(([t]) => /^JRMPC iteration [123]\//.test(t));
+  assert.ok(early.length && early.every(([, time]) => /^\d+\.\d s elapsed$/.test(time)), JSON.stringify(early));
+  assert.ok(times.some(([t, time]) => /^JRMPC iteration \d+\/100/.test(t) && /^\d+\.\d s elapsed, about \d+ s left in this stage$/.test(time)), JSON.stringify(times));
   // EM's last iteration is shown, also when it converged before the maximum.
   const iterations = statuses.at(-1).match(/^Done: (\d+) iterations/)[1];
   assert.ok(statuses.filter((t) => t.startsWith('JRMPC')).at(-1).startsWith(`JRMPC iteration ${iterations}/100,`), JSON.stringify(statuses));
+  assert.equal(await page.getByTestId('progress-time').textContent(), '', 'no time line once done');
   assert.equal(await page.getByTestId('stale').isHidden(), true);
 
   // A sensor renamed in the file table (panel 1 folded after the run: opened as a user would).
@@ -258,7 +267,7 @@ test('the view: sensors shown, point size, colour scales, preset views, focus, P
     await act();
     await page.waitForFunction((k) => Number(document.querySelector('#view').dataset.frames) > k, n);
   }
-  assert.deepEqual(await page.locator('#focus option').allTextContents(), ['…', 'everything', 'the ROI', 'target 1', 'target 2', 'target 3']);
+  assert.deepEqual(await page.locator('#focus option').allTextContents(), ['…', 'everything', 'the ROI', 'sensor front_left', 'sensor front_right', 'target 1', 'target 2', 'target 3']);
   // Save PNG: a download of the whole view, with points in it.
   await page.getByRole('button', { name: 'Top', exact: true }).click();
   const [download] = await Promise.all([page.waitForEvent('download'), page.getByRole('button', { name: 'Save PNG' }).click()]);

@@ -115,6 +115,8 @@ test('loose files dropped on the view are grouped by <sensor>_<frame> and can be
   await page.getByLabel('sensor of right_002.pcd').fill('rear');
   await page.getByLabel('sensor of right_002.pcd').dispatchEvent('change');
   assert.deepEqual(await rows(), ['left/001', 'left/002', 'rear/002', 'right/001']);
+  // The status line counts again: three sensors now.
+  await waitForStatus(page, /^4 scans of 3 sensors loaded; right_002\.pcd is now rear's, frame 002\.$/);
   assert.equal(await page.getByRole('radio', { name: 'reference left' }).isChecked(), true);
   assert.equal(await page.getByLabel('rear x', { exact: true }).count(), 1);
   assert.deepEqual(problems, []);
@@ -184,7 +186,10 @@ test('a known-bad upload, one sensor given twice, shows failed with its reason',
   const verdict = page.getByTestId('verdict');
   assert.equal(await verdict.getAttribute('data-level'), 'failed');
   assert.match(await verdict.textContent(), /Failed: do not use this extrinsic/);
-  assert.match(await verdict.textContent(), /sensor_2: a scan of this sensor is, point for point, a scan of sensor_1/);
+  // The reason is said once, on sensor_2's card; the verdict points there.
+  assert.match(await verdict.textContent(), /Reasons on the card of (sensor_1, )?sensor_2 below/);
+  assert.match(await page.locator('.answer-sensor[data-sensor=sensor_2] [data-testid=sensor-reasons]').textContent(), /a scan of this sensor is, point for point, a scan of sensor_1/);
+  assert.equal((await page.locator('#results').textContent()).split('point for point, a scan of sensor_1').length, 2, 'said once');
   assert.ok(await verdict.evaluate((el) => { const r = el.getBoundingClientRect(); return r.top >= 0 && r.bottom <= innerHeight; }), 'the verdict is inside the viewport');
   const result = JSON.parse(await page.getByTestId('result-json').textContent());
   assert.equal(result.verdict.sensors.sensor_2.level, 'failed');

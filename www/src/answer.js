@@ -1,13 +1,24 @@
-// The answer of a calibration, first in the results: per non-reference sensor the corrected
-// extrinsic T_vehicle_s and the sensor-to-sensor transform T_ref_s, each in the notation users
-// paste (xyz m, rpy deg, quaternion x y z w) and labelled with the way it maps, with the
-// precision, the spread and (for a demo) the error against the truth beside them. The reference
-// sensor is one line. Everything else (4x4 matrices, corrections, notes) folds below it
-// (results.js).
+// The answer of a calibration, first in the results. One table holds every sensor's corrected
+// extrinsic T_parent_s (xyz m, rpy deg; the parent is the vehicle frame, under the name the user
+// or the recording gives it), so at 1280x720 the verdict and every extrinsic are in view
+// without scrolling, even for five sensors. Below it a card per sensor holds what belongs to
+// that sensor only: its verdict's reasons, the error against a demo's truth, the
+// sensor-to-sensor transform T_ref_s (not printed again when it equals the extrinsic: a
+// reference at the parent's origin), the precision, and the spread over frames (none for one
+// frame). Everything else (4x4 matrices, corrections, notes) folds below (results.js).
 import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from './transforms.js';
 
 const f = (v, d) => v.map((x) => x.toFixed(d)).join(' ');
+// Fixed-width columns, so the table's numbers line up.
+const cols = (v, d, w) => v.map((x) => x.toFixed(d).padStart(w)).join(' ');
+const numbers = (m) => `xyz ${cols(xyzOf(m), 4, 8)} m\nrpy ${cols(rpyOf(m).map(degrees), 3, 8)} °`;
 export const esc = (s) => String(s).replace(/[&<>"]/g, (c) => `&#${c.charCodeAt(0)};`);
+// A name that may wrap after '_', '/' or '-' (lidar_front_left), never inside a word.
+const breakable = (name) => esc(name).replace(/([_/-])/g, '$1<wbr>');
+
+// Two matrices whose entries differ by less than this print alike at the digits shown: one
+// transform, said once.
+const SAME = 1e-8;
 
 // Error of a sensor's calibrated extrinsic against the truth: deg and mm.
 export function errorVsTruth(sensor, truth) {
@@ -29,14 +40,16 @@ export function transformLines(m) {
   ];
 }
 
-// One transform `T_{to}_{from}` with its direction in words.
+const copyButton = (name, from, to, m) => {
+  const text = `# ${name}: maps ${from}'s points into ${to}\n${transformLines(m).join('\n')}`;
+  return `<button type="button" class="copy" data-copy="${esc(text)}" aria-label="Copy ${esc(name)}" title="Copy ${esc(name)} (xyz, rpy, quaternion) with its direction">Copy</button>`;
+};
+
+// One transform `T_{to}_{from}` with its direction in words, in full (a sensor's card).
 function transformHtml(name, from, to, m, testid) {
-  const lines = transformLines(m);
-  const title = `${name}: maps ${from}'s points into ${to}`;
   return `<div class="transform" data-testid="${testid}" data-sensor="${esc(from)}">
-    <p class="direction"><code>${esc(name)}</code>: maps <b>${esc(from)}</b>'s points into <b>${esc(to)}</b>
-      <button type="button" class="copy" data-copy="${esc(`# ${title}\n${lines.join('\n')}`)}" aria-label="Copy ${esc(name)}">Copy</button></p>
-    <pre>${lines.map(esc).join('\n')}</pre></div>`;
+    <p class="direction"><code>${esc(name)}</code>: maps <b>${esc(from)}</b>'s points into <b>${esc(to)}</b> ${copyButton(name, from, to, m)}</p>
+    <pre>${transformLines(m).map(esc).join('\n')}</pre></div>`;
 }
 
 // The run in one line: method, EM iterations and whether EM converged.
@@ -47,40 +60,77 @@ export function runLine(r) {
   return `<p class="run" data-testid="run-summary" data-converged="${r.converged}">method ${esc(r.method)}${em}${r.cancelled ? ', cancelled' : ''}</p>`;
 }
 
-function sensorVerdict(r, name) {
-  const s = r.verdict.sensors[name];
-  if (!s) return '';
-  const shown = s.reasons.filter((x) => x.level !== 'good');
-  return `<span class="sensor-verdict ${s.level}" data-testid="sensor-verdict" data-sensor="${esc(name)}" data-level="${s.level}">${s.level}${shown.length ? ` — ${shown.map((x) => esc(x.text)).join('; ')}` : ''}</span>`;
+// The reasons that set a sensor's level (not good): its card says them, and only it.
+export const concerns = (reasons) => reasons.filter((x) => x.level !== 'good');
+
+// A row of the table: the sensor and its level, its extrinsic's xyz and rpy, Copy.
+function extrinsicRow(s, r, parent) {
+  const level = r.verdict.sensors[s.name]?.level ?? '';
+  const name = `T_${parent}_${s.name}`;
+  return `<tr data-testid="extrinsic" data-sensor="${esc(s.name)}">
+    <th scope="row"><a href="#card-${esc(s.name)}">${breakable(s.name)}</a><span class="sensor-verdict ${level}" data-testid="sensor-verdict" data-sensor="${esc(s.name)}" data-level="${level}">${level}</span></th>
+    <td class="numbers">${numbers(s.extrinsic)}</td>
+    <td>${copyButton(name, s.name, parent, s.extrinsic)}</td></tr>`;
 }
 
-// The reference: one line (it keeps its nominal).
-function referenceHtml(s, truth) {
-  const rpy = rpyOf(s.extrinsic).map(degrees);
+// The reference's row: it keeps its nominal.
+function referenceRow(s, parent, truth) {
   const error = errorVsTruth(s, truth);
-  return `<p class="reference" data-testid="reference-line"><b>${esc(s.name)}</b> is the reference: it keeps its nominal
-    <code>T_vehicle_${esc(s.name)}</code> (xyz ${f(xyzOf(s.extrinsic), 3)} m, rpy ${f(rpy, 3)} deg)${error ? `; <span class="truth ${truthClass(error)}" data-sensor="${esc(s.name)}">error vs the truth <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></span>` : ''}.</p>`;
+  return `<tr class="reference" data-testid="reference-line" data-sensor="${esc(s.name)}">
+    <th scope="row">${breakable(s.name)}<span class="hint">reference</span></th>
+    <td class="numbers">${numbers(s.extrinsic)}</td>
+    <td class="hint" title="${esc(s.name)} is the reference: it keeps its nominal T_${esc(parent)}_${esc(s.name)}; the others are calibrated to it">nominal</td></tr>
+    ${error ? `<tr><td colspan="3" class="hint"><span class="truth ${truthClass(error)}" data-sensor="${esc(s.name)}">${esc(s.name)}'s nominal vs the simulated truth: <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></span></td></tr>` : ''}`;
 }
 
-function sensorHtml(s, r, truth) {
+// A sensor's card: its reasons, truth, T_ref_s, precision, spread.
+function sensorCard(s, r, { truth, parent, warnings }) {
   const error = errorVsTruth(s, truth);
+  const verdict = r.verdict.sensors[s.name];
+  const reasons = [...(verdict ? concerns(verdict.reasons).map((x) => `<li class="${x.level}">${esc(x.text)}</li>`) : []),
+    ...warnings.map((w) => `<li class="check" data-testid="warning">${esc(w)}</li>`)];
+  const sameAsExtrinsic = Array.from(s.extrinsic).every((v, i) => Math.abs(v - s.relative[i]) < SAME);
+  const relative = sameAsExtrinsic
+    ? `<p class="direction" data-testid="relative" data-sensor="${esc(s.name)}"><code>T_${esc(r.reference)}_${esc(s.name)}</code> = <code>T_${esc(parent)}_${esc(s.name)}</code> (the table above): ${esc(r.reference)} sits at ${esc(parent)}'s origin. Quaternion (x y z w) ${f(quaternionOf(s.extrinsic), 7)}</p>`
+    : transformHtml(`T_${r.reference}_${s.name}`, s.name, r.reference, s.relative, 'relative');
   const precision = s.precision
     ? `<p class="precision" title="One-sigma uncertainty of the final estimate from the joint plane adjustment">precision (1 sigma): position ${s.precision.position.map((v) => (v * 1000).toFixed(1)).join(', ')} mm, rotation about x, y, z ${s.precision.rotation.map((v) => degrees(v).toFixed(4)).join(', ')} deg</p>`
     : '';
-  const spread = `<p class="spread" title="Standard deviation, per axis, of the corrections found frame by frame">spread over ${s.spread.frames} frames: xyz ${s.spread.xyz.map((v) => (v * 1000).toFixed(1)).join(', ')} mm, rpy ${s.spread.rpy.map((v) => degrees(v).toFixed(3)).join(', ')} deg</p>`;
+  // One frame has no spread to speak of.
+  const spread = s.spread.frames > 1
+    ? `<p class="spread" title="Standard deviation, per axis, of the corrections found frame by frame">spread over ${s.spread.frames} frames: xyz ${s.spread.xyz.map((v) => (v * 1000).toFixed(1)).join(', ')} mm, rpy ${s.spread.rpy.map((v) => degrees(v).toFixed(3)).join(', ')} deg</p>`
+    : '';
   const errorText = error ? `<p class="truth ${truthClass(error)}" data-sensor="${esc(s.name)}">error vs the simulated truth: <b>${error.deg.toFixed(3)} deg / ${error.mm.toFixed(1)} mm</b></p>` : '';
-  return `<section class="answer-sensor" data-sensor="${esc(s.name)}">
-    <h3>${esc(s.name)} ${sensorVerdict(r, s.name)}</h3>${errorText}
-    ${transformHtml(`T_vehicle_${s.name}`, s.name, 'vehicle', s.extrinsic, 'extrinsic')}
-    ${transformHtml(`T_${r.reference}_${s.name}`, s.name, r.reference, s.relative, 'relative')}
-    ${precision}${spread}</section>`;
+  return `<section class="answer-sensor" id="card-${esc(s.name)}" data-sensor="${esc(s.name)}">
+    <h3>${esc(s.name)} <span class="sensor-verdict ${verdict?.level ?? ''}">${verdict?.level ?? ''}</span></h3>
+    ${reasons.length ? `<ul class="reasons" data-testid="sensor-reasons">${reasons.join('')}</ul>` : ''}
+    ${errorText}${relative}${precision}${spread}</section>`;
 }
 
-// The answer of result `r`: run line, then every non-reference sensor, the reference last in
-// one line.
-export function answerHtml(r, truth) {
+// The reference's card, only when it has concerns of its own (a scan given twice): they belong
+// to it, and nowhere else.
+function referenceCard(s, r, warnings) {
+  const reasons = [...concerns(r.verdict.sensors[s.name]?.reasons ?? []).map((x) => `<li class="${x.level}">${esc(x.text)}</li>`),
+    ...warnings.map((w) => `<li class="check" data-testid="warning">${esc(w)}</li>`)];
+  if (!reasons.length) return '';
+  const level = r.verdict.sensors[s.name]?.level ?? '';
+  return `<section class="answer-sensor" id="card-${esc(s.name)}" data-sensor="${esc(s.name)}">
+    <h3>${esc(s.name)} (reference) <span class="sensor-verdict ${level}">${level}</span></h3>
+    <ul class="reasons" data-testid="sensor-reasons">${reasons.join('')}</ul></section>`;
+}
+
+// The answer of result `r`: the table of extrinsics (the reference last), the run line, then a
+// card per non-reference sensor. `parent`: the vehicle frame's name; `warnings`: sensor -> lines
+// to show on its card besides its verdict's reasons.
+export function answerHtml(r, { truth = null, parent = 'vehicle', warnings = {} } = {}) {
   const reference = r.sensors.find((s) => s.name === r.reference);
-  return `${runLine(r)}${r.sensors.filter((s) => s !== reference).map((s) => sensorHtml(s, r, truth)).join('')}${reference ? referenceHtml(reference, truth) : ''}`;
+  const others = r.sensors.filter((s) => s !== reference);
+  return `<div class="answer-table">
+    <p class="direction"><code>T_${esc(parent)}_s</code>: maps each sensor's points into <b>${esc(parent)}</b></p>
+    <table class="extrinsics">${others.map((s) => extrinsicRow(s, r, parent)).join('')}${reference ? referenceRow(reference, parent, truth) : ''}</table></div>
+    ${runLine(r)}
+    ${others.map((s) => sensorCard(s, r, { truth, parent, warnings: warnings[s.name] ?? [] })).join('')}
+    ${reference ? referenceCard(reference, r, warnings[reference.name] ?? []) : ''}`;
 }
 
 // Copy buttons of a container (data-copy): one listener, set once per render.

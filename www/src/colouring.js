@@ -19,8 +19,9 @@ export function ramp(t) {
   ];
 }
 
-// CSS gradient stops of the ramp, for the colour scale beside the view.
-export const rampCss = () => `linear-gradient(to right, ${[0, 0.25, 0.5, 0.75, 1].map((t) => `rgb(${ramp(t).map((c) => Math.round(c * 255)).join(',')})`).join(', ')})`;
+// The ramp's colours at five stops (CSS), for the colour scale beside the view and in a PNG.
+export const rampStops = () => [0, 0.25, 0.5, 0.75, 1].map((t) => `rgb(${ramp(t).map((c) => Math.round(c * 255)).join(',')})`);
+export const rampCss = () => `linear-gradient(to right, ${rampStops().join(', ')})`;
 
 // The 2nd and 98th percentiles of `values` (any iterable of numbers), or null when empty. A
 // range of zero width is widened so a ramp over it is defined.

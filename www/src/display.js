@@ -8,6 +8,8 @@ import { multiply } from './transforms.js';
 const PALETTE = [0xff6b6b, 0x4dabf7, 0x69db7c, 0xffd43b, 0xda77f2, 0xff922b, 0x38d9a9, 0xf783ac];
 
 export const sensorColour = (i) => PALETTE[i % PALETTE.length];
+const ROI_COLOUR = 0xffcc44;
+const AUTO_ROI_COLOUR = 0x9aa4b1;
 
 export class Display {
   #viewer;
@@ -64,10 +66,12 @@ export class Display {
     const colouring = `${colour}/${rig.reference}`;
     if (colouring !== this.#colouring) this.#viewer.setColouring(colour, rig.reference);
     this.#colouring = colouring;
+    // A ROI given is drawn with handles to drag (roi-editor.js); the one auto found, in
+    // another colour, without.
     const roi = rig.roi ?? results?.[0]?.roi ?? null;
-    const roiKey = JSON.stringify(roi);
+    const roiKey = JSON.stringify([roi, Boolean(rig.roi)]);
     if (roiKey !== this.#roiKey) {
-      if (roi) this.#viewer.setBox('roi', roi);
+      if (roi) this.#viewer.setBox('roi', roi, rig.roi ? ROI_COLOUR : AUTO_ROI_COLOUR, Boolean(rig.roi));
       else this.#viewer.remove('roi');
     }
     this.#roiKey = roiKey;

@@ -9,11 +9,11 @@ const num = (x) => String(+x.toPrecision(10));
 export const resultJson = (result) =>
   JSON.stringify(result, (_, v) => (ArrayBuffer.isView(v) ? Array.from(v) : v), 2);
 
-export function gmmcalibYaml(result, roi) {
+export function gmmcalibYaml(result, roi, parent = 'vehicle') {
   const lines = [`number_of_sensors: ${result.sensors.length}`];
   for (const s of result.sensors) {
     const [xyz, rpy] = [xyzOf(s.extrinsic), rpyOf(s.extrinsic)];
-    lines.push(`transform_${s.name}:  # ${s.name} -> vehicle, [roll, pitch, yaw (rad), x, y, z (m)]`);
+    lines.push(`transform_${s.name}:  # ${s.name} -> ${parent}, [roll, pitch, yaw (rad), x, y, z (m)]`);
     lines.push(`  - [${[...rpy, ...xyz].map(num).join(', ')}]`);
   }
   lines.push('min_bound:', `  - [${roi.min.map(num).join(', ')}]`, 'max_bound:', `  - [${roi.max.map(num).join(', ')}]`);
@@ -33,13 +33,14 @@ export function targetPly({ means, sigmas, priors }) {
 
 // Every export of `result`. The ROS forms come from the library's writers (`ros`: the
 // worker's `exports` request, given [{parent, child, pose}]), as the CLI's --export prints them.
-export async function exportsOf(result, { roi, parent = 'vehicle', frameIds = {} }, ros) {
-  const child = (name) => frameIds[name] ?? name;
-  const texts = await ros(result.sensors.map((s) => ({ parent, child: child(s.name), pose: Array.from(s.extrinsic) })));
+// `parent`: the vehicle frame's name (a recording's base frame, or the name the user gave it);
+// each sensor is the child of its own name (a recording's frame id), in every export alike.
+export async function exportsOf(result, { roi, parent = 'vehicle' }, ros) {
+  const texts = await ros(result.sensors.map((s) => ({ parent, child: s.name, pose: Array.from(s.extrinsic) })));
   const direction = `T_${parent}_sensor: maps each sensor's points into ${parent} (parent ${parent}, child the sensor)`;
   const out = [
-    { key: 'json', title: 'JSON (everything)', direction: 'as the CLI\'s --json; matrices row-major T_vehicle_sensor / C_ref_s / T_ref_s', file: 'gmmcalib-result.json', text: resultJson(result) },
-    { key: 'yaml', title: 'GMMCalib YAML', direction: `transform_<sensor>: sensor -> ${parent}`, file: 'config-calibrated.yaml', text: gmmcalibYaml(result, roi) },
+    { key: 'json', title: 'JSON (everything)', direction: `as the CLI's --json; matrices row-major T_${parent}_sensor / C_ref_s / T_ref_s`, file: 'gmmcalib-result.json', text: resultJson(result) },
+    { key: 'yaml', title: 'GMMCalib YAML', direction: `transform_<sensor>: sensor -> ${parent}`, file: 'config-calibrated.yaml', text: gmmcalibYaml(result, roi, parent) },
     { key: 'urdf', title: 'URDF origins', direction, file: 'extrinsics.urdf.xml', text: texts.urdf },
     { key: 'ros2', title: 'ROS 2 static_transform_publisher', direction: `--frame-id ${parent} (parent), --child-frame-id the sensor`, file: 'static_transforms.sh', text: texts.ros2 },
     { key: 'ros1', title: 'ROS 1 static_transform_publisher', direction: `positional x y z yaw pitch roll (yaw first), then ${parent} (parent) and the sensor`, file: 'static_transforms_ros1.sh', text: texts.ros1 },
@@ -48,7 +49,7 @@ export async function exportsOf(result, { roi, parent = 'vehicle', frameIds = {}
     { key: 'kitti', title: 'KITTI Tr (3x4)', direction, file: 'calib_tr.txt', text: texts.kitti },
   ];
   if (result.reconstruction.priors.length) {
-    out.push({ key: 'ply', title: 'Reconstructed target (PLY)', direction: 'points in the vehicle frame (where the reference sees the target)', file: 'target.ply', text: targetPly(result.reconstruction) });
+    out.push({ key: 'ply', title: 'Reconstructed target (PLY)', direction: `points in ${parent} (where the reference sees the target)`, file: 'target.ply', text: targetPly(result.reconstruction) });
   }
   return out;
 }

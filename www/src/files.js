@@ -137,6 +137,23 @@ export function groupNameless(fresh, sensors = []) {
   return { sensor, scans: nameless };
 }
 
+// Loose files named `<frame>_<sensor>` (the Livox Mid-100's units: scene1_pose10_L0.pcd,
+// scene1_pose10_L1.pcd, ...) split at the last underscore would all be frames of one sensor,
+// none a frame number. When every such file of `fresh` shares what comes before its last
+// underscore and no part after it is a number, the parts after it are the sensors and the part
+// before the frame. Changes those scans; returns {frame, sensors} for the page to say so, or null.
+export function sensorsBySuffix(fresh) {
+  const loose = fresh.filter((s) => !s.named && !s.path.includes('/'));
+  const splits = (stem) => stem.lastIndexOf('_') > 0 && stem.lastIndexOf('_') < stem.length - 1;
+  if (loose.length < 2 || !loose.every((s) => splits(stemOf(s.path)))) return null;
+  const cut = loose.map((s) => stemOf(s.path)).map((stem) => [stem.slice(0, stem.lastIndexOf('_')), stem.slice(stem.lastIndexOf('_') + 1)]);
+  const prefixes = new Set(cut.map(([p]) => p));
+  const suffixes = new Set(cut.map(([, x]) => x));
+  if (prefixes.size !== 1 || [...prefixes][0] === '' || suffixes.size !== loose.length || cut.some(([p, x]) => p.length === 0 || x.length === 0 || /^\d+(\.\d+)?$/.test(x))) return null;
+  loose.forEach((s, i) => Object.assign(s, { sensor: cut[i][1], frame: cut[i][0] }));
+  return { frame: cut[0][0], sensors: cut.map(([, x]) => x) };
+}
+
 // Undoes groupNameless: each of `scans` a sensor of its own name, frame 1.
 export function splitNameless(scans) {
   for (const s of scans) Object.assign(s, { sensor: stemOf(s.path), frame: '1' });
@@ -164,10 +181,12 @@ const merge = (into, from) => ({
 
 // OpenCalib's folders among `entries`: each `lidar_cloud_path.txt` read with the
 // `initial_extrinsic.txt` beside it (`read.opencalib`, the library's reader). Returns {config,
-// names: Map(path -> {sensor, frame})}: a device's file is its sensor's scan, of a frame named
-// by the folder (two scenes of one rig dropped together are two frames).
+// names: Map(path -> {sensor, frame}), folders}: a device's file is its sensor's scan, of a
+// frame named by the folder (two scenes of one rig dropped together are two frames); `folders`
+// are those with a list, whose other clouds (OpenCalib's own `stitching.pcd`) are no device.
 async function openCalibFolders(entries, read, bad) {
   const names = new Map();
+  const folders = new Set();
   let config = {};
   const guesses = new Map(entries.filter((e) => OPENCALIB_GUESS.test(e.path)).map((e) => [folderOf(e.path), e]));
   for (const e of entries.filter((e) => OPENCALIB_PATHS.test(e.path))) {
@@ -176,6 +195,7 @@ async function openCalibFolders(entries, read, bad) {
     guesses.delete(folder);
     try {
       const found = await read.opencalib(await e.file.text(), e.path, guess && (await guess.file.text()), guess?.path);
+      folders.add(folder);
       const frame = folder.split('/').at(-1) || '1';
       for (const d of found.devices) names.set(folder ? `${folder}/${d.file}` : d.file, { sensor: d.name, frame, named: true });
       config = merge(config, { reference: found.reference, nominal: found.nominal });
@@ -184,7 +204,7 @@ async function openCalibFolders(entries, read, bad) {
     }
   }
   for (const [, e] of guesses) bad.push({ path: e.path, error: 'ignored: OpenCalib\'s guess needs its lidar_cloud_path.txt beside it (which file is which device)' });
-  return { config, names };
+  return { config, names, folders };
 }
 
 // Reads `entries` ([{path, file}]): {scans: [{path, sensor, frame, ...parsed}], bad: [{path,
@@ -204,7 +224,11 @@ export async function readEntries(entries, read, onFile) {
   const openCalib = await openCalibFolders(entries, read, bad);
   config = merge(openCalib.config, config);
   for (const e of entries) if (!isCloud(e.path) && !isRigFile(e.path)) bad.push({ path: e.path, error: 'ignored: not a .pcd, .ply, .bin, .yaml or OpenCalib .txt file' });
-  const clouds = entries.filter((e) => isCloud(e.path)).sort((a, b) => natural(a.path, b.path));
+  const listed = (path) => openCalib.names.has(path) || !openCalib.folders.has(folderOf(path));
+  for (const e of entries.filter((e) => isCloud(e.path) && !listed(e.path))) {
+    bad.push({ path: e.path, error: 'ignored: not a device in its folder\'s lidar_cloud_path.txt' });
+  }
+  const clouds = entries.filter((e) => isCloud(e.path) && listed(e.path)).sort((a, b) => natural(a.path, b.path));
   const scans = [];
   for (const [i, { path, file }] of clouds.entries()) {
     onFile(path, i + 1, clouds.length);

@@ -4,25 +4,28 @@
 // files.
 import { WorkerClient } from './rpc.js';
 import { Viewer } from './viewer.js';
-import { Display, livePoses, sensorColour } from './display.js';
-import { fromDrop, fromInput, groupNameless, isMesh, pair, readEntries, splitNameless } from './files.js';
-import { renderLooseQuestion } from './loose.js';
+import { Display, livePoses } from './display.js';
+import { fromDrop, fromInput } from './files.js';
 import { renderFiles } from './filelist.js';
-import { renderRig } from './rig.js';
-import { drawConvergence, renderResults } from './results.js';
+import { renderRig, showRoi } from './rig.js';
+import { drawConvergence, renderResults, verdictTitle } from './results.js';
 import { exportsOf, renderExports, resultJson } from './exports.js';
 import { targetBounds } from './target.js';
 import { writeHash } from './url.js';
-import { describeDone } from './progress.js';
-import { clearState, createState, nominalPoses, pointBounds, rebuildRig, shownPoses, sortScans } from './state.js';
+import { describeDone, describeTime } from './progress.js';
+import { clearState, createState, nominalPoses, rebuildRig, shownPoses, sortScans } from './state.js';
+import { focusBox, openingBox } from './view/focus.js';
+import { initRoiEditor } from './view/roi-editor.js';
+import { adviceForError, adviceForResult, autoRoiFound } from './panels/advice.js';
 import { runCalibration } from './run.js';
 import { nextTask } from './tasks.js';
-import { describeInstants, isRecording, renderRecording } from './recording.js';
 import { foldSetup, initInset, initLayout } from './layout.js';
 import { initViewTools } from './viewtools.js';
-import { calibrateBlocker, describeRig, describeScans } from './summary.js';
+import { calibrateBlocker, countLine, describeRig, describeScans } from './summary.js';
 import { initSettings } from './settings.js';
 import { initDrift } from './drift.js';
+import { initKeeping } from './state/keep.js';
+import { initLoading } from './panels/loading.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();
@@ -41,32 +44,110 @@ const tools = initViewTools({
     legend: $('legend'), measure: $('measure'), save: $('save-png'), readout: $('readout'),
     scale: $('scale'), scaleTitle: $('scale-title'), scaleLo: $('scale-lo'), scaleHi: $('scale-hi'),
   },
-  focusBounds,
+  focusBounds: (key) => focusBox(state, key),
   onChange: () => redraw(),
   onError: showError,
+  verdictLine: () => {
+    const r = state.results?.[0];
+    if (!r) return null;
+    const out = state.stale ? ` (out of date: the ${state.stale} changed)` : '';
+    return { level: r.verdict.level, text: `${verdictTitle(r.verdict.level)}${out} — ${r.method}, reference ${r.reference}` };
+  },
+});
+
+// The ROI's handles in the view: a drag moves a face, the panel's numbers follow, and the
+// result goes out of date once the face is let go.
+const roiEditor = initRoiEditor({
+  viewer: mainViewer,
+  canvas: $('view'),
+  wrap: $('view').parentElement,
+  getRoi: () => state.rig.roi,
+  onDrag: (roi) => {
+    state.rig.roi = roi;
+    showRoi($('rig'), roi);
+    redraw();
+  },
+  onDrop: (roi) => {
+    state.rig.roi = roi;
+    rigChanged('roi');
+  },
 });
 
 const settings = initSettings({ $, state, client, changed, targetLoaded: () => forgetResults(), setStatus: (text) => setStatus(text), showError });
 const drift = initDrift($('drift'), (request) => client.request('compare', request));
+// What the browser keeps for the next visit, and the link; restored on opening.
+const keeping = initKeeping({
+  $, state, settings, setNextId: (n) => (nextScanId = n), setStatus: (text) => setStatus(text), renderPanels: () => renderPanels(),
+  showResults: (...a) => showResults(...a), setStale: (what) => setStale(what), redraw: () => redraw(), viewerLookAt: () => viewerLookAt(), clearAll: () => clearAll(),
+});
+const persist = () => keeping.persist();
+const { loadFiles } = initLoading({
+  $, state, client, settings, nextId: () => `scan:${nextScanId++}`, setStatus: (text) => setStatus(text), showError,
+  clearAll: () => clearAll(), showLoaded: (config) => showLoaded(config), showResults: (...a) => showResults(...a),
+  forgetResults: () => forgetResults(), setStale: (what) => setStale(what), rigFrom: (config) => rigFrom(config),
+  renderPanels: () => renderPanels(), changed: (what) => changed(what), redraw: () => redraw(),
+});
 
-function showError(error) {
+// The error line, and under it what to do about it where the page knows (panels/advice.js),
+// with its one action as a button.
+function showError(error, advice = null) {
   $('error').hidden = !error;
   $('error').textContent = error ? String(error.message ?? error) : '';
+  $('error-advice').hidden = !advice;
+  $('error-advice').replaceChildren();
+  if (!advice) return;
+  const button = Object.assign(document.createElement('button'), { type: 'button', textContent: advice.action.label });
+  button.addEventListener('click', () => applyAdvice(advice.action));
+  $('error-advice').append(`${advice.text} `, button);
+}
+
+// An advice's action: make a sensor the reference, set the target, or start drawing the ROI.
+function applyAdvice({ what, value }) {
+  showError(null);
+  if (what === 'reference') {
+    state.rig.reference = value;
+    $('rig-panel').open = true;
+    renderPanels();
+    rigChanged('reference');
+    setStatus(`${value} is the reference now: Calibrate again.`);
+  } else if (what === 'target') {
+    settings.setTarget(value);
+    setStatus(`The target is ${value} now: Calibrate again.`);
+  } else if (what === 'roi') {
+    state.rig.roi = startRoi();
+    $('rig-panel').open = true;
+    renderPanels();
+    rigChanged('roi');
+    mainViewer.lookAt(state.rig.roi, 'top');
+    setStatus('Drag the white handles of the ROI in the view around the targets (or type its bounds), then Calibrate.');
+  }
+}
+
+// The box a user starts drawing the ROI from: the last auto ROI, else the data's robust extent
+// (to the centimetre).
+function startRoi() {
+  const box = state.results?.[0]?.roi ?? focusBox(state, 'all') ?? { min: [-5, -5, -2], max: [5, 5, 3] };
+  const cm = (v) => Math.round(v * 100) / 100;
+  return { min: box.min.map(cm), max: box.max.map(cm) };
 }
 const setStatus = (text) => ($('status').textContent = text);
 
 // --- view -------------------------------------------------------------------------------------
 
-const redraw = (poses = shownPoses(state), options) => display.update(state, poses, options);
+function redraw(poses = shownPoses(state), options) {
+  display.update(state, poses, options);
+  roiEditor.update();
+  if (!options?.preview) persist();
+}
 
 // --- loading ----------------------------------------------------------------------------------
 
 function forgetResults() {
-  state.results = null;
+  Object.assign(state, { results: null, failures: [], resultJson: null });
   setStale(null);
   inset.show(false);
   $('convergence-box').hidden = true;
-  tools.setTargets([]);
+  tools.renderFocus();
   state.show = 'before';
   document.querySelector('input[name=show][value=before]').checked = true;
   $('show-after').disabled = true;
@@ -94,6 +175,7 @@ function changed(what) {
   }
   updateSummaries();
   updateCalibrate();
+  persist();
 }
 
 function rigFrom(config) {
@@ -112,11 +194,14 @@ function showLoaded(config) {
 
 function renderPanels() {
   renderFiles($('files'), { scans: state.scans, bad: state.bad, sensors: state.rig.sensors }, reassign);
-  if (state.rig.sensors.length) renderRig($('rig'), state.rig, rigChanged);
+  if (state.rig.sensors.length) renderRigPanel();
   tools.renderLegend();
+  tools.renderFocus();
   updateSummaries();
   updateCalibrate();
 }
+
+const renderRigPanel = () => renderRig($('rig'), state.rig, rigChanged, { found: autoRoiFound(state.results?.[0], state.resultContext), startRoi });
 
 function updateSummaries() {
   $('load-summary').textContent = describeScans(state);
@@ -136,96 +221,21 @@ function reassign(scan, sensor, frame = scan.frame) {
   sortScans(state);
   rigFrom();
   renderPanels();
+  // The count first: it is what the reassignment changed (a stale result's line follows).
+  setStatus(`${countLine(state)} loaded; ${scan.path} is now ${sensor}'s, frame ${frame}.`);
   changed(what);
   redraw();
 }
 
 function rigChanged(what) {
+  // The vehicle frame's name changes no number: the result and its exports take it at once.
+  if (what === 'parent') {
+    if (state.results) renderOutcome(state.results, state.failures ?? [], state.resultJson);
+    updateSummaries();
+    return;
+  }
   changed({ reference: 'reference sensor', roi: 'ROI', nominal: 'nominal extrinsics' }[what] ?? 'rig');
   redraw();
-}
-
-async function loadFiles(entries) {
-  showError(null);
-  const recording = entries.find((e) => isRecording(e.path));
-  if (recording) await openRecording(recording);
-  // An .obj or .stl among the files is the target's CAD model (a .ply is a scan: pick a PLY
-  // model with the target's "CAD model…").
-  const model = entries.find((e) => isMesh(e.path));
-  if (model) await settings.loadTargetMesh(model);
-  entries = entries.filter((e) => !isRecording(e.path) && !isMesh(e.path));
-  if (!entries.length) return;
-  if (state.truth) clearAll(); // user files replace a demo
-  const read = {
-    cloud: (bytes, name) => client.request('parse', { bytes, name }, { transfer: [bytes] }),
-    config: (text, name) => client.request('config', { text, name }),
-    opencalib: (paths, pathsName, guess, guessName) => client.request('opencalib', { paths, pathsName, guess, guessName }),
-  };
-  const { scans, bad, config } = await readEntries(entries, read, (path, i, n) => setStatus(`Reading ${path} (${i}/${n})…`));
-  const paths = new Set(scans.map((s) => s.path));
-  const fresh = scans.map((s) => ({ id: `scan:${nextScanId++}`, ...s }));
-  state.scans = [...state.scans.filter((v) => !paths.has(v.path)), ...fresh];
-  const loose = groupNameless(fresh, state.scans.filter((v) => !paths.has(v.path)).map((v) => v.sensor));
-  const paired = pair(state.scans, fresh);
-  state.bad.push(...bad);
-  sortScans(state);
-  state.settings.demo = '';
-  writeHash(state.settings);
-  showLoaded(config);
-  const sensors = state.rig.sensors.length;
-  const assumed = loose ? `; ${loose.scans.length} files without a sensor in their names taken as frames of ${loose.sensor}` : '';
-  setStatus(`${state.scans.length} scans of ${sensors} sensor${sensors === 1 ? '' : 's'} loaded${paired ? ` (${paired})` : ''}${assumed}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
-  renderLooseQuestion($('loose'), loose, () => {
-    splitNameless(loose.scans);
-    sortScans(state);
-    rigFrom();
-    renderPanels();
-    changed('sensors');
-    redraw();
-    setStatus(`Each of the ${loose.scans.length} files is a sensor of its own: ${state.rig.sensors.length} sensors.`);
-  });
-  if (state.bad.length) showError(state.bad.map((b) => `${b.path}: ${b.error}`).join('\n'));
-}
-
-// A recording is opened in the worker (read where it lies) and its topics offered; its scans
-// load when the user asks (loadRecording).
-async function openRecording({ path, file }) {
-  setStatus(`Opening ${path}…`);
-  try {
-    if (state.recording) client.request('closeRecording', { handle: state.recording.handle }).catch(() => {});
-    const onProgress = ({ done, total }) => setStatus(`Scanning ${path} (${Math.round((100 * done) / Math.max(total, 1))} %)…`);
-    const opened = await client.request('openRecording', { file }, { onProgress });
-    state.recording = { handle: opened.handle, path };
-    renderRecording($('recording'), path, opened, (options) => loadRecording(path, opened.handle, options));
-    const clouds = opened.topics.filter((t) => t.kind === 'pointCloud' && t.count > 0).length;
-    setStatus(clouds ? `${path}: pick the topics, then Load scans.` : `${path}: no point-cloud messages.`);
-    // Damage that leaves the rest readable (a truncated tail, a corrupt chunk) is named.
-    if (opened.problems.length) showError(opened.problems.join('\n'));
-  } catch (error) {
-    setStatus('Failed.');
-    showError(error);
-  }
-}
-
-async function loadRecording(path, handle, options) {
-  showError(null);
-  setStatus(`Reading ${options.topics.length} topics at ${options.frames} instants from ${path}…`);
-  try {
-    const rig = await client.request('recordingRig', { handle, options });
-    if (state.truth) clearAll(); // a recording replaces a demo
-    // Loading again (other topics, other instants) replaces this recording's scans.
-    state.scans = state.scans.filter((s) => s.recording !== path);
-    const format = path.split('.').at(-1);
-    state.scans.push(...rig.scans.map((v) => ({ id: `scan:${nextScanId++}`, path: `${path} ${v.sensor} #${v.frame}`, recording: path, sensor: v.sensor, frame: v.frame, points: v.points, count: v.points.length / 3, dropped: 0, format })));
-    state.exportFrames = { parent: rig.baseFrame, frameIds: rig.frameIds };
-    sortScans(state);
-    showLoaded({ nominal: rig.nominal, reference: rig.reference });
-    setStatus(`${rig.scans.length} scans of ${options.topics.length} sensors loaded from ${path} (${describeInstants(rig)}).`);
-    if (rig.problems.length) showError(rig.problems.join('\n'));
-  } catch (error) {
-    setStatus('Failed.');
-    showError(error);
-  }
 }
 
 function clearAll() {
@@ -248,7 +258,7 @@ async function loadDemo() {
   s.demo = $('demo-preset').value || 'paper';
   s.seed = Number($('demo-seed').value);
   s.frames = Number($('demo-frames').value);
-  writeHash(s);
+  writeHash(s, state.rig);
   setStatus(`Simulating ${s.frames} frames of the ${s.demo} rig…`);
   $('demo').disabled = true;
   try {
@@ -291,53 +301,72 @@ async function calibrate() {
   showError(null);
   forgetResults();
   setRunning(true);
+  // What the advice on the result needs to know of the run: the target and the ROI it had.
+  state.resultContext = { target: state.settings.target, roiAuto: !state.rig.roi };
   const nominal = nominalPoses(state);
   const started = performance.now();
+  $('progress').value = 0;
+  $('progress-time').textContent = '';
   setStatus('starting…');
   try {
     let drawnAt = -Infinity;
-    const { results, failures, json } = await runCalibration(client, state, ({ fraction, text, progress }) => {
-      $('progress').value = fraction;
-      setStatus(text);
+    const { results, failures, json } = await runCalibration(client, state, ({ fraction, text, elapsed, left, progress }) => {
+      // The bar never goes back (a tick's estimate may run ahead of the next message).
+      $('progress').value = Math.max($('progress').value, fraction);
+      $('progress-time').textContent = describeTime({ elapsed, left });
+      // A tick says what a silent stage does; a message, what the stage reports.
+      if (text && text !== $('status').textContent) setStatus(text);
+      if (!progress) return;
       if (performance.now() - drawnAt >= mainViewer.frameMs / PREVIEW_SHARE) {
         drawnAt = performance.now();
         redraw(livePoses(progress, nominal), { preview: true });
       }
     });
     $('progress').value = 1;
+    $('progress-time').textContent = '';
     await showResults(results, failures, json);
     setStatus(describeDone(results, (performance.now() - started) / 1000, failures));
   } catch (error) {
     $('progress').value = 0;
+    $('progress-time').textContent = '';
     setStatus(error.cancelled ? 'Cancelled.' : 'Failed.');
-    if (!error.cancelled) showError(error);
+    if (!error.cancelled) showError(error, adviceForError(String(error.message ?? error), state));
     redraw();
   } finally {
     setRunning(false);
   }
 }
 
-// In three tasks of a few ms each: on a busy machine a task waits for a core several times as
-// long as it computes, and the page must not stall (issue 7). A result forgotten meanwhile (new
-// files, a new run) stops here.
-// `failures`: {method, error} of the methods that failed; `json`: what the JSON view holds (the
-// report, or every method's outcome in order when comparing, as the CLI writes it).
+// A result in (`results` the reports that ran; `failures` {method, error} of the methods that
+// failed; `json` what the JSON view holds: the report, or every method's outcome in order when
+// comparing, as the CLI writes it): the view shows the calibrated poses, the setup panels fold to
+// their one-line summaries so the verdict and the extrinsics are in view.
 async function showResults(results, failures, json) {
-  state.results = results;
+  Object.assign(state, { results, failures, resultJson: json });
   state.show = 'after';
   $('show-after').disabled = false;
   $('show-after').checked = true;
   redraw();
-  renderResults($('results'), results, state.truth, failures);
-  // The verdict is the answer: the setup panels fold to their one-line summaries so it and the
-  // extrinsics are in view.
   foldSetup([$('load-panel'), $('rig-panel')], $('side'));
+  await renderOutcome(results, failures, json);
+}
+
+// Everything a result shows, in three tasks of a few ms each: on a busy machine a task waits for
+// a core several times as long as it computes, and the page must not stall (issue 7). A result
+// forgotten meanwhile (new files, a new run) stops here.
+async function renderOutcome(results, failures, json) {
+  const parent = state.rig.parent;
+  renderResults($('results'), results, state.truth, failures, { parent, advice: adviceForResult(results[0], state.resultContext) });
+  // What the result changes elsewhere: what ROI auto held (the rig panel) and the targets to
+  // focus on; the file table stays as it is.
+  if (!state.rig.roi && state.rig.sensors.length) renderRigPanel();
+  tools.renderFocus();
   await nextTask();
   if (state.results !== results) return;
   $('convergence-box').hidden = results[0].history.meanSigma.length < 2;
   drawConvergence($('convergence'), results[0].history);
   const ros = (extrinsics) => client.request('exports', { extrinsics });
-  const items = await exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, ...state.exportFrames }, ros);
+  const items = await exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, parent }, ros);
   if (state.results !== results) return;
   renderExports($('exports'), items);
   // The drift check compares what the JSON export holds.
@@ -353,24 +382,13 @@ async function showResults(results, failures, json) {
     targetViewer.lookAt(bounds);
   }
   inset.show(Boolean(bounds));
-  tools.setTargets(results[0].reconstruction.fits);
-}
-
-// The box to frame for a focus choice: 'all' (every point shown, placed), 'roi', 'target:i'.
-function focusBounds(key) {
-  if (key === 'all') return pointBounds(state, shownPoses(state), state.hidden);
-  if (key === 'roi') return state.rig.roi ?? state.results?.[0]?.roi ?? pointBounds(state, shownPoses(state), state.hidden);
-  const fit = state.results?.[0]?.reconstruction.fits[Number(key.split(':')[1])];
-  if (!fit) return null;
-  const half = Math.max(...fit.extents) / 2 + 0.3;
-  return { min: fit.centre.map((c) => c - half), max: fit.centre.map((c) => c + half) };
 }
 
 // --- controls ---------------------------------------------------------------------------------
 
 function viewerLookAt() {
-  const bounds = state.rig.roi ?? pointBounds(state);
-  if (bounds) mainViewer.lookAt(bounds);
+  const box = openingBox(state);
+  if (box) mainViewer.lookAt(box);
 }
 
 $('file-input').addEventListener('change', async (e) => {
@@ -381,11 +399,26 @@ $('folder-input').addEventListener('change', async (e) => {
   await loadFiles(fromInput(e.target.files));
   e.target.value = '';
 });
-$('clear').addEventListener('click', () => {
+$('clear').addEventListener('click', async () => {
   clearAll();
-  setStatus('Cleared.');
+  await keeping.forget();
+  setStatus('Cleared: the scans, the rig and the result are forgotten, also in this browser\'s storage.');
+});
+// The link to this page with its settings and rig (and a demo's parameters), copied.
+$('copy-link').addEventListener('click', async () => {
+  writeHash(state.settings, state.rig);
+  try {
+    await navigator.clipboard.writeText(location.href);
+    setStatus(`Link copied: ${location.href}${state.scans.length && !state.settings.demo ? ' (it holds the settings; the scans stay in this browser)' : ''}`);
+  } catch (error) {
+    showError(`Could not copy the link (${error.message}); it is the address in the address bar.`);
+  }
 });
 $('demo').addEventListener('click', loadDemo);
+$('results').addEventListener('click', (e) => {
+  const button = e.target.closest('button[data-advice]');
+  if (button) applyAdvice(JSON.parse(button.dataset.advice));
+});
 $('calibrate').addEventListener('click', calibrate);
 $('cancel').addEventListener('click', () => client.cancel());
 for (const radio of document.querySelectorAll('input[name=show]')) {
@@ -426,4 +459,4 @@ async function loadMethods() {
 
 settings.sync();
 updateCalibrate();
-loadMethods().then(() => state.settings.demo && loadDemo(), showError);
+keeping.start(loadMethods, loadDemo).catch(showError);

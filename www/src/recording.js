@@ -14,13 +14,13 @@ export function renderRecording(container, name, opened, onLoad) {
   box.className = 'recording';
   box.setAttribute('data-testid', 'recording');
   const title = document.createElement('p');
-  title.textContent = `${name}: ${opened.topics.length} topics, ${clouds.length} with point clouds. Pick the sensors and the reference:`;
+  title.textContent = `${name}: ${opened.topics.length} topics, ${clouds.length} with point clouds. Pick the sensors, and the reference if you know it (else the sensor with the most points):`;
   const table = document.createElement('table');
   table.innerHTML = '<tr><th>use</th><th>ref</th><th>topic</th><th>scans</th><th>Hz</th></tr>';
-  const rows = clouds.map((t, i) => {
+  const rows = clouds.map((t) => {
     const use = Object.assign(document.createElement('input'), { type: 'checkbox', checked: true });
     use.setAttribute('aria-label', `use ${t.name}`);
-    const ref = Object.assign(document.createElement('input'), { type: 'radio', name: 'recording-reference', checked: i === 0 });
+    const ref = Object.assign(document.createElement('input'), { type: 'radio', name: 'recording-reference' });
     ref.setAttribute('aria-label', `recording reference ${t.name}`);
     const tr = document.createElement('tr');
     for (const c of [use, ref, t.name, String(t.count), t.rateHz.toFixed(1)]) {
@@ -39,7 +39,9 @@ export function renderRecording(container, name, opened, onLoad) {
   load.setAttribute('data-testid', 'recording-load');
   load.addEventListener('click', () => {
     const chosen = rows.filter((r) => r.use.checked);
-    const reference = (chosen.find((r) => r.ref.checked) ?? chosen[0])?.topic;
+    // No reference picked: the library pairs instants by the first topic, the page takes the
+    // sensor with the most points as the reference.
+    const reference = chosen.find((r) => r.ref.checked)?.topic;
     onLoad({ topics: chosen.map((r) => r.topic), reference, frames: Math.max(1, Number(frames.value) || 10) });
   });
   box.replaceChildren(title, table, label, load);

@@ -19,19 +19,22 @@
 // camera {position, quaternion, aspect}, cloud {id, positions, intensity, sensor, color},
 // colouring {mode, reference}, pointSize {size}, axes {id, length}, box {id, min, max, color},
 // target {id, target}, pose {id, matrix}, visible {id, visible}, remove {id}, clear,
-// preview {on}, interacting {on}, marks {points}, pick {x, y, radius, id}, snapshot {id}.
+// preview {on}, interacting {on}, marks {points}, pick {x, y, radius, id}, snapshot {id, overlay}.
 // Replies: after each frame {type: 'frame', points, ms}; {type: 'scale', mode, range, missing}
 // once colours are made; {type: 'picked', id, hit} and {type: 'snapshot', id, blob}.
 import * as THREE from 'three';
 import { targetObject } from './target.js';
 import { DISTANCE_RANGE, SurfaceGrid, fillRamp, fillSolid, heightOf, robustRange } from './colouring.js';
 import { nearestOnScreen } from './pick.js';
+import { drawOverlay } from './view/snapshot.js';
 
 const scene = new THREE.Scene();
 scene.background = new THREE.Color(0x15181d);
 const camera = new THREE.PerspectiveCamera(50, 1, 0.05, 500);
 camera.up.set(0, 0, 1); // vehicle frame: z up
 const ORBIT_POINTS = 100_000;
+const HANDLE_SIZE = 10; // px: the ROI's handles
+const HANDLE_COLOUR = 0xffffff; // no sensor's colour
 const RUN_POINTS = 30_000;
 const objects = new Map(); // id -> Object3D
 const budget = { preview: false, interacting: false };
@@ -200,7 +203,9 @@ function pick({ x, y, radius }) {
     if (!o.isPoints || !o.visible || o.geometry.userData.sensor === undefined) continue;
     const m = new THREE.Matrix4().multiplyMatrices(viewProjection, o.matrixWorld);
     const positions = o.geometry.attributes.position.array;
-    const hit = nearestOnScreen(positions, o.geometry.drawRange.count === Infinity ? o.geometry.userData.count : Math.min(o.geometry.drawRange.count, o.geometry.userData.count), m.elements, x, y, radius);
+    // Every point of the cloud: the user saw the full frame, while the click itself may have
+    // cut the draw range to the orbit's sample.
+    const hit = nearestOnScreen(positions, o.geometry.userData.count, m.elements, x, y, radius);
     if (hit && (!best || hit.depth < best.depth)) {
       const point = new THREE.Vector3().fromArray(positions, 3 * hit.index).applyMatrix4(o.matrixWorld);
       best = { depth: hit.depth, id, sensor: o.geometry.userData.sensor, point: point.toArray() };
@@ -252,20 +257,39 @@ const handlers = {
   },
   marks,
   pick: ({ id, ...at }) => self.postMessage({ type: 'picked', id, hit: pick(at) }),
-  // The view as PNG: drawn now, in full, and read before the frame is handed over.
-  async snapshot({ id }) {
+  // The view as PNG: drawn now, in full, copied onto a 2D canvas before the frame is handed
+  // over, with `overlay` (view/snapshot.js: verdict line, legend or colour bar, caption) on it.
+  async snapshot({ id, overlay }) {
     const [preview, interacting] = [budget.preview, budget.interacting];
     Object.assign(budget, { preview: false, interacting: false });
     drawRanges();
     renderer.render(scene, camera);
     Object.assign(budget, { preview, interacting });
-    const blob = await renderer.domElement.convertToBlob({ type: 'image/png' });
+    const { width, height } = renderer.domElement;
+    const out = new OffscreenCanvas(width, height);
+    const ctx = out.getContext('2d');
+    ctx.drawImage(renderer.domElement, 0, 0);
+    if (overlay) drawOverlay(ctx, width, height, overlay, renderer.getPixelRatio());
+    const blob = await out.convertToBlob({ type: 'image/png' });
     self.postMessage({ type: 'snapshot', id, blob });
   },
   // The axes of a frame (x red, y green, z blue), `length` m.
   axes: ({ id, length }) => put(id, new THREE.AxesHelper(length)),
-  // An axis-aligned box as lines.
-  box: ({ id, min, max, color }) => put(id, new THREE.Box3Helper(new THREE.Box3(new THREE.Vector3(...min), new THREE.Vector3(...max)), color)),
+  // An axis-aligned box as lines; with `handles`, a square on each face's centre (roi-editor.js
+  // drags them), drawn over everything so a face behind the data can still be grabbed.
+  box({ id, min, max, color, handles }) {
+    const group = new THREE.Group();
+    group.add(new THREE.Box3Helper(new THREE.Box3(new THREE.Vector3(...min), new THREE.Vector3(...max)), color));
+    if (handles) {
+      const centre = min.map((v, i) => (v + max[i]) / 2);
+      const faces = [min, max].flatMap((side) => [0, 1, 2].map((a) => centre.map((c, i) => (i === a ? side[a] : c))));
+      const geometry = new THREE.BufferGeometry().setAttribute('position', new THREE.Float32BufferAttribute(faces.flat(), 3));
+      const squares = new THREE.Points(geometry, new THREE.PointsMaterial({ size: HANDLE_SIZE, sizeAttenuation: false, color: HANDLE_COLOUR, depthTest: false }));
+      squares.renderOrder = 2;
+      group.add(squares);
+    }
+    put(id, group);
+  },
   target: ({ id, target }) => put(id, targetObject(target)),
   // Places an object by a row-major 4x4 (THREE's Matrix4.set takes row-major too).
   pose({ id, matrix }) {

@@ -5,7 +5,7 @@
 // levelling, the notes. With several methods, one comparison table with each method's verdict
 // and the methods it agrees with. The convergence plot is drawn here too.
 import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from './transforms.js';
-import { answerHtml, errorVsTruth, esc, wireCopy } from './answer.js';
+import { answerHtml, concerns, errorVsTruth, esc, wireCopy } from './answer.js';
 
 export { errorVsTruth };
 
@@ -27,39 +27,46 @@ function poseHtml(title, m) {
 
 const VERDICT_TITLE = {
   good: 'Good: the evidence supports this calibration.',
-  check: 'Check: some evidence does not support this calibration; look at the reasons before you use it.',
+  check: 'Check: some evidence does not support this calibration; read the reasons before you use it.',
   failed: 'Failed: do not use this extrinsic.',
 };
 
-// The reasons worth a line: those that set a level other than good (all of them when none do).
-const weighty = (reasons) => {
-  const heavy = reasons.filter((r) => r.level !== 'good');
-  return heavy.length ? heavy : [];
-};
+// The verdict in a few words, as a PNG of the view carries it across its top.
+const VERDICT_SHORT = { good: 'Good: the evidence supports this calibration', check: 'Check: read the reasons before using this calibration', failed: 'Failed: do not use this extrinsic' };
+export const verdictTitle = (level) => VERDICT_SHORT[level] ?? level;
+
+// An advice of the page (panels/advice.js) with its buttons; main.js acts on their data-advice.
+export const adviceHtml = ({ html, actions = [] }) => `<p class="advice" data-testid="advice">${html}${actions.map((a) => ` <button type="button" data-advice="${esc(JSON.stringify({ what: a.what, value: a.value }))}">${esc(a.label)}</button>`).join('')}</p>`;
 
 function reasonsHtml(reasons) {
   return `<ul>${reasons.map((r) => `<li class="${r.level}">${esc(r.text)}</li>`).join('')}</ul>`;
 }
 
-// The verdict of a calibration, with the evidence folded below it.
-function verdictHtml(r) {
+// The verdict: its level, the run's own concerns (the reconstruction, the methods), which
+// sensors have theirs (said on each sensor's card, not here), `advice` (html lines the page
+// adds), and the evidence that supports it folded below. Each reason is said once: a
+// concern where it belongs, a supporting finding under Evidence.
+function verdictHtml(r, advice = []) {
   const v = r.verdict;
-  const lines = Object.entries(v.sensors).flatMap(([name, s]) => weighty(s.reasons).map((x) => `${name}: ${x.text}`));
-  const evidence = Object.entries(v.sensors)
-    .map(([name, s]) => `<p><b>${esc(name)}</b>: ${s.level}</p>${reasonsHtml(s.reasons)}`)
-    .join('');
+  const flagged = Object.entries(v.sensors).filter(([, s]) => s.level !== 'good').map(([name]) => name);
+  const support = Object.entries(v.sensors).map(([name, s]) => [name, s.reasons.filter((x) => x.level === 'good')]).filter(([, list]) => list.length);
+  // A run-level finding the advice quotes (no target found) is said there only.
+  const runSupport = v.reasons.filter((x) => x.level === 'good' && !(advice.length && x.kind === 'noTarget'));
+  const evidence = support.map(([name, list]) => `<p><b>${esc(name)}</b></p>${reasonsHtml(list)}`).join('') +
+    (runSupport.length ? `<p><b>reconstruction and run</b></p>${reasonsHtml(runSupport)}` : '');
   return `<div class="verdict ${v.level}" data-testid="verdict" data-level="${v.level}">
-    <p><strong>${VERDICT_TITLE[v.level]}</strong></p>
-    ${lines.length ? `<ul>${lines.map((l) => `<li>${esc(l)}</li>`).join('')}</ul>` : ''}
-    <details><summary>Evidence</summary>${evidence}${v.reasons.length ? `<p><b>reconstruction and run</b></p>${reasonsHtml(v.reasons)}` : ''}</details>
+    <p><strong>${VERDICT_TITLE[v.level]}</strong>${flagged.length ? ` <span class="flagged">Reasons on the card of ${flagged.map(esc).join(', ')} below.</span>` : ''}</p>
+    ${concerns(v.reasons).length ? reasonsHtml(concerns(v.reasons)) : ''}
+    ${advice.map(adviceHtml).join('')}
+    ${evidence ? `<details><summary>Evidence that supports it</summary>${evidence}</details>` : ''}
   </div>`;
 }
 
 // A sensor's full detail: the correction and the extrinsic as 4x4, xyz, rpy (deg and rad) and
 // quaternion.
-function sensorDetailHtml(s, reference) {
+function sensorDetailHtml(s, reference, parent) {
   return `<section class="sensor"><h4>${esc(s.name)}${s.name === reference ? ' (reference)' : ''}</h4>
-    <div class="poses">${poseHtml(`correction C_${esc(reference)}_${esc(s.name)}: maps ${esc(s.name)}'s nominally placed points onto ${esc(reference)}'s`, s.correction)}${poseHtml(`extrinsic T_vehicle_${esc(s.name)}: maps ${esc(s.name)}'s points into vehicle`, s.extrinsic)}</div></section>`;
+    <div class="poses">${poseHtml(`correction C_${esc(reference)}_${esc(s.name)}: maps ${esc(s.name)}'s nominally placed points onto ${esc(reference)}'s`, s.correction)}${poseHtml(`extrinsic T_${esc(parent)}_${esc(s.name)}: maps ${esc(s.name)}'s points into ${esc(parent)}`, s.extrinsic)}</div></section>`;
 }
 
 function notesHtml(title, notes) {
@@ -98,8 +105,9 @@ function comparisonHtml(results, truth, failures) {
 }
 
 // `results`: one report per method run; the first is shown in detail. `failures`: {method, error}
-// of the methods compared that failed.
-export function renderResults(container, results, truth, failures = []) {
+// of the methods compared that failed. `parent`: the vehicle frame's name; `advice`: what the
+// page adds to the verdict ({html, actions}: what to do when no target was found).
+export function renderResults(container, results, truth, failures = [], { parent = 'vehicle', advice = [] } = {}) {
   const r = results[0];
   const t = r.reconstruction;
   const sizeText = (x) => ({ sphere: `diameter ${x.size.toFixed(3)}`, box: `box ${x.extents.map((e) => e.toFixed(3)).join(' × ')}`, mesh: `the model (${x.size.toFixed(2)}`})[x.shape] ?? `edge ${x.size.toFixed(3)}`;
@@ -110,15 +118,18 @@ export function renderResults(container, results, truth, failures = []) {
     : t.means.length ? 'no target stands out from the ground' : 'no target reconstructed (none given, or an ICP method)';
   const targetText = fit + placed;
   const compared = results.length + failures.length > 1;
+  // A bird's-eye warning the verdict already gives as a reason is not said twice.
+  const said = new Set(Object.values(r.verdict.sensors).flatMap((s) => s.reasons.map((x) => x.text)));
+  const warnings = {};
+  for (const l of (r.levelling ?? []).filter((l) => l.warning && !said.has(l.warning))) (warnings[l.sensor] ??= []).push(l.warning);
   container.innerHTML = `
-    ${verdictHtml(r)}
+    ${verdictHtml(r, advice)}
     ${compared ? `<h3>The answer of ${esc(r.method)} (the first method that ran)</h3>` : ''}
-    ${(r.levelling ?? []).filter((l) => l.warning).map((l) => `<p class="error" data-testid="warning">${esc(l.sensor)}: ${esc(l.warning)}</p>`).join('')}
-    ${answerHtml(r, truth)}
+    ${answerHtml(r, { truth, parent, warnings })}
     ${compared ? `<details class="compare-box" open><summary>All methods: ${results.length} ran${failures.length ? `, ${failures.length} failed` : ''}</summary><div class="table-wrap">${comparisonHtml(results, truth, failures)}</div></details>` : ''}
     <details class="more"><summary>More: 4×4 matrices and corrections, target fit, ground levelling, notes</summary>
       <p>reference ${esc(r.reference)}; ${targetText}</p>
-      ${r.sensors.map((s) => sensorDetailHtml(s, r.reference)).join('')}
+      ${r.sensors.map((s) => sensorDetailHtml(s, r.reference, parent)).join('')}
       ${levellingHtml(r.levelling)}
       ${notesHtml('views left out', r.skipped)}${notesHtml('refinement rejected, kept the JRMPC correction', r.keptJrmpc)}
       ${notesHtml('joint plane adjustment (every frame)', r.planeAdjustment ?? [])}

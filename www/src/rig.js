@@ -1,17 +1,21 @@
 // The rig panel: per sensor the nominal extrinsic (x, y, z in m; roll, pitch, yaw in deg) and
-// the reference choice; the ROI, 'auto' (null: the library's choice) or bounds. Edits go
-// straight into `rig` ({sensors, nominal, roi, reference}); `onChange(what)` tells the page to
-// update the view.
+// the reference choice; the vehicle frame's name; the ROI, 'auto' (null: the library's choice,
+// with what the last run found) or bounds, also dragged in the view (roi-editor.js). Edits go
+// straight into `rig` ({sensors, nominal, roi, reference, parent}); `onChange(what)` tells the
+// page to update the view.
 import { degrees, radians } from './transforms.js';
 import { DEFAULT_ROI } from './state.js';
 
 function numberInput(value, step, onInput, label) {
   const input = Object.assign(document.createElement('input'), { type: 'number', step, value: +value.toFixed(6) });
   input.setAttribute('aria-label', label);
+  input.dataset.value = input.value; // what a bad entry goes back to (showRoi keeps it current)
   input.addEventListener('change', () => {
     const v = Number(input.value);
-    if (input.value !== '' && Number.isFinite(v)) onInput(v);
-    else input.value = +value.toFixed(6);
+    if (input.value !== '' && Number.isFinite(v)) {
+      input.dataset.value = input.value;
+      onInput(v);
+    } else input.value = input.dataset.value;
   });
   return input;
 }
@@ -29,7 +33,9 @@ function cell(...children) {
   return td;
 }
 
-export function renderRig(container, rig, onChange) {
+// `found`: what the last run's auto ROI held ({text, level}), said under the auto box;
+// `startRoi()`: the box a user starts editing from when they turn auto off.
+export function renderRig(container, rig, onChange, { found = null, startRoi = null } = {}) {
   const table = document.createElement('table');
   table.className = 'rig';
   // Per sensor three rows: the reference radio and the name, then xyz, then rpy: narrow enough
@@ -61,17 +67,36 @@ export function renderRig(container, rig, onChange) {
     }
     table.append(head, xyz, rpy);
   }
+  const parent = Object.assign(document.createElement('input'), { type: 'text', value: rig.parent, size: 12 });
+  parent.setAttribute('aria-label', 'vehicle frame name');
+  parent.addEventListener('change', () => {
+    const name = parent.value.trim();
+    if (name && /^[A-Za-z_][\w/.-]*$/.test(name)) {
+      rig.parent = name;
+      onChange('parent');
+    } else parent.value = rig.parent;
+  });
+  const frameLabel = document.createElement('label');
+  frameLabel.title = 'The frame the nominals and the ROI are given in, by the name your TF tree gives it: the parent of every transform the results and exports name (a recording\'s base frame)';
+  frameLabel.append('vehicle frame ', parent);
   const auto = Object.assign(document.createElement('input'), { type: 'checkbox', checked: !rig.roi });
   auto.setAttribute('data-testid', 'roi-auto');
   auto.addEventListener('change', () => {
-    rig.roi = auto.checked ? null : structuredClone(DEFAULT_ROI);
-    renderRig(container, rig, onChange);
+    rig.roi = auto.checked ? null : structuredClone(startRoi?.() ?? DEFAULT_ROI);
+    renderRig(container, rig, onChange, { found, startRoi });
     onChange('roi');
   });
   const label = document.createElement('label');
-  label.append(auto, ' ROI auto: where the sensors\' clouds overlap');
-  label.title = 'Region of interest: only points inside it (vehicle frame) are registered; auto crops to where the sensors\' clouds overlap';
-  const parts = [table, label];
+  label.append(auto, ' ROI auto: around the targets found where the sensors\' clouds overlap, else that overlap');
+  label.title = 'Region of interest: only points inside it (vehicle frame) are registered; auto finds it in each run. Off: drag the box\'s handles in the view, or type its bounds';
+  const parts = [table, frameLabel, label];
+  if (!rig.roi && found) {
+    const note = document.createElement('p');
+    note.className = `roi-found ${found.level}`;
+    note.setAttribute('data-testid', 'roi-found');
+    note.textContent = found.text;
+    parts.push(note);
+  }
   if (rig.roi) {
     const roi = document.createElement('table');
     roi.className = 'rig';
@@ -79,10 +104,26 @@ export function renderRig(container, rig, onChange) {
     for (const bound of ['min', 'max']) {
       const tr = document.createElement('tr');
       tr.append(cell(bound));
-      for (let k = 0; k < 3; k++) tr.append(cell(numberInput(rig.roi[bound][k], 0.1, (v) => { rig.roi[bound][k] = v; onChange('roi'); }, `ROI ${bound} ${'xyz'[k]}`)));
+      for (let k = 0; k < 3; k++) {
+        const input = numberInput(rig.roi[bound][k], 0.1, (v) => { rig.roi[bound][k] = v; onChange('roi'); }, `ROI ${bound} ${'xyz'[k]}`);
+        input.dataset.roi = `${bound}.${k}`;
+        tr.append(cell(input));
+      }
       roi.append(tr);
     }
-    parts.push(roi);
+    const hint = document.createElement('p');
+    hint.className = 'hint';
+    hint.textContent = 'Drag the white handles of the box in the view, or type the bounds.';
+    parts.push(roi, hint);
   }
   container.replaceChildren(...parts);
+}
+
+// The six ROI inputs of a rendered panel set to `roi` (while a handle is dragged).
+export function showRoi(container, roi) {
+  for (const input of container.querySelectorAll('input[data-roi]')) {
+    const [bound, k] = input.dataset.roi.split('.');
+    input.value = +roi[bound][Number(k)].toFixed(6);
+    input.dataset.value = input.value;
+  }
 }

@@ -2,7 +2,7 @@
 // worker (which shares it over its pool), progress as bar and status, the outcome split into
 // results and failures. Comparing every method is one request (`method: 'all'`): the library
 // runs them in turn and keeps a failed method's error.
-import { StageClock, describeProgress } from './progress.js';
+import { RunProgress, stagesOf } from './progress.js';
 import { methodInfo } from './state.js';
 import { nextTask } from './tasks.js';
 
@@ -57,34 +57,36 @@ export function workerCount(setting) {
   return Number.isInteger(n) && n >= 1 ? n : 1;
 }
 
-// Runs the calibration `state` describes on `client`; `onProgress({fraction, text, progress})`
-// sees every message. Resolves to {results, failures, json}: the reports of the methods that
-// ran, {method, error} of those that failed, and what the JSON export holds (the CLI's --json:
-// one report, or every method's outcome in order when comparing). Throws when every method
-// failed, or when the run was cancelled.
+// Between progress messages the time line and the bar still move (a global stage on a large
+// rig sends one message per sensor, 10-20 s apart): every TICK_MS.
+const TICK_MS = 500;
+
+// Runs the calibration `state` describes on `client`; `onProgress({fraction, text, elapsed,
+// left, progress})` sees every message, with `progress` the message itself, and a tick every
+// TICK_MS between them (`progress` null). Resolves to {results, failures, json}: the reports of
+// the methods that ran, {method, error} of those that failed, and what the JSON export holds
+// (the CLI's --json: one report, or every method's outcome in order when comparing). Throws when
+// every method failed, or when the run was cancelled.
 export async function runCalibration(client, state, onProgress) {
   const compared = state.settings.method === 'all';
   const names = compared ? state.methods.map((m) => m.name) : [state.settings.method];
-  const { input, transfer } = await calibrateInput(state);
-  // Each stage (a method's EM, its frame pairs) has its own clock for the time left.
-  let stage = { key: null, clock: null };
-  // The exact E-step is the CPU's (f64).
-  const estep = state.settings.estep === 'exact' ? 'cpu' : state.settings.estep;
-  const outcome = await client.request('calibrate', { input, workers: workerCount(state.settings.workers), estep }, {
-    transfer,
-    onProgress: (p) => {
-      const key = `${p.method}/${p.stage}`;
-      if (key !== stage.key) stage = { key, clock: new StageClock() };
-      const left = stage.clock.left(p, performance.now() / 1000);
-      const index = Math.max(0, names.indexOf(p.method));
-      const { fraction, text } = describeProgress(methodInfo(state, p.method), p, left);
-      const label = compared ? `${p.method} (${index + 1}/${names.length}): ` : '';
-      onProgress({ fraction: (index + fraction) / names.length, text: label + text, progress: p });
-    },
-  });
-  const outcomes = compared ? outcome : [outcome];
-  const results = outcomes.filter((o) => !o.error);
-  const failures = outcomes.filter((o) => o.error);
-  if (!results.length) throw new Error(failures.map((f) => `${f.method}: ${f.error}`).join('\n'));
-  return { results, failures, json: outcome };
+  const now = () => performance.now() / 1000;
+  const run = new RunProgress(new Map(names.map((n) => [n, stagesOf(methodInfo(state, n), state.settings.global, state.settings.target)])), now());
+  const tick = setInterval(() => onProgress({ ...run.at(now()), progress: null }), TICK_MS);
+  try {
+    const { input, transfer } = await calibrateInput(state);
+    // The exact E-step is the CPU's (f64).
+    const estep = state.settings.estep === 'exact' ? 'cpu' : state.settings.estep;
+    const outcome = await client.request('calibrate', { input, workers: workerCount(state.settings.workers), estep }, {
+      transfer,
+      onProgress: (p) => onProgress({ ...run.message(p, now()), progress: p }),
+    });
+    const outcomes = compared ? outcome : [outcome];
+    const results = outcomes.filter((o) => !o.error);
+    const failures = outcomes.filter((o) => o.error);
+    if (!results.length) throw new Error(failures.map((f) => `${f.method}: ${f.error}`).join('\n'));
+    return { results, failures, json: outcome };
+  } finally {
+    clearInterval(tick);
+  }
 }

@@ -7,7 +7,7 @@ const SETTING_INPUTS = ['method', 'components', 'iterations', 'initialSigma', 'w
 
 // `$`: the page's elements by id; `client`: the worker client; `changed(what)`: a setting
 // changed after a run; `targetLoaded()`: a new CAD model replaces the target (the result goes);
-// `setStatus`, `showError`: the page's lines. Returns {sync, loadTargetMesh}.
+// `setStatus`, `showError`: the page's lines. Returns {sync, loadTargetMesh, setTarget}.
 export function initSettings({ $, state, client, changed, targetLoaded, setStatus, showError }) {
   function syncSettingsInputs() {
     for (const key of SETTING_INPUTS) $(key).value = state.settings[key];
@@ -30,7 +30,7 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
         return;
       }
       state.settings[key] = value;
-      writeHash(state.settings);
+      writeHash(state.settings, state.rig);
       changed('settings');
     });
   }
@@ -43,7 +43,7 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
       if (state.targetMesh) state.settings.target = `mesh:${state.targetMesh.name}`;
       else $('mesh-input').click(); // the kind shows once a model is loaded
       syncSettingsInputs();
-      writeHash(state.settings);
+      writeHash(state.settings, state.rig);
       return;
     }
     const [previousKind] = state.settings.target.split(':');
@@ -55,7 +55,7 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
     else if (valid) state.settings.target = `${kind}:${size.join(',')}`;
     else if (kind !== previousKind) state.settings.target = kind === 'box' ? 'box:0.5,0.5,0.5' : `${kind}:0.5`;
     syncSettingsInputs();
-    writeHash(state.settings);
+    writeHash(state.settings, state.rig);
     changed('target');
   }
   $('target-kind').addEventListener('change', targetChanged);
@@ -75,7 +75,7 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
       state.settings.target = `mesh:${path}`;
       targetLoaded();
       syncSettingsInputs();
-      writeHash(state.settings);
+      writeHash(state.settings, state.rig);
       setStatus(`Target: ${path}, ${state.targetMesh.triangles} triangles, ${mesh.extents.map((x) => x.toFixed(2)).join(' × ')} m; where it stands is found from the data.`);
     } catch (error) {
       showError(`${error.message ?? error}`);
@@ -84,5 +84,13 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
   }
   $('target-size').addEventListener('change', targetChanged);
 
-  return { sync: syncSettingsInputs, loadTargetMesh };
+  // The target set from elsewhere (an advice's button): as if picked.
+  function setTarget(target) {
+    state.settings.target = target;
+    syncSettingsInputs();
+    writeHash(state.settings, state.rig);
+    changed('target');
+  }
+
+  return { sync: syncSettingsInputs, loadTargetMesh, setTarget };
 }

@@ -187,9 +187,12 @@ export function pairGroups(pairs, parts) {
 // reference view (`pairGroups`), handed out a group at a time to whichever worker is free,
 // this one included. The session keeps the outcomes in pair order, so who registered what
 // does not change the result.
-async function shareFramePairs(session, pool, onProgress, workers) {
+async function shareFramePairs(session, pool, onProgress, workers, begin = () => {}) {
   const work = session.framePairs();
   const queue = pairGroups(work.pairs, workers);
+  // The library says when a pair is done; the page also needs when the first began (a pair
+  // takes seconds on a large scene: its time is the estimate of the rest).
+  begin(work.pairs.length / 2);
   // One group (one pair) is this worker's alone: no remote is started for it.
   const remotes = queue.length > 1 ? await pool() : [];
   let stopped = false;
@@ -233,10 +236,18 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
   const session = new wasm.CalibrationSession(input);
   const remotes = [];
   let cancelled = false;
+  let last = null;
   const heed = (progress) => {
+    last = progress;
     if (onProgress(progress) === false) cancelled = true;
     return !cancelled;
   };
+  // The frame pairs' stage begun: a progress message of no pair done yet, in calibrate's shape
+  // (the corrections as the last message left them).
+  const pairsBegin = (pairs) => heed({
+    method: session.method(), stage: 'framePairs', iteration: 0, maxIterations: pairs, meanSigma: 0, maxChange: 0,
+    corrections: last?.corrections ?? [], sensors: last?.sensors ?? [],
+  });
   let gpu = null;
   const emRan = new Map(); // method -> its E-step's path
   try {
@@ -269,7 +280,7 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
           const timing = await shareEm(wasm, session, gpu ? [] : await pool(), heed, gpu);
           emRan.set(method, timing ? { estep: 'gpu', gpu: gpu.name, gpuEStepSeconds: timing.seconds, gpuIterations: timing.iterations } : { estep: 'cpu' });
         } else if (phase === 'cad') session.registerCad(heed); // one call: fast, not shared
-        else await shareFramePairs(session, pool, heed, workers);
+        else await shareFramePairs(session, pool, heed, workers, pairsBegin);
         session.advance();
       } catch (error) {
         if (input.method !== 'all') throw error;

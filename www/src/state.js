@@ -2,19 +2,24 @@
 // changed through these functions, so what invalidates a result is decided in one place.
 import { natural } from './files.js';
 import { matrixFromXyzRpy } from './transforms.js';
-import { DEFAULTS, readHash } from './url.js';
+import { DEFAULTS, readHash, readRig } from './url.js';
 
 // The ROI a user starts editing from when they turn 'auto' off (m, vehicle frame).
 export const DEFAULT_ROI = Object.freeze({ min: Object.freeze([-5, -5, -2]), max: Object.freeze([5, 5, 3]) });
 
+// The state a page opens with: the link's settings and rig (ROI, reference, vehicle frame).
 export function createState() {
+  const link = readRig();
   return {
     settings: readHash(),
     scans: [], // {id, path, sensor, frame, points, intensity?, count, dropped, format}
     bad: [], // {path, error}
-    rig: { sensors: [], nominal: {}, roi: null, reference: '' },
+    rig: { sensors: [], nominal: {}, roi: link.roi, reference: link.reference ?? '', parent: link.parent ?? 'vehicle' },
     truth: null, // sensor -> {xyz, rpy}, for a demo
     results: null, // reports of the last run, one per method that ran
+    failures: [], // {method, error} of the methods of the last run that failed
+    resultJson: null, // what the JSON view holds: the report, or every method's outcome
+    resultContext: null, // what the last run had: {target, roiAuto}
     methods: [], // the library's methods: {name, label, jrmpc, pairs}
     show: 'before',
     colour: 'sensor',
@@ -23,13 +28,12 @@ export function createState() {
     stale: null, // what changed since the result shown (it is out of date), or null
     running: false,
     recording: null, // {handle, path}: the recording open in the worker
-    exportFrames: {}, // {parent, frameIds}: a recording's base frame and each topic's frame id
   };
 }
 
 // Forgets the loaded scans, the rig and the results.
 export function clearState(state) {
-  Object.assign(state, { scans: [], bad: [], truth: null, results: null, exportFrames: {}, rig: { sensors: [], nominal: {}, roi: null, reference: '' } });
+  Object.assign(state, { scans: [], bad: [], truth: null, results: null, rig: { sensors: [], nominal: {}, roi: null, reference: '', parent: 'vehicle' } });
 }
 
 // Sensors from the scans (natural order); nominal, ROI, reference and settings taken from
@@ -42,11 +46,23 @@ export function rebuildRig(state, config = {}) {
   for (const s of rig.sensors) rig.nominal[s] ??= { xyz: [0, 0, 0], rpy: [0, 0, 0] };
   if (config.roi) rig.roi = { min: [...config.roi.min], max: [...config.roi.max] };
   if (config.reference) rig.reference = String(config.reference);
-  if (!rig.sensors.includes(rig.reference)) rig.reference = rig.sensors[0] ?? '';
+  if (config.parent) rig.parent = String(config.parent);
+  if (!rig.sensors.includes(rig.reference)) rig.reference = mostPoints(state.scans) ?? '';
   for (const [key, value] of Object.entries(config)) if (key in DEFAULTS && value != null) state.settings[key] = value;
   // `exact` is a choice of the E-step setting.
   if (config.exact === true) state.settings.estep = 'exact';
   if (config.exact === false && state.settings.estep === 'exact') state.settings.estep = DEFAULTS.estep;
+}
+
+// The sensor with the most points (the first such in natural order), or null: the reference
+// when nothing names one. A sensor that sees most of the scene is the one the others overlap;
+// the alphabetically first could be a side unit that sees the ground only.
+export function mostPoints(scans) {
+  const counts = new Map();
+  for (const v of scans) counts.set(v.sensor, (counts.get(v.sensor) ?? 0) + v.points.length / 3);
+  let best = null;
+  for (const [name, n] of [...counts].sort(([a], [b]) => natural(a, b))) if (best === null || n > counts.get(best)) best = name;
+  return best;
 }
 
 export const sortScans = (state) => state.scans.sort((a, b) => natural(a.sensor, b.sensor) || natural(a.frame, b.frame));
@@ -64,24 +80,3 @@ export function shownPoses(state) {
 
 // The library's entry for method `name` ({jrmpc, pairs} say which stages it runs).
 export const methodInfo = (state, name) => state.methods.find((m) => m.name === name) ?? { name, jrmpc: false, pairs: false };
-
-// The box around the points of `state`'s scans, or null: placed by `poses` (sensor ->
-// row-major T_vehicle_sensor) when given, else in the sensor frames (near enough to frame the
-// view before a calibration); sensors in `hidden` left out.
-export function pointBounds(state, poses = null, hidden = new Set()) {
-  const min = [Infinity, Infinity, Infinity], max = [-Infinity, -Infinity, -Infinity];
-  for (const scan of state.scans) {
-    if (hidden.has(scan.sensor)) continue;
-    const p = scan.points;
-    const m = poses?.[scan.sensor] ?? [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0];
-    // Every 16th point is plenty to frame a view.
-    for (let i = 0; i + 2 < p.length; i += 48) {
-      for (let a = 0; a < 3; a++) {
-        const v = m[4 * a] * p[i] + m[4 * a + 1] * p[i + 1] + m[4 * a + 2] * p[i + 2] + m[4 * a + 3];
-        min[a] = Math.min(min[a], v);
-        max[a] = Math.max(max[a], v);
-      }
-    }
-  }
-  return Number.isFinite(min[0]) ? { min, max } : null;
-}

@@ -2,10 +2,13 @@
 // box, a grid. The camera and its orbit controls live here, on the main thread, where the pointer
 // events are; everything three.js draws lives in render-worker.js, which owns the canvas (see
 // there why). Every method posts one message; the worker renders on demand.
-import { PerspectiveCamera, Vector3 } from 'three';
+import { PerspectiveCamera, Raycaster, Vector2, Vector3 } from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { frame } from './view/framing.js';
 
 const INTERACTION_SETTLE_MS = 250;
+// From the framed box's centre towards the camera, per preset view.
+const DIRECTIONS = { default: [-1.3, -0.5, 0.7], top: [-0.001, 0, 1.6], side: [0, -1.6, 0.001], front: [-1.6, 0, 0.001] };
 
 export class Viewer {
   #canvas;
@@ -17,6 +20,9 @@ export class Viewer {
   #replies = new Map(); // request id -> resolve, for pick and snapshot
   #nextId = 1;
   #onScale;
+  #framed = null; // the box the last lookAt framed: preset views frame it again
+  #size = { width: 1, height: 1 }; // the canvas's CSS size, as the last resize gave it
+  #onCamera = new Set();
 
   // `onError(error)`: the renderer failed (no WebGL, a crashed worker). `onScale({mode, range,
   // missing})`: the colours were made (range [lo, hi] of the ramp, or null; the sensors
@@ -79,8 +85,10 @@ export class Viewer {
   #resize() {
     const { clientWidth: width, clientHeight: height } = this.#canvas;
     if (!width || !height) return;
+    this.#size = { width, height };
     this.#post({ type: 'size', width, height, pixelRatio: Math.min(window.devicePixelRatio, 2) });
     this.#camera.aspect = width / height;
+    this.#camera.updateProjectionMatrix();
     this.render();
   }
 
@@ -88,6 +96,7 @@ export class Viewer {
   render() {
     const { position, quaternion, aspect } = this.#camera;
     this.#post({ type: 'camera', position: position.toArray(), quaternion: quaternion.toArray(), aspect });
+    for (const listener of this.#onCamera) listener();
   }
 
   // Points (flat xyz, in the object's own frame; copied, the caller keeps them), their
@@ -128,9 +137,9 @@ export class Viewer {
     return hit;
   }
 
-  // The view, drawn in full, as a PNG blob.
-  async snapshot() {
-    const { blob } = await this.#ask({ type: 'snapshot' });
+  // The view, drawn in full, as a PNG blob, with `overlay` drawn over it (view/snapshot.js).
+  async snapshot(overlay = null) {
+    const { blob } = await this.#ask({ type: 'snapshot', overlay });
     return blob;
   }
 
@@ -139,9 +148,9 @@ export class Viewer {
     this.#post({ type: 'axes', id, length });
   }
 
-  // An axis-aligned box {min, max} as lines.
-  setBox(id, { min, max }, color = 0xffcc44) {
-    this.#post({ type: 'box', id, min, max, color });
+  // An axis-aligned box {min, max} as lines, with `handles` a square on each face's centre.
+  setBox(id, { min, max }, color = 0xffcc44, handles = false) {
+    this.#post({ type: 'box', id, min, max, color, handles });
   }
 
   // The reconstructed target (target.js builds it in the worker).
@@ -172,22 +181,56 @@ export class Viewer {
     this.#post({ type: 'clear' });
   }
 
-  // Looks at a box {min, max}: from behind (-x), a little to the right and above, or from
-  // `direction` ('top', 'side': from -y, 'front': from behind, along +x).
-  lookAt({ min, max }, direction = 'default') {
-    const centre = new Vector3(...min).add(new Vector3(...max)).multiplyScalar(0.5);
-    const size = Math.max(max[0] - min[0], max[1] - min[1], max[2] - min[2], 0.5);
-    const from = { default: [-1.3, -0.5, 0.7], top: [-0.001, 0, 1.6], side: [0, -1.6, 0.001], front: [-1.6, 0, 0.001] }[direction];
-    this.#controls.target.copy(centre);
-    this.#camera.position.copy(centre).add(new Vector3(...from).multiplyScalar(size));
+  // Frames a box {min, max}: the camera centred on it, as close as shows all of it, from
+  // behind (-x) a little to the right and above, or from `direction` ('top', 'side': from -y,
+  // 'front': from behind, along +x).
+  lookAt(box, direction = 'default') {
+    this.#framed = { min: [...box.min], max: [...box.max] };
+    const from = DIRECTIONS[direction] ?? DIRECTIONS.default;
+    const { target, position } = frame(box, from, this.#camera.fov, this.#camera.aspect || 1);
+    this.#controls.target.set(...target);
+    this.#camera.position.set(...position);
     this.#controls.update();
     this.render();
   }
 
-  // Looks from `direction` at what the view looks at now, as far off as now.
+  // Frames what was framed last (or what the view looks at now) from `direction`: every preset
+  // centres the data, however the user orbited or zoomed since.
   lookFrom(direction) {
+    if (this.#framed) return this.lookAt(this.#framed, direction);
     const target = this.#controls.target.clone();
-    const half = this.#camera.position.distanceTo(target) / 1.6 / 2;
+    const half = this.#camera.position.distanceTo(target) / 3;
     this.lookAt({ min: target.clone().subScalar(half).toArray(), max: target.clone().addScalar(half).toArray() }, direction);
+  }
+
+  // Canvas pixel (CSS, relative to the canvas) of each point ([x, y, z], vehicle frame), or
+  // null for one behind the camera.
+  project(points) {
+    // The size kept from the last resize: reading the canvas's would force a layout, and this
+    // runs after every change to the page (the handles follow the camera and the ROI).
+    const { width: w, height: h } = this.#size;
+    this.#camera.updateMatrixWorld();
+    return points.map((p) => {
+      const v = new Vector3(...p).project(this.#camera);
+      return v.z > 1 || v.z < -1 ? null : [((v.x + 1) / 2) * w, ((1 - v.y) / 2) * h];
+    });
+  }
+
+  // The ray under a canvas pixel (CSS, relative to the canvas): {origin, direction}.
+  ray(x, y) {
+    const { width: w, height: h } = this.#size;
+    const caster = new Raycaster();
+    caster.setFromCamera(new Vector2((x / w) * 2 - 1, 1 - (y / h) * 2), this.#camera);
+    return { origin: caster.ray.origin.toArray(), direction: caster.ray.direction.toArray() };
+  }
+
+  // Orbiting by the pointer on or off (off while a handle is dragged).
+  set orbiting(on) {
+    this.#controls.enabled = on;
+  }
+
+  // `listener()` runs after every camera change (the ROI's handles follow it).
+  onCamera(listener) {
+    this.#onCamera.add(listener);
   }
 }

@@ -2,7 +2,7 @@
 // the colour scale, preset views and focus, picking a point (its sensor, frame and vehicle
 // coordinates), measuring between two picks, and saving the view as PNG.
 import { sensorColour } from './display.js';
-import { rampCss } from './colouring.js';
+import { rampCss, rampStops } from './colouring.js';
 
 const CLICK_SLOP_PX = 4; // a press that moves further is an orbit, not a pick
 const SCALE_TITLES = {
@@ -15,8 +15,9 @@ const hex = (c) => `#${c.toString(16).padStart(6, '0')}`;
 const fmt = (p) => p.map((v) => v.toFixed(3)).join(', ');
 
 // `el`: the toolbar's elements by id; `focusBounds(key)`: the box to frame for a focus choice;
-// `onChange()`: redraw the view after a show/hide.
-export function initViewTools({ viewer, state, el, focusBounds, onChange, onError }) {
+// `onChange()`: redraw the view after a show/hide; `verdictLine()`: {level, text} of the result
+// shown, or null, for the PNG.
+export function initViewTools({ viewer, state, el, focusBounds, onChange, onError, verdictLine = () => null }) {
   let measuring = false;
   let picks = []; // [{sensor, frame, point}]
 
@@ -67,9 +68,21 @@ export function initViewTools({ viewer, state, el, focusBounds, onChange, onErro
     showPicks();
   });
 
+  // What the PNG carries besides the points: the verdict line, the sensors' legend (coloured by
+  // sensor) or the colour bar (coloured by a value), and what is shown.
+  const overlay = () => {
+    const byValue = !el.scale.hidden;
+    return {
+      verdict: verdictLine(),
+      legend: byValue ? [] : state.rig.sensors.map((name, i) => ({ name, colour: hex(sensorColour(i)) })).filter((s) => !state.hidden.has(s.name)),
+      scale: byValue ? { title: el.scaleTitle.textContent, lo: el.scaleLo.textContent, hi: el.scaleHi.textContent, stops: rampStops() } : null,
+      caption: state.results && state.show === 'after' ? 'after calibration' : 'before calibration (nominal extrinsics)',
+    };
+  };
+
   el.save.addEventListener('click', async () => {
     try {
-      const blob = await viewer.snapshot();
+      const blob = await viewer.snapshot(overlay());
       const url = URL.createObjectURL(blob);
       const a = Object.assign(document.createElement('a'), { href: url, download: 'gmmcalib-view.png' });
       a.click();
@@ -107,9 +120,15 @@ export function initViewTools({ viewer, state, el, focusBounds, onChange, onErro
       el.scaleHi.textContent = range ? `${range[1].toFixed(mode === 'intensity' ? 0 : 2)}${mode === 'distance' ? ' and beyond' : ''}` : '';
       el.scale.dataset.mode = mode;
     },
-    // Focus choices: everything, the ROI, each target fitted by the last result.
-    setTargets(fits) {
-      el.focus.replaceChildren(...[['', '…'], ['all', 'everything'], ['roi', 'the ROI'], ...fits.map((_, i) => [`target:${i}`, `target ${i + 1}`])].map(([v, t]) => new Option(t, v)));
+    // Focus choices: everything, the ROI (given, or the one the last result cropped to), each
+    // sensor, each target the last result fitted.
+    renderFocus() {
+      const roi = state.rig.roi ?? state.results?.[0]?.roi;
+      const fits = state.results?.[0]?.reconstruction.fits ?? [];
+      const choices = [['', '…'], ['all', 'everything'], ...(roi ? [['roi', 'the ROI']] : []),
+        ...state.rig.sensors.map((s) => [`sensor:${s}`, `sensor ${s}`]),
+        ...fits.map((_, i) => [`target:${i}`, fits.length === 1 ? 'the target' : `target ${i + 1}`])];
+      el.focus.replaceChildren(...choices.map(([v, t]) => new Option(t, v)));
     },
     clearPicks: () => setMeasuring(false),
   };

@@ -9,15 +9,14 @@ import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from 
 import { exportsOf, gmmcalibYaml, resultJson, targetPly } from '../src/exports.js';
 import { DEFAULTS, readHash } from '../src/url.js';
 import { rebuildRig } from '../src/state.js';
-import { MIN_MEASURED, StageClock, describeDone, describeProgress } from '../src/progress.js';
+import { MIN_MEASURED, RunProgress, StageClock, describeDone, describeProgress, describeTime, stagesOf } from '../src/progress.js';
 
 // The config reader is the library's, through the wasm package.
 initSync({ module: readFileSync(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
 
 // The stages each method runs, as the library's `methods()` lists them.
-const GMM = { jrmpc: true, pairs: true };
-const JRMPC = { jrmpc: true, pairs: false };
-const ICP = { jrmpc: false, pairs: true };
+const GMM = ['views', 'jrmpc', 'framePairs', 'finish'];
+const JRMPC = ['views', 'jrmpc', 'finish'];
 
 const close = (a, b, tol = 1e-12) => a.every((v, i) => Math.abs(v - b[i]) < tol);
 
@@ -87,7 +86,7 @@ test('GMMCalib config: nested and plain lists, our keys, errors naming file and 
   assert.equal(config.edge, 0.4);
   assert.equal(config.exact, null, 'not set');
   // The config's settings reach the page's: `exact: true` is the E-step setting's 'exact'.
-  const state = { scans: [{ sensor: 'sensor_1' }], rig: { sensors: [], nominal: {}, roi: null, reference: '' }, settings: { ...DEFAULTS } };
+  const state = { scans: [{ sensor: 'sensor_1', points: new Float32Array(3) }], rig: { sensors: [], nominal: {}, roi: null, reference: '' }, settings: { ...DEFAULTS } };
   rebuildRig(state, parseConfig('transform_sensor_1: [0, 0, 0, 1, 2, 3]\nmethod: jrmpc\ncomponents: 50\nexact: true\n', 'c.yaml'));
   assert.deepEqual([state.settings.method, state.settings.components, state.settings.estep], ['jrmpc', 50, 'exact']);
   rebuildRig(state, parseConfig('transform_sensor_1: [0, 0, 0, 1, 2, 3]\nexact: false\n', 'c.yaml'));
@@ -113,16 +112,18 @@ test('pose maths: rpy and quaternion of a matrix, inverse', () => {
 test('exports: YAML round trip, the ROS forms from the library, PLY, JSON with plain arrays', async () => {
   const extrinsic = matrixFromXyzRpy([2.3, -0.6, 1.6], [-0.35, 0.01, -0.02]);
   const result = {
-    sensors: [{ name: 'a', extrinsic: matrixFromXyzRpy([0, 0, 1], [0, 0, 0]) }, { name: 'b', extrinsic }],
+    sensors: [{ name: 'a', extrinsic: matrixFromXyzRpy([0, 0, 1], [0, 0, 0]) }, { name: 'b_frame', extrinsic }],
     reconstruction: { means: new Float32Array([1, 2, 3, 4, 5, 6]), sigmas: new Float32Array([0.1, 0.2]), priors: new Float32Array([0.5, 0]) },
   };
   const roi = { min: [1, -2, -0.5], max: [3, 2, 1] };
   const back = parseConfig(gmmcalibYaml(result, roi), 'out.yaml');
-  const b = back.nominal.b;
+  const b = back.nominal.b_frame;
   assert.ok(close(matrixFromXyzRpy(b.xyz, b.rpy), extrinsic, 1e-9));
   assert.deepEqual(back.roi, roi);
-  const items = await exportsOf(result, { roi, parent: 'base_link', frameIds: { b: 'b_frame' } }, async (e) => rosExports(e));
+  const items = await exportsOf(result, { roi, parent: 'base_link' }, async (e) => rosExports(e));
   const text = (key) => items.find((i) => i.key === key).text;
+  // One name per sensor in every export, the parent's name too.
+  assert.match(text('yaml'), /^transform_b_frame: {2}# b_frame -> base_link,/m);
   assert.deepEqual(items.map((i) => i.key), ['json', 'yaml', 'urdf', 'ros2', 'ros1', 'tfYaml', 'autoware', 'kitti', 'ply']);
   const joint = text('urdf').match(/<parent link="base_link"\/>\n\s*<child link="b_frame"\/>\n\s*<origin xyz="([^"]+)" rpy="([^"]+)"\/>/);
   assert.ok(joint && close(joint[1].split(' ').map(Number), [2.3, -0.6, 1.6], 1e-12) && close(joint[2].split(' ').map(Number), [-0.35, 0.01, -0.02], 1e-12), text('urdf'));
@@ -143,20 +144,61 @@ test('URL hash: known keys only, numbers checked, defaults otherwise', () => {
   assert.ok(!('evil' in s));
 });
 
-test('progress: the global stage, then JRMPC and the frame pairs fill one bar, each stage with its own wording and time left', () => {
+test('progress: every stage has its share of one bar, each with its own wording', () => {
   const em = { stage: 'jrmpc', iteration: 50, maxIterations: 100, meanSigma: 0.0123 };
   const pairs = { stage: 'framePairs', iteration: 3, maxIterations: 4, meanSigma: 0 };
-  assert.deepEqual(describeProgress(GMM, em, 5), { fraction: 0.4, text: 'JRMPC iteration 50/100, σ 1.23 cm, about 5.0 s left, then the frame pairs' });
-  assert.deepEqual(describeProgress(GMM, pairs, 1), { fraction: 0.95, text: 'frame pair 3/4, about 1.0 s left' });
+  const near = (a, b) => Math.abs(a - b) < 1e-12;
+  // gmm with a target, no global stage: views 0.3, JRMPC 0.42, pairs 0.15, finish 0.05.
+  const total = 0.3 + 0.42 + 0.15 + 0.05;
+  assert.ok(near(describeProgress(GMM, em).fraction, (0.3 + 0.21) / total));
+  assert.equal(describeProgress(GMM, em, 5).text, 'JRMPC iteration 50/100, σ 1.23 cm, about 5.0 s left, then the frame pairs');
+  assert.ok(near(describeProgress(GMM, pairs).fraction, (0.3 + 0.42 + 0.75 * 0.15) / total));
+  assert.equal(describeProgress(GMM, pairs, 1).text, 'frame pair 3/4, about 1.0 s left');
   assert.equal(describeProgress(GMM, pairs, null).text, 'frame pair 3/4');
-  assert.equal(describeProgress(JRMPC, em, 5).fraction, 0.5);
   assert.doesNotMatch(describeProgress(JRMPC, em, 5).text, /frame pairs/);
-  assert.equal(describeProgress(ICP, pairs, 3).fraction, 0.75);
-  assert.equal(describeProgress(GMM, { ...pairs, iteration: 0 }, null).text, 'frame pair 0/4');
   assert.equal(describeProgress(GMM, { ...pairs, iteration: 4 }, null).text, 'frame pair 4/4');
-  // The global stage comes before the bar's stages: the bar waits, the line counts sensors.
   const global = { stage: 'global', iteration: 1, maxIterations: 2, meanSigma: 0 };
-  assert.deepEqual(describeProgress(GMM, global, null), { fraction: 0, text: 'global alignment: 1 of 2 sensors aligned' });
+  assert.equal(describeProgress(['global', ...GMM], global).text, 'global alignment: 1 of 2 sensors aligned');
+  // Which stages a method runs: the library's list, the global setting, gmm without a target,
+  // and the two that report nothing.
+  const gmm = { name: 'gmm', jrmpc: true, pairs: true, global: true };
+  assert.deepEqual(stagesOf(gmm), ['global', 'views', 'jrmpc', 'framePairs', 'finish']);
+  assert.deepEqual(stagesOf(gmm, 'off'), ['views', 'jrmpc', 'framePairs', 'finish']);
+  assert.deepEqual(stagesOf(gmm, 'auto', 'none'), ['global', 'views', 'framePairs', 'finish']);
+  assert.deepEqual(stagesOf({ name: 'cad', jrmpc: false, pairs: false, global: true }), ['global', 'views', 'cad', 'finish']);
+  assert.deepEqual(stagesOf({ name: 'p2l', jrmpc: false, pairs: true, global: false }, 'on'), ['global', 'views', 'framePairs', 'finish']);
+});
+
+test('a run\'s time and bar: elapsed always, the time left once measured, the bar moving between messages and through the silent stages', () => {
+  const plan = ['global', 'views', 'framePairs', 'finish'];
+  const run = new RunProgress(new Map([['gmm', plan]]), 100);
+  assert.deepEqual(run.at(103), { fraction: 0, text: null, elapsed: 3, left: null });
+  const g = (iteration) => ({ method: 'gmm', stage: 'global', iteration, maxIterations: 3, meanSigma: 0 });
+  assert.equal(run.message(g(0), 101).left, null);
+  assert.equal(run.at(108).left, null, 'no sensor aligned yet: no estimate');
+  assert.ok(run.at(108).fraction > run.at(102).fraction, 'the bar creeps before any measure');
+  assert.ok(run.at(1000).fraction < describeProgress(plan, g(1)).fraction, 'never to the first sensor\'s mark');
+  const one = run.message(g(1), 110); // 9 s for the first sensor
+  assert.equal(one.left, 18);
+  assert.equal(run.at(114).left, 14, 'the estimate counts down');
+  assert.ok(run.at(114).fraction > one.fraction, 'the bar moves between messages');
+  assert.ok(run.at(150).fraction < describeProgress(plan, g(2)).fraction, 'never to the next sensor\'s mark');
+  assert.equal(describeTime(run.at(114)), '14.0 s elapsed, about 14 s left in this stage');
+  assert.equal(describeTime({ elapsed: 2.04, left: null }), '2.0 s elapsed');
+  // The global stage done: the silent views stage moves the bar and says what it does.
+  const done = run.message(g(3), 120);
+  assert.equal(done.text, 'global alignment: 3 of 3 sensors aligned; now levelling the grounds, the bird\'s-eye search and the crop to the ROI');
+  assert.ok(run.at(130).fraction > done.fraction && run.at(130).fraction < describeProgress(plan, { ...g(0), stage: 'framePairs', maxIterations: 2 }).fraction);
+  // Frame pairs: one pair is a measure.
+  const pair = (iteration) => ({ method: 'gmm', stage: 'framePairs', iteration, maxIterations: 3, meanSigma: 0 });
+  assert.equal(run.message(pair(0), 135).left, null, 'a new stage measures again');
+  assert.equal(run.message(pair(1), 141).left, 12);
+  assert.equal(run.at(141).text, 'frame pair 1/3');
+  assert.match(run.message(pair(3), 150).text, /^frame pair 3\/3; now the plane adjustment and the verdict$/);
+  // Before any message, with no global stage, the views come first and say so.
+  const icp = new RunProgress(new Map([['p2l', ['views', 'framePairs', 'finish']]]), 0);
+  assert.match(icp.at(5).text, /^levelling the grounds/);
+  assert.ok(icp.at(5).fraction > 0);
 });
 
 test('the time left comes from measured iterations, not from the setup before the first', () => {

@@ -60,9 +60,11 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.deepEqual(driven.history, direct.history);
   assert.deepEqual(Array.from(driven.reconstruction.means), Array.from(direct.reconstruction.means));
   assert.equal(progress.filter((p) => p.maxIterations === 30).length, direct.iterations);
-  // gmm's frame pairs come after EM's iterations, one progress each, however they are shared.
+  // gmm's frame pairs come after EM's iterations: their beginning (none done), then one
+  // progress each, however they are shared.
   const pairs = progress.filter((p) => p.maxIterations !== 30);
-  assert.equal(pairs.length, 3);
+  assert.deepEqual(pairs.map((p) => [p.stage, p.iteration]).sort(), [['framePairs', 0], ['framePairs', 1], ['framePairs', 2], ['framePairs', 3]]);
+  assert.equal(pairs[0].iteration, 0, 'the stage begins before its first pair is done');
   for (const workers of [2, 3]) {
     const shared = [];
     const result = await calibrateSharded(wasm, input(), workers, (p) => shared.push(p), inProcess);
@@ -70,7 +72,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
     assert.deepEqual(result.history, direct.history);
     assert.deepEqual(Array.from(result.reconstruction.means), Array.from(direct.reconstruction.means));
     assert.equal(result.workers, workers);
-    assert.equal(shared.filter((p) => p.maxIterations === pairs[0].maxIterations).length, 3);
+    assert.equal(shared.filter((p) => p.maxIterations === pairs[0].maxIterations).length, 4);
   }
   // A pool worker that fails mid-way fails the calibration with its message, once every loop
   // has stopped (none touches the freed session afterwards).

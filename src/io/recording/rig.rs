@@ -1,6 +1,8 @@
 //! A rig from a recording, the way the CLI's `calibrate --bag` and the page build it: the
 //! chosen point-cloud topics are the sensors, the chosen instants the frames, and each topic's
-//! frame id resolved through `/tf_static` (or a URDF) to the base frame its nominal.
+//! frame id resolved through `/tf_static` (or a URDF) to the base frame its nominal. A sensor is
+//! named by its topic's frame id, the name the tf tree, the URDF and every export give it (a
+//! topic's name where its frame id is empty or another chosen topic's too).
 
 use super::select::{Motion, Pick, Settings as Select};
 use super::tf::{Tree, TreeError};
@@ -38,15 +40,18 @@ impl Default for RigRequest<'_> {
 /// The rig a recording makes.
 #[derive(Clone, Debug)]
 pub struct RecordingRig {
-    /// Sensor = topic, frame = instant ("1", "2", ...).
+    /// Sensor = the topic's frame id ([`sensor_names`]), frame = instant ("1", "2", ...).
     pub scans: Vec<Scan>,
-    /// `T_base_frame` per topic; identity for every topic when there is no tree.
+    /// `T_base_frame` per sensor; identity for every sensor when there is no tree.
     pub nominal: Vec<(String, Pose)>,
+    /// The reference topic's sensor name.
     pub reference: String,
     /// The base frame the nominals are in.
     pub base: String,
     /// Per topic, its frame id.
     pub frames: Vec<(String, String)>,
+    /// Per topic, its sensor's name.
+    pub sensors: Vec<(String, String)>,
     /// The instants, with each other topic's offset from the reference (ns).
     pub picks: Vec<Pick>,
     pub motion: Motion,
@@ -170,26 +175,74 @@ impl Recording {
             (nominals(&tree, &base, &frames).map_err(RigError::Tree)?, base)
         };
         let label = self.file().to_string();
+        let sensors = sensor_names(&frames);
+        let name_of = |topic: &str| {
+            sensors.iter().find(|(t, _)| t == topic).map_or(topic.to_string(), |(_, n)| n.clone())
+        };
         let scans = scans
             .into_iter()
             .map(|s| Scan {
                 source: Some(format!("{label} {} message {}", s.topic, s.message)),
-                sensor: s.topic,
+                sensor: name_of(&s.topic),
                 frame: s.frame,
                 points: s.cloud.cloud.points,
             })
             .collect();
+        let nominal = nominal.into_iter().map(|(topic, pose)| (name_of(&topic), pose)).collect();
         Ok(RecordingRig {
             scans,
             nominal,
-            reference,
+            reference: name_of(&reference),
             base,
             frames,
+            sensors,
             picks: chosen.picks,
             motion: chosen.motion,
             identity_nominals,
             problems,
             left_out,
         })
+    }
+}
+
+/// Each topic's sensor name from its frame id (`(topic, frame_id)` in, `(topic, name)` out): the
+/// frame id without tf1's leading `/`, or the topic's own name where that is empty or shared
+/// with another topic (two topics of one LiDAR).
+pub fn sensor_names(frames: &[(String, String)]) -> Vec<(String, String)> {
+    let id = |frame: &str| frame.trim_start_matches('/').to_string();
+    frames
+        .iter()
+        .map(|(topic, frame)| {
+            let shared = frames.iter().filter(|(_, f)| id(f) == id(frame)).count() > 1;
+            let name = if id(frame).is_empty() || shared { topic.clone() } else { id(frame) };
+            (topic.clone(), name)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sensor_names;
+
+    #[test]
+    fn sensors_are_named_by_frame_id_unless_empty_or_shared() {
+        let pairs = |list: &[(&str, &str)]| -> Vec<(String, String)> {
+            list.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect()
+        };
+        let frames = pairs(&[
+            ("/lidar_1/points", "lidar_1"),
+            ("/lidar_2/points", "/lidar_2"),
+            ("/raw", "velodyne"),
+            ("/filtered", "velodyne"),
+            ("/bare", ""),
+        ]);
+        let want = pairs(&[
+            ("/lidar_1/points", "lidar_1"),
+            ("/lidar_2/points", "lidar_2"),
+            ("/raw", "/raw"),
+            ("/filtered", "/filtered"),
+            ("/bare", "/bare"),
+        ]);
+        assert_eq!(sensor_names(&frames), want);
     }
 }
