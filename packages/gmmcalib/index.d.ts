@@ -163,12 +163,45 @@ export interface CalibrationResult {
     placements: Placement[];
   };
   skipped: Note[];
-  keptJrmpc: Note[];
+  /** Per non-reference sensor, every stage's hypothesis scored on the whole scans, and the one chosen. */
+  selection: SensorSelection[];
   planeAdjustment: Note[];
   levelling: Levelling[];
   global: Record<string, unknown>[];
   roi: { min: Vec3; max: Vec3 };
   history: { meanSigma: number[]; maxChange: number[]; terms: number[] };
+}
+
+/** One sensor's hypotheses and the one chosen (docs/method.md, "Selection"). */
+export interface SensorSelection {
+  sensor: string;
+  /** Index of the chosen hypothesis. */
+  chosen: number;
+  hypotheses: Hypothesis[];
+}
+
+/** One placement a stage proposed. */
+export interface Hypothesis {
+  stage:
+    | 'nominal'
+    | 'global'
+    | 'levelled'
+    | 'jrmpc'
+    | 'cad'
+    | 'refinedFromNominal'
+    | 'refinedFromStart'
+    | 'refined'
+    | 'planes';
+  /** A global candidate's rank (0: the global stage's best overlay). */
+  rank: number | null;
+  /** The hypothesis it was refined from. */
+  parent: number | null;
+  /** On top of the nominal, row-major 4x4. */
+  correction: number[];
+  /** Share of the points landing on another sensor's surfaces (0..1). */
+  score: number;
+  /** Share of the points with another sensor's surface beside them (0..1). */
+  overlap: number;
 }
 
 /** With `method: 'all'`: a method that failed. */

@@ -104,6 +104,39 @@ function comparisonHtml(results, truth, failures) {
   return `<table class="compare">${head}${body.join('')}${failed.join('')}</table>`;
 }
 
+// A stage's name as the selection reports it, in words.
+const stageText = (h) => ({
+  nominal: 'nominal', global: `global candidate ${h.rank + 1}`, levelled: 'levelled start',
+  jrmpc: 'JRMPC', cad: 'CAD registration', refinedFromNominal: 'refined from the nominal',
+  refinedFromStart: 'refined from the start', refined: 'refined', planes: 'plane adjustment',
+})[h.stage] ?? h.stage;
+
+// How far a 4×4 row-major correction moves a sensor: rotation (deg) and translation (m).
+function moved(m) {
+  const angle = Math.acos(Math.min(1, Math.max(-1, (m[0] + m[5] + m[10] - 1) / 2)));
+  return [degrees(angle), Math.hypot(m[3], m[7], m[11])];
+}
+
+// Every stage's hypothesis per sensor, scored on the whole scans, the chosen first in the
+// summary: how the answer was decided.
+function selectionHtml(selection) {
+  if (!selection.length) return '';
+  const summary = selection.map((s) => {
+    const c = s.hypotheses[s.chosen];
+    return `${esc(s.sensor)}: ${stageText(c)} (${(100 * c.score).toFixed(1)} % land; nominal ${(100 * s.hypotheses[0].score).toFixed(1)} %)`;
+  }).join('; ');
+  const rows = selection.flatMap((s) => s.hypotheses.map((h, i) => {
+    const [deg, m] = moved(h.correction);
+    const chosen = i === s.chosen;
+    return `<tr${chosen ? ' class="chosen"' : ''} data-testid="hypothesis" data-sensor="${esc(s.sensor)}" data-stage="${h.stage}"${chosen ? ' data-chosen' : ''}>` +
+      `<td>${i === 0 ? esc(s.sensor) : ''}</td><td>${chosen ? '▶ ' : ''}${stageText(h)}</td>` +
+      `<td>${(100 * h.score).toFixed(1)} %</td><td>${(100 * h.overlap).toFixed(1)} %</td><td>${deg.toFixed(3)} deg / ${m.toFixed(3)} m</td></tr>`;
+  }));
+  return `<details class="selection" data-testid="selection"><summary>Selection: ${summary}</summary>
+    <p class="hint">Every stage proposes a placement; each is scored on the whole scans by the share of points landing on the other sensors' surfaces (and theirs on its), and the rule picks one: never below the nominal, the latest stage among those the scans cannot tell apart.</p>
+    <div class="table-wrap"><table class="compare"><tr><th>sensor</th><th>hypothesis</th><th>points landing</th><th>overlap</th><th>from the nominal</th></tr>${rows.join('')}</table></div></details>`;
+}
+
 // `results`: one report per method run; the first is shown in detail. `failures`: {method, error}
 // of the methods compared that failed. `parent`: the vehicle frame's name; `advice`: what the
 // page adds to the verdict ({html, actions}: what to do when no target was found).
@@ -126,12 +159,13 @@ export function renderResults(container, results, truth, failures = [], { parent
     ${verdictHtml(r, advice)}
     ${compared ? `<h3>The answer of ${esc(r.method)} (the first method that ran)</h3>` : ''}
     ${answerHtml(r, { truth, parent, warnings })}
+    ${selectionHtml(r.selection ?? [])}
     ${compared ? `<details class="compare-box" open><summary>All methods: ${results.length} ran${failures.length ? `, ${failures.length} failed` : ''}</summary><div class="table-wrap">${comparisonHtml(results, truth, failures)}</div></details>` : ''}
     <details class="more"><summary>More: 4×4 matrices and corrections, target fit, ground levelling, notes</summary>
       <p>reference ${esc(r.reference)}; ${targetText}</p>
       ${r.sensors.map((s) => sensorDetailHtml(s, r.reference, parent)).join('')}
       ${levellingHtml(r.levelling)}
-      ${notesHtml('views left out', r.skipped)}${notesHtml('refinement rejected, kept the JRMPC correction', r.keptJrmpc)}
+      ${notesHtml('views left out', r.skipped)}
       ${notesHtml('joint plane adjustment (every frame)', r.planeAdjustment ?? [])}
       <p class="hint">Notes read <i>sensor/frame: what happened</i>; frame <i>all</i> is a note on every frame of that sensor.</p>
     </details>`;
