@@ -167,7 +167,15 @@ fn calibrates_a_gmmcalib_folder_like_the_library() {
     assert!(fit["rms"].as_f64().is_some() && fit["size"].as_f64().is_some(), "{fit}");
     assert_eq!(fit["rotation"].as_array().map(Vec::len), Some(3));
     assert!(json["skipped"].as_array().unwrap().is_empty());
-    assert!(json["keptJrmpc"].as_array().is_some());
+    // Every stage's hypothesis, scored, and the one chosen, per non-reference sensor.
+    let selection = json["selection"].as_array().expect("the selection");
+    assert_eq!(selection.len(), lib.sensors.len() - 1);
+    for (s, mine) in selection.iter().zip(&lib.selection) {
+        assert_eq!(s["chosen"].as_u64(), Some(mine.chosen as u64));
+        let hypotheses = s["hypotheses"].as_array().unwrap();
+        assert_eq!(hypotheses[0]["stage"], "nominal");
+        assert_eq!(hypotheses.len(), mine.hypotheses.len());
+    }
 }
 
 #[test]

@@ -168,9 +168,10 @@ fn fast_estep_calibrates_as_the_dense_one() {
     // (rig, K, mixture started at the prior's size (else the bounding box), max iterations,
     // convergence test on)
     let rigs = [
-        // Partial views; converges after about 500 iterations.
+        // Partial views; converges within 600 iterations (seed 6 since the miscalibration turns
+        // the sensor about itself, issue 36: seed 3 no longer converges by then).
         (
-            RigSpec { frames: 3, partial: true, seed: 3, ..RigSpec::default() },
+            RigSpec { frames: 3, partial: true, seed: 6, ..RigSpec::default() },
             300,
             false,
             600,
@@ -214,7 +215,11 @@ fn fast_estep_calibrates_as_the_dense_one() {
             dense.iterations
         );
         if n == 0 {
-            assert!(dense.converged && dense.iterations < iterations, "rig 0 converges");
+            assert!(
+                dense.converged && dense.iterations < iterations,
+                "rig 0 converges: {} iterations",
+                dense.iterations
+            );
         }
         let evaluated: u64 = fast.history.iter().map(|h| h.terms).sum();
         let all: u64 = dense.history.iter().map(|h| h.terms).sum();

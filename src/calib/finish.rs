@@ -163,8 +163,14 @@ pub(super) fn finish(
             choose(&mut hypotheses, &mut chosen);
             for s in 0..sensors.len() {
                 per_pair[s] = frames[s][chosen[s]].clone();
-                if let Some((_, p)) = planes_at[s].filter(|(h, _)| *h == chosen[s]) {
-                    precision[s] = p;
+                // The plane adjustment's precision stands for the chosen when the score cannot
+                // tell the two apart.
+                if let Some((h, p)) = planes_at[s] {
+                    let at = |k: usize| hypotheses[s][k].correction * nominals[s];
+                    let resolution = scenes.resolution(s);
+                    if h == chosen[s] || scenes.apart(s, &at(h), &at(chosen[s])) <= resolution {
+                        precision[s] = p;
+                    }
                 }
             }
         }

@@ -168,6 +168,10 @@ pub struct Settings {
     pub gmm_multiresolution: bool,
     /// The selection among every stage's hypotheses (docs/method.md, "Selection").
     pub select: SelectSettings,
+    /// Refine only: trust the nominal, run no global stage, levelling, search from above or
+    /// JRMPC, and refine each frame pair from the nominal (then the plane adjustment and the
+    /// selection), so the result stays in the nominal's basin.
+    pub refine_only: bool,
 }
 
 impl Default for Settings {
@@ -193,6 +197,7 @@ impl Default for Settings {
             gmm_em_tolerance: 1e-4,
             gmm_multiresolution: false,
             select: SelectSettings::default(),
+            refine_only: false,
         }
     }
 }
@@ -246,15 +251,18 @@ pub struct Stages {
 impl Stages {
     pub fn of(settings: &Settings) -> Self {
         let method = settings.method;
+        let refine = settings.refine_only;
         // `cad` places its model on the reference's ground, as `gmm` levels onto it.
-        let level = settings.level_ground.unwrap_or(matches!(method, Method::Gmm | Method::Cad));
+        let level =
+            !refine && settings.level_ground.unwrap_or(matches!(method, Method::Gmm | Method::Cad));
         let pairs = match method {
             Method::Gmm => Some(settings.refine.clone()),
             Method::Icp(metric) => Some(PairSettings::from_nominal(metric, &settings.icp)),
             Method::Jrmpc | Method::Cad => None,
         };
         // `cad` finds its basin as `gmm` does: its EM alone holds no more than a few degrees.
-        let global = settings.align_globally.unwrap_or(matches!(method, Method::Gmm | Method::Cad));
+        let global = !refine
+            && settings.align_globally.unwrap_or(matches!(method, Method::Gmm | Method::Cad));
         Self {
             method,
             global: global.then(|| settings.global.clone()),
@@ -264,7 +272,7 @@ impl Stages {
             // `gmm` (OpenCalib's road: the scenes then disagree by degrees); the global stage
             // and the refinement do the work. Plain `jrmpc` still runs it, on the scene.
             jrmpc: match method {
-                Method::Gmm => settings.target != Target::None,
+                Method::Gmm => settings.target != Target::None && !refine,
                 Method::Jrmpc => true,
                 Method::Cad | Method::Icp(_) => false,
             },

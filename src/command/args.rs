@@ -8,6 +8,7 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
                           [--method gmm|jrmpc|cad|p2p|p2l|gicp|all] [--reference NAME]
                           [--target cube:EDGE|box:W,D,H|sphere:DIAMETER|mesh:PATH|none]
                           [--roi XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX] [--global on|off]
+                          [--level on|off] [--bev on|off] [--refine]
                           [--iterations N] [--components K] [--threads T] [--exact]
                           [--json OUT.json]
        gmmcalib calibrate --bag FILE [--topics /a,/b] [--reference /a] [--base-frame base_link]
@@ -66,6 +67,11 @@ pub struct CalibrateArgs {
     pub target: Option<String>,
     pub roi: Option<[f64; 6]>,
     pub global: Option<bool>,
+    /// Levelling onto the reference's ground, and the search from above after it.
+    pub level: Option<bool>,
+    pub bev: Option<bool>,
+    /// Refine only, from the nominal (`--refine`, a flag without a value).
+    pub refine: bool,
     /// A method name or `all`.
     pub method: Option<String>,
     pub reference: Option<String>,
@@ -122,7 +128,7 @@ pub fn flags(args: impl Iterator<Item = String>) -> Result<Option<Vec<(String, S
         if !arg.starts_with("--") {
             return Err(format!("unknown argument '{arg}' (see gmmcalib --help)"));
         }
-        if arg == "--notes" || arg == "--poses" || arg == "--exact" {
+        if ["--notes", "--poses", "--exact", "--refine"].contains(&arg.as_str()) {
             out.push((arg, "on".into()));
             continue;
         }
@@ -150,6 +156,9 @@ pub fn calibrate(flags: Vec<(String, String)>) -> Result<CalibrateArgs, String> 
             "--target" => out.target = Some(value),
             "--roi" => out.roi = Some(six(&flag, &value)?),
             "--global" => out.global = Some(on_off(&flag, &value)?),
+            "--level" => out.level = Some(on_off(&flag, &value)?),
+            "--bev" => out.bev = Some(on_off(&flag, &value)?),
+            "--refine" => out.refine = true,
             "--iterations" => out.iterations = Some(positive(&flag, &value)?),
             "--components" => out.components = Some(positive(&flag, &value)?),
             "--threads" => out.threads = Some(positive(&flag, &value)?),

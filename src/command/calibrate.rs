@@ -73,6 +73,11 @@ pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
     }
     settings.jrmpc.exact |= a.exact;
     settings.align_globally = a.global.or(settings.align_globally);
+    settings.level_ground = a.level.or(settings.level_ground);
+    if a.bev == Some(false) {
+        settings.bev = None;
+    }
+    settings.refine_only |= a.refine;
     settings.jrmpc.threads = a.threads.unwrap_or_else(|| host.threads());
 
     // 2. Scans, and the rig they make with the config: nominals from the config, else the

@@ -11,7 +11,7 @@
 //! # ours, all optional: reference, method (a name or "all"), components, iterations,
 //! # target (cube:EDGE, box:W,D,H, sphere:DIAMETER, mesh:PATH (relative to the config) or
 //! # none), target_edge (a cube's edge, m),
-//! # initial_sigma (m, or "prior" / "bbox"), exact (true: JRMPC's exact E-step)
+//! # initial_sigma (m, or "prior" / "bbox"), exact (true: JRMPC's exact E-step), refine (true: refine only, from the nominal)
 //! ```
 //!
 //! Rules: `transform_<name>` gives sensor `<name>`'s nominal (the data folder of that name);
@@ -63,6 +63,8 @@ pub struct Config {
     pub initial_sigma: Option<InitialSigma>,
     /// JRMPC's exact E-step ([`crate::jrmpc::EmSettings::exact`]).
     pub exact: Option<bool>,
+    /// Refine only, from the nominal ([`crate::calib::Settings::refine_only`]).
+    pub refine: Option<bool>,
 }
 
 impl Config {
@@ -126,6 +128,7 @@ impl Config {
             target_mesh,
             initial_sigma: initial_sigma(&map).map_err(fail)?,
             exact: boolean(&map, "exact").map_err(fail)?,
+            refine: boolean(&map, "refine").map_err(fail)?,
         })
     }
 
@@ -160,6 +163,9 @@ impl Config {
         }
         if let Some(exact) = self.exact {
             settings.jrmpc.exact = exact;
+        }
+        if let Some(refine) = self.refine {
+            settings.refine_only = refine;
         }
     }
 }

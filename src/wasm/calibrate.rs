@@ -75,6 +75,8 @@ pub(super) struct CalibrateInput {
     seed: Option<u64>,
     /// Global alignment before the local pipeline: absent, only for `gmm`.
     align_globally: Option<bool>,
+    /// Refine only, from the nominal.
+    refine: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -249,6 +251,7 @@ pub(super) fn rig_and_settings(
     settings.jrmpc.exact = input.exact.unwrap_or(settings.jrmpc.exact);
     settings.seed = input.seed.unwrap_or(settings.seed);
     settings.align_globally = input.align_globally;
+    settings.refine_only = input.refine.unwrap_or(settings.refine_only);
     if let Some(sigma) = input.initial_sigma {
         settings.initial_sigma = match sigma {
             InitialSigmaInput::Fixed(s) => InitialSigma::fixed(s),

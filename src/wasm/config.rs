@@ -30,6 +30,8 @@ struct ConfigOutput {
     initial_sigma: Option<SigmaOutput>,
     /// JRMPC's exact E-step.
     exact: Option<bool>,
+    /// Refine only, from the nominal.
+    refine: Option<bool>,
 }
 
 /// The initial width as the page's settings hold it: a width (m), `"prior"` or `"bbox"`.
@@ -71,6 +73,7 @@ pub fn parse_config(text: &str, file_name: &str) -> Result<JsValue, JsError> {
             .or_else(|| c.target_mesh.as_ref().map(|path| format!("mesh:{path}"))),
         initial_sigma,
         exact: c.exact,
+        refine: c.refine,
     })
 }
 

@@ -61,7 +61,7 @@ export function stagesOf(info, globalSetting = 'auto', target = '') {
   if (global) stages.push('global');
   stages.push('views');
   if (info.name === 'cad') stages.push('cad');
-  else if (info.jrmpc && !(info.name === 'gmm' && target === 'none')) stages.push('jrmpc');
+  else if (info.jrmpc && !(info.name === 'gmm' && (target === 'none' || globalSetting === 'refine'))) stages.push('jrmpc');
   if (info.pairs) stages.push('framePairs');
   stages.push('finish');
   return stages;

@@ -24,6 +24,7 @@ async function calibrateInput(state) {
     target: targetInput(s.target),
     targetMesh: s.target.startsWith('mesh:') ? meshInput(state.targetMesh) : undefined,
     alignGlobally: { on: true, off: false }[s.global],
+    refine: s.global === 'refine',
     components: s.components,
     iterations: s.iterations,
     initialSigma: s.initialSigma,

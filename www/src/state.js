@@ -52,6 +52,9 @@ export function rebuildRig(state, config = {}) {
   // `exact` is a choice of the E-step setting.
   if (config.exact === true) state.settings.estep = 'exact';
   if (config.exact === false && state.settings.estep === 'exact') state.settings.estep = DEFAULTS.estep;
+  // `refine` is a choice of the global alignment setting.
+  if (config.refine === true) state.settings.global = 'refine';
+  if (config.refine === false && state.settings.global === 'refine') state.settings.global = DEFAULTS.global;
 }
 
 // The sensor with the most points (the first such in natural order), or null: the reference

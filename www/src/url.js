@@ -9,7 +9,7 @@ export const DEFAULTS = Object.freeze({
   components: 400,
   iterations: 100,
   target: 'cube:0.5', // the target: cube:EDGE | box:W,D,H | sphere:DIAMETER | none (m)
-  global: 'auto', // global alignment first: auto (gmm only) | on | off
+  global: 'auto', // global alignment first: auto (gmm only) | on | off | refine (refine only, from the nominal)
   initialSigma: 'bbox', // bbox | prior
   workers: 'auto', // auto | 1 | 2 | 4 | 8: workers sharing JRMPC's E-step
   estep: 'auto', // auto | gpu | cpu | exact: where JRMPC's E-step runs (gpu-estep.js), or exact

@@ -59,6 +59,9 @@ pub struct PlaneSettings {
     pub iterations: usize,
     /// A sensor motion beyond this (rad, m) is rejected: the refinement stays.
     pub max_departure: (f64, f64),
+    /// Edge (m) of the patches of a plane whose residuals the precision takes as one: what
+    /// the plane model misses is shared by neighbouring points.
+    pub patch: f64,
     pub seed: u64,
 }
 
@@ -78,6 +81,7 @@ impl Default for PlaneSettings {
             robust_scale: 0.03,
             iterations: 10,
             max_departure: (0.2f64.to_radians(), 0.02),
+            patch: 1.0,
             seed: 0,
         }
     }

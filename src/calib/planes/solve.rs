@@ -84,7 +84,7 @@ pub(super) fn solve(
         }
     }
     let at = Linearisation::new(planes, motions, slot, *pivot, scale2);
-    solution.covariance = covariance(observations, &at);
+    solution.covariance = covariance(observations, &at, settings.patch);
     solution
 }
 
@@ -187,28 +187,45 @@ fn normal_equations(terms: &[Term], at: &Linearisation) -> Normal {
     normal
 }
 
-/// The motions' covariance at the solution, `S^-1 (sum w^2 r^2 j j^T) S^-1` with `j` each
-/// observation's Jacobian once its plane is eliminated (`j_a - B D^-1 j_d`): the sandwich
-/// form, because the residuals' variance differs from point to point (range noise moves a
-/// point along its beam, so a face seen head-on scatters more than the ground at a grazing
-/// angle) and one variance for all would misjudge every axis.
-fn covariance(observations: &[Observation], at: &Linearisation) -> Option<DMatrix<f64>> {
+/// The motions' covariance at the solution, `S^-1 (sum_c g_c g_c^T) S^-1` with `g_c` the sum of
+/// `w r j` over the points of patch `c` (`patch` m square cells of each plane) and `j` each
+/// observation's Jacobian once its plane is eliminated (`j_a - B D^-1 j_d`): the sandwich form
+/// with its meat summed by patch (cluster-robust). Per point, it would take every residual as
+/// independent noise; on a real surface neighbouring residuals share what the plane model
+/// misses (a crowned road, a bent wall, a sensor's range bias there), and counted point by
+/// point those would seem to pin a direction far better than they do.
+fn covariance(
+    observations: &[Observation],
+    at: &Linearisation,
+    patch: f64,
+) -> Option<DMatrix<f64>> {
+    use std::collections::BTreeMap;
     let terms = at.terms(observations);
     let normal = normal_equations(&terms, at);
     let Reduced { s, inverses, .. } = reduced(&normal)?;
     let s_inverse = s.try_inverse()?;
     let coupling: Vec<_> = normal.b.iter().zip(&inverses).map(|(b, inverse)| b * inverse).collect();
     let unknowns = s_inverse.nrows();
-    let mut meat = DMatrix::<f64>::zeros(unknowns, unknowns);
-    for term in &terms {
+    let mut clusters: BTreeMap<(usize, i64, i64), DVector<f64>> = BTreeMap::new();
+    for (term, o) in terms.iter().zip(observations) {
         let mut j = -(&coupling[term.plane] * term.j_d);
         if let Some((base, j_a)) = term.j_a {
             for (i, ji) in j_a.iter().enumerate() {
                 j[base + i] += ji;
             }
         }
-        let scale = (term.weight * term.residual).powi(2);
-        meat.syger(scale, &j, &j, 1.0);
+        let plane = &at.planes[term.plane];
+        let (u, v) = at.bases[term.plane];
+        let q = (at.motions[o.sensor] * Point3::from(o.point)).coords - plane.centre;
+        let cell = ((u.dot(&q) / patch).floor() as i64, (v.dot(&q) / patch).floor() as i64);
+        let sum = clusters
+            .entry((term.plane, cell.0, cell.1))
+            .or_insert_with(|| DVector::zeros(unknowns));
+        sum.axpy(term.weight * term.residual, &j, 1.0);
+    }
+    let mut meat = DMatrix::<f64>::zeros(unknowns, unknowns);
+    for g in clusters.values() {
+        meat.syger(1.0, g, g, 1.0);
     }
     Some(&s_inverse * meat * &s_inverse)
 }

@@ -27,6 +27,7 @@
 
 mod score;
 mod surface;
+pub use surface::Surface;
 
 use serde::{Deserialize, Serialize};
 
@@ -74,7 +75,7 @@ impl Default for SelectSettings {
             max_points: 20_000,
             neighbours: 10,
             min_extent: 0.02,
-            min_noise: 0.003,
+            min_noise: 0.01,
             max_noise: 0.1,
             samples: 3000,
             frames: 2,

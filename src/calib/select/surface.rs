@@ -94,7 +94,8 @@ impl Surface {
                 noise[i] = thickness.max(settings.min_noise) as f32;
             }
         }
-        let on_plane = dominant_plane(&points, &normals, 2.0 * voxel);
+        // Wide enough for a crowned road's slope over the scan, yet below a target's top.
+        let on_plane = dominant_plane(&points, &normals, (2.0 * voxel).max(0.3));
         let (mut samples, mut classes) = (Vec::new(), Vec::new());
         for class in [0u8, 1] {
             let members: Vec<usize> =
@@ -125,16 +126,20 @@ impl Surface {
 
 /// Which points lie on the scan's dominant plane: of planes through a strided sample of
 /// points along their normals, the one most points lie on (within `band` m, their own normal
-/// within 20 deg of its). Deterministic; all false when no point has a normal.
+/// within 20 deg of its); then every point within `band` of it whose normal agrees or which has
+/// none (far ground seen as separate rings has no normal, yet holds only what the ground
+/// holds: tilt and height). Deterministic; all false when no point has a normal.
 fn dominant_plane(points: &[[f32; 3]], normals: &[Option<Vector3<f64>>], band: f64) -> Vec<bool> {
     const CANDIDATES: usize = 200;
     let parallel = 20f64.to_radians().cos();
     let at = |i: usize| Vector3::from(points[i].map(f64::from));
     let with_normal: Vec<usize> = (0..points.len()).filter(|&i| normals[i].is_some()).collect();
-    let on = |c: usize, i: usize| -> bool {
-        let (Some(n), Some(m)) = (normals[c], normals[i]) else { return false };
-        n.dot(&m).abs() >= parallel && n.dot(&(at(i) - at(c))).abs() <= band
+    let near = |c: usize, i: usize| -> Option<bool> {
+        let n = normals[c]?;
+        let within = n.dot(&(at(i) - at(c))).abs() <= band;
+        Some(within && normals[i].is_none_or(|m| n.dot(&m).abs() >= parallel))
     };
+    let on = |c: usize, i: usize| normals[i].is_some() && near(c, i) == Some(true);
     let stride = with_normal.len().div_ceil(CANDIDATES).max(1);
     // Counted on a strided subset, then the winner labels every point.
     let check: Vec<usize> =
@@ -145,7 +150,7 @@ fn dominant_plane(points: &[[f32; 3]], normals: &[Option<Vector3<f64>>], band: f
         .step_by(stride)
         .max_by_key(|&c| (check.iter().filter(|&&i| on(c, i)).count(), std::cmp::Reverse(c)));
     match best {
-        Some(c) => (0..points.len()).map(|i| on(c, i)).collect(),
+        Some(c) => (0..points.len()).map(|i| near(c, i) == Some(true)).collect(),
         None => vec![false; points.len()],
     }
 }
