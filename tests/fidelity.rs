@@ -58,7 +58,11 @@ fn holds_the_rule(
             calib::calibrate(&rig, settings, |_| Control::Continue).expect("calibration")
         };
         let (a, b) = (run(exact), run(approximate));
-        assert_eq!(a.verdict.level, b.verdict.level, "{what}, {rig_name}");
+        assert_eq!(
+            a.verdict.level, b.verdict.level,
+            "{what}, {rig_name}: {:#?} against {:#?}",
+            a.verdict, b.verdict
+        );
         for (x, y) in a.sensors.iter().zip(&b.sensors) {
             let d = x.extrinsic.inverse() * y.extrinsic;
             let (deg, mm) = (d.rotation.angle().to_degrees(), d.translation.vector.norm() * 1e3);

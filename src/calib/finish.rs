@@ -62,10 +62,7 @@ pub(super) fn finish(
 
     // Each later stage's hypotheses: the registration's, then each start's refinement.
     let mut add = |s: usize, source: Source, parent: usize, per_frame: PairCorrections| {
-        let Some((mean, _)) = average(&per_frame.iter().map(|(_, c)| *c).collect::<Vec<_>>())
-        else {
-            return None;
-        };
+        let (mean, _) = average(&per_frame.iter().map(|(_, c)| *c).collect::<Vec<_>>())?;
         let correction = mean * levelled[s];
         hypotheses[s].push(Hypothesis::new(source, correction, Some(parent)));
         frames[s].push(per_frame);
@@ -247,6 +244,11 @@ pub(super) fn finish(
     let count = |notes: &[Note], sensor: &str, kinds: &dyn Fn(&NoteKind) -> bool| {
         notes.iter().filter(|n| n.sensor == sensor && kinds(&n.kind)).count()
     };
+    // Each sensor's ground against the others', patch by patch, at the result.
+    let placed: Vec<Pose> = results.iter().map(|r| r.extrinsic).collect();
+    let grounds: Vec<_> = (0..results.len())
+        .map(|s| ground.filter(|_| s != r).and_then(|g| scenes.ground_agreement(s, &placed, &g)))
+        .collect();
     let mut sensor_verdicts = Vec::with_capacity(results.len());
     for (s, result) in results.iter().enumerate() {
         let name = &result.name;
@@ -267,6 +269,7 @@ pub(super) fn finish(
                     matches!(k, NoteKind::FrameOutlier { .. } | NoteKind::PairFailed { .. })
                 }),
                 selection: selection.iter().find(|x| x.sensor == *name),
+                ground: grounds[s],
                 z: settings.select.z,
                 empty: count(&skipped, name, &|k| matches!(k, NoteKind::NoValidPoints)),
                 same_scans: same_scans.iter().find(|(a, _)| a == name).map(|(_, b)| b.clone()),

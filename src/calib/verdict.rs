@@ -11,8 +11,15 @@ use super::evidence::{Agreement, Observability, SensorEvidence};
 use super::global::{GlobalAlignment, GlobalSkip};
 use super::notes::{BevWarning, LevellingSkipped};
 use super::result::SensorResult;
-use super::select::{SensorSelection, Source};
+use super::select::{GroundAgreement, SensorSelection, Source};
 use crate::target::{ShapeFit, Target};
+
+/// What `good` promises: within this (rad, m) of the truth. What `check` promises: within
+/// `USABLE`; beyond it a result must read `failed` (issue 37).
+pub const GOOD_WITHIN: (f64, f64) = (0.1 * std::f64::consts::PI / 180.0, 0.01);
+pub const USABLE_WITHIN: (f64, f64) = (1.0 * std::f64::consts::PI / 180.0, 0.1);
+/// Fewest ground patches seen by two sensors to judge their grounds by.
+pub const MIN_GROUND_PATCHES: usize = 3;
 
 /// Below this share of a sensor's compared points overlapping the reference's surfaces, the
 /// result has nothing to stand on (the twin: 0.28 or more; OpenCalib's raw guess: 0.00).
@@ -115,6 +122,9 @@ pub enum ReasonKind {
     FarFromNominal { angle: f64, distance: f64, supported: bool },
     /// The global alignment was not applied to this sensor: why.
     GlobalSkipped(GlobalSkip),
+    /// Where this sensor and another see the same patches of ground, their grounds lie `height`
+    /// (m) and `tilt` (rad) apart (medians over `patches` patches).
+    GroundApart { patches: usize, height: f64, tilt: f64 },
     /// The sensor sits where `other` sits: one sensor twice, or one sensor's frames as sensors.
     SamePlace { other: String, angle: f64, distance: f64 },
     /// A scan of this sensor is a scan of `other`.
@@ -165,6 +175,8 @@ pub(super) struct SensorInputs<'a> {
     pub left_out: usize,
     /// The selection among the stages' hypotheses, and the `z` it decided with.
     pub selection: Option<&'a SensorSelection>,
+    /// Its ground against the others', patch by patch.
+    pub ground: Option<GroundAgreement>,
     pub z: f64,
     pub empty: usize,
     pub same_scans: Option<String>,
@@ -202,6 +214,17 @@ pub(super) fn judge_sensor(inputs: SensorInputs, others: &[&SensorResult]) -> Se
     }
     if let Some(selection) = inputs.selection {
         judge_selection(selection, inputs.z, &mut say);
+    }
+    if let Some(g) = inputs.ground.filter(|g| g.patches >= MIN_GROUND_PATCHES) {
+        let beyond = |(angle, distance): (f64, f64)| g.tilt > angle || g.height > distance;
+        let level = if beyond(USABLE_WITHIN) {
+            Level::Failed
+        } else if beyond(GOOD_WITHIN) {
+            Level::Check
+        } else {
+            Level::Good
+        };
+        say(level, ReasonKind::GroundApart { patches: g.patches, height: g.height, tilt: g.tilt });
     }
     if let Some(w) = inputs.warning {
         say(Level::Check, ReasonKind::Search(w));
@@ -250,8 +273,10 @@ fn judge_selection(selection: &SensorSelection, z: f64, say: &mut impl FnMut(Lev
         let d = chosen.correction.inverse() * rival.correction;
         let (angle, distance) = (d.rotation.angle(), d.translation.vector.norm());
         let (share, chosen) = (rival.score.value(), chosen.score.value());
+        // Another placement the scans cannot rule out, beyond the refinement's reach: the result
+        // may be that far off.
         say(
-            Level::Check,
+            Level::Failed,
             ReasonKind::Rival { source: rival.source, angle, distance, share, chosen },
         );
     }
@@ -343,12 +368,20 @@ pub(super) fn judge_reconstruction(
     converged: Option<(bool, usize)>,
 ) -> Vec<Reason> {
     let mut reasons = Vec::new();
+    // A target shape was given and none stands out: the region holds no such target (a road
+    // scene with the default cube), so the registration had nothing it was told to expect.
     if reconstructed && fits.is_empty() {
-        reasons.push(Reason { level: Level::Good, kind: ReasonKind::NoTarget });
+        let level = if target.size().is_some() { Level::Check } else { Level::Good };
+        reasons.push(Reason { level, kind: ReasonKind::NoTarget });
     }
+    // Every target found fits badly: blurred, the views did not come together on any. One
+    // half-seen target among sharp ones says nothing of the calibration.
+    let blurred = !fits.is_empty() && fits.iter().all(|f| ReasonKind::fits_badly(target, f));
     for fit in fits {
+        let level =
+            if blurred && ReasonKind::fits_badly(target, fit) { Level::Check } else { Level::Good };
         reasons.push(Reason {
-            level: Level::Good,
+            level,
             kind: ReasonKind::TargetFit { target: target.clone(), fit: *fit },
         });
     }

@@ -13,7 +13,7 @@ use super::pairs::{FramePairs, PairCorrections, PairIcp, PairStart};
 use super::placed::{self, place_targets, roi_around_targets};
 use super::region;
 use super::result::Levelling;
-use super::select::{self, Hypothesis, Scenes, Source};
+use super::select::{self, FrameScans, Hypothesis, Scenes, Source};
 use super::settings::{InitialSigma, Settings, Stages};
 use super::{CalibError, Rig};
 use crate::cloud::{Aabb, Cloud};
@@ -523,7 +523,7 @@ fn roots(global: Option<&GlobalAlignment>) -> Vec<Hypothesis> {
 }
 
 /// Each sensor's scans, frame by frame, in its own frame: (frame name, points).
-fn frame_scans<'a>(rig: &'a Rig, sensors: &[String]) -> Vec<Vec<(&'a str, &'a [[f32; 3]])>> {
+fn frame_scans<'a>(rig: &'a Rig, sensors: &[String]) -> Vec<FrameScans<'a>> {
     sensors
         .iter()
         .map(|name| {

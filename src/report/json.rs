@@ -473,6 +473,11 @@ impl From<&Reason> for ReasonReport {
                 ("supported", Number(f64::from(u8::from(*supported)))),
             ],
             ReasonKind::GlobalSkipped(_) => vec![],
+            ReasonKind::GroundApart { patches, height, tilt } => vec![
+                ("patches", Number(*patches as f64)),
+                ("height", Number(*height)),
+                ("tilt", Number(*tilt)),
+            ],
             ReasonKind::SamePlace { other, angle, distance } => vec![
                 ("other", Text(other.clone())),
                 ("angle", Number(*angle)),

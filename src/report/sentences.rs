@@ -250,6 +250,13 @@ impl fmt::Display for ReasonKind {
                 deg(*angle)
             ),
             ReasonKind::GlobalSkipped(why) => write!(f, "not aligned globally: {why}"),
+            ReasonKind::GroundApart { patches, height, tilt } => write!(
+                f,
+                "where it and another sensor see the same ground ({patches} patches of 2 m), \
+                 the grounds lie {:.1} mm and {:.3} deg apart (medians)",
+                1e3 * height,
+                deg(*tilt)
+            ),
             ReasonKind::SamePlace { other, angle, distance } => write!(
                 f,
                 "this sensor sits where {other} sits ({:.1} mm, {:.3} deg apart): the same \
@@ -332,6 +339,7 @@ impl ReasonKind {
             ReasonKind::WorseThanNominal { .. } => "worseThanNominal",
             ReasonKind::FarFromNominal { .. } => "farFromNominal",
             ReasonKind::GlobalSkipped(_) => "globalSkipped",
+            ReasonKind::GroundApart { .. } => "groundApart",
             ReasonKind::SamePlace { .. } => "samePlace",
             ReasonKind::SameScans { .. } => "sameScans",
             ReasonKind::EmptyScans { .. } => "emptyScans",

@@ -25,14 +25,16 @@
 //! So a result never scores worse than its nominal, and when nothing beats the nominal the
 //! nominal is the answer.
 
+mod ground;
 mod score;
 mod surface;
 pub use surface::Surface;
 
 use serde::{Deserialize, Serialize};
 
-pub use score::Scenes;
+pub use ground::GroundAgreement;
 pub use score::SensorScore;
+pub use score::{FrameScans, Scenes};
 
 use crate::se3::Pose;
 

@@ -111,12 +111,15 @@ fn erf(x: f64) -> f64 {
     (1.0 - poly * (-x * x).exp()).copysign(x)
 }
 
+/// One sensor's scans, frame by frame: (frame name, points in the sensor's frame).
+pub type FrameScans<'a> = Vec<(&'a str, &'a [[f32; 3]])>;
+
 impl Scenes {
     /// Surfaces of each sensor's scans of up to `settings.frames` frames, spread over the
     /// reference's (`scans[s]`: sensor s's (frame name, points in its own frame), in the rig's
     /// order).
     pub fn new(
-        scans: &[Vec<(&str, &[[f32; 3]])>],
+        scans: &[FrameScans],
         reference: usize,
         settings: &SelectSettings,
         threads: usize,
@@ -153,6 +156,11 @@ impl Scenes {
             self.compare(source, target, t_target_source, &mut score)
         });
         score
+    }
+
+    /// Sensor `s`'s scored frames: (frame name, surface).
+    pub(super) fn frames_of(&self, s: usize) -> impl Iterator<Item = (&str, &Surface)> {
+        self.surfaces.get(s).into_iter().flatten().map(|(f, surface)| (f.as_str(), surface))
     }
 
     /// Sensor `s`'s scored surfaces.
