@@ -10,8 +10,9 @@
 pub mod cloud;
 pub mod plane;
 pub mod se3;
-// Decoding.
+// Decoding, and which file is which sensor and frame.
 pub mod io;
+pub mod layout;
 // Engines and the target.
 pub mod cad;
 pub mod icp;

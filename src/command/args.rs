@@ -22,8 +22,9 @@ pub const HELP: &str = "\
   calibrate: prints the verdict first (good, check or failed, with the reasons); exit status
   0 when it calibrated, 2 when it calibrated but the verdict is failed (every method's, with
   --method all): do not use that extrinsic; 1 on an error.
-  DIR holds one folder per sensor (sensor_1, sensor_2, ...), each with frames
-  1.pcd, 2.pcd, ... (.pcd, .ply or .bin); frames pair across sensors by file stem. Or
+  DIR holds one folder per sensor (sensor_1/, or any name: up/, down/), each with frames
+  1.pcd, 2.pcd, ... (.pcd, .ply or .bin), or loose files <sensor>_<frame>.pcd; frames pair
+  across sensors by file stem, else by the nearest timestamp (stems that are numbers). Or
   OpenCalib's layout: lidar_cloud_path.txt naming each device's file, and its guess
   initial_extrinsic.txt. Nominals come from CONFIG.yaml (6 numbers [roll, pitch, yaw, x, y,
   z], 7 [x, y, z, qx, qy, qz, qw] or 16, a 4x4 row-major), else from OpenCalib's guess, else
@@ -34,10 +35,10 @@ pub const HELP: &str = "\
   not depend on it). --exact: JRMPC's E-step as the paper states it, every point against
   every component in double precision (config: exact: true); 7-13x slower, and within
   1e-5 rad of the default's calibration on the twin rigs.
-  --bag: a recording (MCAP, ROS 1 .bag, rosbag2 .db3) instead of --data: sensors are its
-  point-cloud topics (PointCloud2 or Livox CustomMsg; default: all), frames are N instants
-  (default 10) spread over it where every topic has a scan within 20 ms of the reference's
-  (the first topic unless --reference).
+  --bag: a recording (MCAP, ROS 1 .bag, rosbag2 .db3, or a rosbag2 bag's folder) instead
+  of --data: sensors are its point-cloud topics (PointCloud2 or Livox CustomMsg; default:
+  all), frames are N instants (default 10) spread over it where every topic has a scan
+  within 20 ms of the reference's (the first topic unless --reference).
   Nominals T_base_frame come from --urdf (joint origins) or /tf_static, resolved for each
   topic's frame_id to --base-frame (default base_link, else the tree's root). --export prints
   the corrected extrinsics (parent the base frame, child each frame id) in that form; urdf

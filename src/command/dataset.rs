@@ -1,17 +1,14 @@
-//! The data layouts `calibrate` reads: GMMCalib's, `DIR/sensor_N/<frame>.{pcd,ply,bin}`
-//! (sensors and frames ordered naturally, `sensor_2` before `sensor_10`; a scan's sensor is its
-//! folder name and its frame the file stem, so frames pair across sensors by stem); and
-//! OpenCalib's, `lidar_cloud_path.txt` naming each device's file (one frame per device) beside
-//! its guess, `initial_extrinsic.txt`.
-
-use std::cmp::Ordering;
+//! The data folders `calibrate` reads: the scan files in it and its folders, placed by
+//! [`crate::layout`] (GMMCalib's `sensor_N/<frame>.pcd`, a folder per sensor under any name,
+//! loose `<sensor>_<frame>` files, as the page takes them); and OpenCalib's,
+//! `lidar_cloud_path.txt` naming each device's file (one frame per device) beside its guess,
+//! `initial_extrinsic.txt`.
 
 use super::{EntryKind, Host, join, read_text};
 use crate::calib::Scan;
 use crate::io::{opencalib, parse_cloud};
+use crate::layout::{self, LayoutError};
 use crate::se3::Pose;
-
-const EXTENSIONS: [&str; 3] = ["pcd", "ply", "bin"];
 
 /// What a data folder holds: its scans, and the nominals its layout gives (OpenCalib's guess).
 pub struct Dataset {
@@ -52,97 +49,52 @@ fn scan(host: &mut dyn Host, sensor: String, frame: String, file: String) -> Res
     Ok(Scan { sensor, frame, points: parsed.cloud.points, source: Some(file) })
 }
 
-/// Every scan under `dir`, sensor by sensor, frames in natural order.
+/// Every scan under `dir` (its files and its folders' files), placed by [`layout::place`],
+/// with how frames were paired said on stderr.
 fn read_scans(host: &mut dyn Host, dir: &str) -> Result<Vec<Scan>, String> {
-    let mut views = Vec::new();
-    for (sensor, folder) in sensor_folders(host, dir)? {
-        for (frame, file) in frame_files(host, &folder)? {
-            views.push(scan(host, sensor.clone(), frame, file)?);
-        }
-    }
-    Ok(views)
-}
-
-/// `(name, path)` of the `sensor_*` folders in `dir`, naturally ordered.
-fn sensor_folders(host: &mut dyn Host, dir: &str) -> Result<Vec<(String, String)>, String> {
-    let mut folders = Vec::new();
-    for name in host.list(dir).map_err(|e| format!("{dir}: {e}"))? {
-        let path = join(dir, &name);
-        if name.starts_with("sensor_") && host.kind(&path) == EntryKind::Dir {
-            folders.push((name, path));
-        }
-    }
-    if folders.is_empty() {
-        return Err(format!("{dir}: no sensor folders (sensor_1, sensor_2, ...)"));
-    }
-    folders.sort_by(|a, b| natural(&a.0, &b.0));
-    Ok(folders)
-}
-
-/// `(stem, path)` of the point-cloud files in `folder`, naturally ordered by stem.
-fn frame_files(host: &mut dyn Host, folder: &str) -> Result<Vec<(String, String)>, String> {
-    let mut names = host.list(folder).map_err(|e| format!("{folder}: {e}"))?;
-    // A fixed order, so that which of two files for one frame is named first does not
-    // depend on the file system.
+    let mut names = host.list(dir).map_err(|e| format!("{dir}: {e}"))?;
     names.sort();
-    let mut files: Vec<(String, String)> = Vec::new();
+    let mut paths = Vec::new();
     for name in names {
-        let Some((stem, ext)) = name.rsplit_once('.') else { continue };
-        let path = join(folder, &name);
-        if !EXTENSIONS.contains(&ext.to_ascii_lowercase().as_str())
-            || host.kind(&path) != EntryKind::File
-        {
-            continue;
-        }
-        if let Some((_, other)) = files.iter().find(|(s, _)| s == stem) {
-            return Err(format!("{other} and {path}: two files for frame {stem}"));
-        }
-        files.push((stem.to_string(), path));
-    }
-    if files.is_empty() {
-        return Err(format!("{folder}: no point-cloud frames (.pcd, .ply, .bin)"));
-    }
-    files.sort_by(|a, b| natural(&a.0, &b.0));
-    Ok(files)
-}
-
-/// Natural order: runs of digits compare as numbers, everything else as text.
-pub fn natural(a: &str, b: &str) -> Ordering {
-    let (mut a, mut b) = (a, b);
-    loop {
-        let (Some(ca), Some(cb)) = (a.chars().next(), b.chars().next()) else {
-            return a.len().cmp(&b.len());
-        };
-        let order = if ca.is_ascii_digit() && cb.is_ascii_digit() {
-            let (da, ra) = split_digits(a);
-            let (db, rb) = split_digits(b);
-            (a, b) = (ra, rb);
-            let (ta, tb) = (da.trim_start_matches('0'), db.trim_start_matches('0'));
-            ta.len().cmp(&tb.len()).then(ta.cmp(tb)).then(da.len().cmp(&db.len()))
-        } else {
-            (a, b) = (&a[ca.len_utf8()..], &b[cb.len_utf8()..]);
-            ca.cmp(&cb)
-        };
-        if order != Ordering::Equal {
-            return order;
+        let path = join(dir, &name);
+        match host.kind(&path) {
+            EntryKind::File if layout::is_scan(&name) => paths.push(name),
+            EntryKind::Dir => {
+                let mut inside = host.list(&path).map_err(|e| format!("{path}: {e}"))?;
+                inside.retain(|n| {
+                    layout::is_scan(n) && host.kind(&join(&path, n)) == EntryKind::File
+                });
+                // GMMCalib's sensor folders must hold scans; other folders may hold anything.
+                if inside.is_empty() && name.starts_with("sensor_") {
+                    return Err(format!("{path}: no point-cloud frames (.pcd, .ply, .bin)"));
+                }
+                paths.extend(inside.into_iter().map(|n| format!("{name}/{n}")));
+            }
+            _ => {}
         }
     }
-}
-
-fn split_digits(s: &str) -> (&str, &str) {
-    s.split_at(s.find(|c: char| !c.is_ascii_digit()).unwrap_or(s.len()))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn natural_order() {
-        let mut names = vec!["sensor_10", "sensor_2", "sensor_1", "10.pcd", "9.pcd", "a", "02"];
-        names.sort_by(|a, b| natural(a, b));
-        assert_eq!(names, ["02", "9.pcd", "10.pcd", "a", "sensor_1", "sensor_2", "sensor_10"]);
-        assert_eq!(natural("frame_007", "frame_7"), Ordering::Greater);
-        assert_eq!(natural("x1", "x1"), Ordering::Equal);
+    let placed = layout::place(&paths);
+    // The layout names paths relative to the data folder; the user named the folder.
+    if let Some(problem) = placed.problem() {
+        return Err(match problem {
+            LayoutError::Empty => format!("{dir}: {problem}"),
+            LayoutError::NoSensor { path } => {
+                LayoutError::NoSensor { path: join(dir, &path) }.to_string()
+            }
+            LayoutError::SameFrame { first, second, frame } => LayoutError::SameFrame {
+                first: join(dir, &first),
+                second: join(dir, &second),
+                frame,
+            }
+            .to_string(),
+        });
     }
+    for p in &placed.pairings {
+        host.err(&format!("gmmcalib: {p}\n"));
+    }
+    let mut scans = Vec::with_capacity(placed.scans.len());
+    for p in placed.scans {
+        scans.push(scan(host, p.sensor, p.frame, join(dir, &p.path))?);
+    }
+    Ok(scans)
 }

@@ -10,10 +10,11 @@ mod compare;
 mod dataset;
 mod recording;
 
+pub use crate::layout::natural;
 pub use args::{CalibrateArgs, CommandArgs, CompareArgs};
 pub use calibrate::{VERDICT_FAILED, calibrate};
 pub use compare::{DRIFT, compare};
-pub use dataset::natural;
+pub use recording::resolve as recording_file;
 
 use crate::io::recording::ReadAt;
 

@@ -1,11 +1,11 @@
 //! `calibrate --bag FILE`: the rig a recording's point-cloud topics make (sensors named by
 //! topic, frames by instant), with nominals from a URDF or `/tf_static`, and `--export`.
 
-use super::{Host, read_text};
+use super::{EntryKind, Host, join, read_text};
 use crate::calib::Calibration;
 use crate::io::recording::select::Settings as Select;
 use crate::io::recording::urdf::Urdf;
-use crate::io::recording::{Recording, RecordingRig, RigRequest};
+use crate::io::recording::{Recording, RecordingRig, RigRequest, storage_file};
 use crate::report::ros::{self, Extrinsic};
 
 /// What `calibrate --bag` asks of a recording.
@@ -23,8 +23,23 @@ pub struct BagRig {
     pub urdf: Option<Urdf>,
 }
 
-/// Opens `path`, with a progress line while a file without index is scanned.
+/// The recording file `path` names: itself, or the storage file of the rosbag2 bag folder it
+/// names (`metadata.yaml` beside a `.mcap` or `.db3`).
+pub fn resolve(host: &mut dyn Host, path: &str) -> Result<String, String> {
+    if host.kind(path) != EntryKind::Dir {
+        return Ok(path.to_string());
+    }
+    let names = host.list(path).map_err(|e| format!("{path}: {e}"))?;
+    let meta = join(path, "metadata.yaml");
+    let metadata =
+        if host.kind(&meta) == EntryKind::File { Some(read_text(host, &meta)?) } else { None };
+    Ok(join(path, &storage_file(path, &names, metadata.as_deref())?))
+}
+
+/// Opens `path` (a file or a rosbag2 folder), with a progress line while a file without index
+/// is scanned.
 pub fn open(host: &mut dyn Host, path: &str) -> Result<Recording, String> {
+    let path = &resolve(host, path)?;
     let source = host.open(path).map_err(|e| format!("{path}: {e}"))?;
     let rec = Recording::open(source, path, &mut |done, total| {
         host.progress(&format!("scanning {}%", done * 100 / total.max(1)));

@@ -393,3 +393,21 @@ mod tests {
         assert!(none.contains("no structure above the ground"), "{none}");
     }
 }
+
+impl fmt::Display for crate::layout::Pairing {
+    /// `up's frames paired by the nearest timestamp to down's (2 of 3; ...)`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            crate::layout::Pairing::Timestamps { sensor, to, paired, of } => {
+                write!(f, "{sensor}'s frames paired by the nearest timestamp to {to}'s")?;
+                if paired < of {
+                    write!(f, " ({paired} of {of}; the others have no scan of {to} near them)")?;
+                }
+                Ok(())
+            }
+            crate::layout::Pairing::InOrder { sensor, to, paired } => {
+                write!(f, "{sensor}'s frames paired in name order with {to}'s ({paired})")
+            }
+        }
+    }
+}

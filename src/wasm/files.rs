@@ -1,5 +1,6 @@
 //! `parseCloud(bytes, fileName)`: a PCD, PLY or KITTI file in, flat points out;
-//! `parseMesh(bytes, fileName)`: a CAD-model target's OBJ, PLY or STL in, its outline out.
+//! `parseMesh(bytes, fileName)`: a CAD-model target's OBJ, PLY or STL in, its outline out;
+//! `placeScans(paths)`: which file is which sensor and frame.
 
 use js_sys::Float32Array;
 use serde::Serialize;
@@ -75,5 +76,55 @@ pub fn parse_mesh(bytes: &[u8], file_name: &str) -> Result<JsValue, JsError> {
         triangles: js_sys::Uint32Array::from(triangles.as_slice()),
         extents: std::array::from_fn(|i| b.max[i] - b.min[i]),
         size: target.size().unwrap_or(0.0),
+    })
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct PlacedOutput {
+    path: String,
+    sensor: String,
+    frame: String,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct DuplicateOutput {
+    first: String,
+    second: String,
+    frame: String,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct LayoutOutput {
+    scans: Vec<PlacedOutput>,
+    /// How frames were paired where names did not pair them, in words.
+    pairings: Vec<String>,
+    nameless: Vec<String>,
+    sensors_last: Option<String>,
+    duplicates: Vec<DuplicateOutput>,
+}
+
+/// Which scan file is which sensor and frame (`gmmcalib::layout::place`, as the CLI reads a
+/// folder): `paths` '/'-separated; returns `{scans: [{path, sensor, frame}], pairings,
+/// nameless, sensorsLast, duplicates: [{first, second, frame}]}`.
+#[wasm_bindgen(js_name = placeScans)]
+pub fn place_scans(paths: Vec<String>) -> Result<JsValue, JsError> {
+    let layout = crate::layout::place(&paths);
+    to_js(&LayoutOutput {
+        scans: layout
+            .scans
+            .into_iter()
+            .map(|p| PlacedOutput { path: p.path, sensor: p.sensor, frame: p.frame })
+            .collect(),
+        pairings: layout.pairings.iter().map(ToString::to_string).collect(),
+        nameless: layout.nameless,
+        sensors_last: layout.sensors_last,
+        duplicates: layout
+            .duplicates
+            .into_iter()
+            .map(|(first, second, frame)| DuplicateOutput { first, second, frame })
+            .collect(),
     })
 }

@@ -133,7 +133,7 @@ test('recorded scans: a folder per sensor, timestamps for names, paired and cali
   files.push({ name: 'bag/config.yaml', mimeType: 'text/yaml', buffer: configYaml(named, 'initial_sigma: prior\ncomponents: 200\n') });
   const { page, problems } = await session.open();
   await page.getByTestId('file-input').setInputFiles(files);
-  await waitForStatus(page, /^6 scans of 2 sensors loaded \(one sensor per folder; frames paired by the nearest timestamp to lidar_front's\)\.$/);
+  await waitForStatus(page, /^6 scans of 2 sensors loaded \(lidar_rear's frames paired by the nearest timestamp to lidar_front's\)\.$/);
   const rows = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => [...tr.querySelectorAll('input')].map((i) => i.value).join('/')));
   const frames = ['1700000000.100', '1700000000.200', '1700000000.300'];
   assert.deepEqual(rows, [...frames.map((f) => `lidar_front/${f}`), ...frames.map((f) => `lidar_rear/${f}`)]);
@@ -163,9 +163,9 @@ test('recorded scans picked folder by folder pair with the first sensor', async 
     }
     const { page, problems } = await session.open();
     await page.locator('#folder-input').setInputFiles(join(dir, 'front'));
-    await waitForStatus(page, /^2 scans of 1 sensor loaded \(one sensor per folder\)\.$/);
+    await waitForStatus(page, /^2 scans of 1 sensor loaded\.$/);
     await page.locator('#folder-input').setInputFiles(join(dir, 'rear'));
-    await waitForStatus(page, /^4 scans of 2 sensors loaded \(one sensor per folder; frames paired by the nearest timestamp to front's\)\.$/);
+    await waitForStatus(page, /^4 scans of 2 sensors loaded \(rear's frames paired by the nearest timestamp to front's\)\.$/);
     const rows = await page.locator('#files tr').evaluateAll((trs) => trs.slice(1).map((tr) => [...tr.querySelectorAll('input')].map((i) => i.value).join('/')));
     assert.deepEqual(rows, ['front/110', 'front/120', 'rear/110', 'rear/120']);
     assert.deepEqual(problems, []);

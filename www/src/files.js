@@ -1,5 +1,5 @@
 // Which files were given and what they are: paths from a drop (folders walked), the picker or
-// a folder picker; point-cloud files assigned to (sensor, frame) and parsed by `parse` (the
+// a folder picker; point-cloud files placed as (sensor, frame) by the library and parsed by `parse` (the
 // worker), the GMMCalib config and OpenCalib's rig files read; every bad file kept with its
 // error.
 
@@ -50,124 +50,41 @@ const folderOf = (path) => path.split('/').slice(0, -1).join('/');
 // A file's name without its folders and extension.
 const stemOf = (path) => path.split('/').at(-1).replace(/\.[^.]*$/, '');
 
-// Sensor and frame from a path: the GMMCalib layout `.../sensor_N/<frame>.<ext>`, else the name
-// `<sensor>_<frame>.<ext>` split at the last underscore. A name without one is frame 1 of a
-// sensor of its own name, to be reassigned by hand.
-export function assign(path) {
-  const stem = stemOf(path);
-  const folder = path.split('/').at(-2);
-  if (folder && /^sensor_\d+$/i.test(folder)) return { sensor: folder, frame: stem };
-  const cut = stem.lastIndexOf('_');
-  if (cut > 0 && cut < stem.length - 1) return { sensor: stem.slice(0, cut), frame: stem.slice(cut + 1) };
-  return { sensor: stem, frame: '1' };
+// Which file is which sensor and frame is the library's (`placeScans`, through the worker:
+// GMMCalib's sensor_N folders, a folder per sensor under any name, loose <sensor>_<frame> or
+// <frame>_<sensor> files, frames paired by the nearest timestamp), the same code the CLI
+// reads a folder with. `placeAll(scans, request)` places every scan no rig file named, no
+// recording gave and no hand placed; `request(paths)` asks the library. Changes those scans;
+// returns the library's findings ({pairings, nameless, sensorsLast, duplicates}).
+export async function placeAll(scans, request) {
+  const open = scans.filter((s) => !s.named && !s.manual && !s.recording);
+  if (!open.length) return { pairings: [], nameless: [], sensorsLast: null, duplicates: [] };
+  const placed = await request(open.map((s) => s.path));
+  const at = new Map(placed.scans.map((p) => [p.path, p]));
+  for (const s of open) {
+    const p = at.get(s.path);
+    if (p) Object.assign(s, { sensor: p.sensor, frame: p.frame });
+  }
+  return placed;
 }
 
-// Recorded scans as a bag export leaves them: one folder per sensor, whatever its name, and
-// files named by timestamp, so no two sensors share a stem. `pair(scans, fresh)` takes a
-// folder of `fresh` (the scans just read, each {path, sensor, frame} from `assign`) as the
-// sensor of its scans when their names carry no sensor (each would be a sensor of its own);
-// then every sensor of `scans` (all loaded) that shares no frame name with the first sensor
-// has its scans paired with the first sensor's: by the nearest timestamp (one to one, within
-// half the first sensor's median interval) when both are named by numbers, else in order.
-// Paired scans take the first sensor's frame name; a scan left over keeps its own, so the
-// calibration skips it. Returns what it did, or null.
-export function pair(scans, fresh = scans) {
-  const notes = [];
-  const byFolder = groupBy(fresh, (s) => s.path.split('/').slice(0, -1).join('/'));
-  let moved = false;
-  for (const [folder, list] of byFolder) {
-    if (list.some((s) => s.named)) continue; // a rig file named them
-    const nameless = new Set(list.map((s) => s.sensor)).size === list.length && (list.length > 1 || (byFolder.size > 1 && list[0].frame === '1'));
-    if (!folder || /(^|\/)sensor_\d+$/i.test(folder) || !nameless) continue;
-    for (const s of list) [s.sensor, s.frame] = [folder.split('/').at(-1), stemOf(s.path)];
-    moved = true;
-  }
-  if (moved) notes.push('one sensor per folder');
-  const bySensor = groupBy([...scans].sort((a, b) => natural(a.path, b.path)), (s) => s.sensor);
-  const [firstName, ...others] = [...bySensor.keys()].sort(natural);
-  const first = bySensor.get(firstName) ?? [];
-  const firstFrames = new Set(first.map((s) => s.frame));
-  const numeric = (list) => list.every((scan) => /^\d+(\.\d+)?$/.test(stemOf(scan.path)));
-  const time = (scan) => Number(stemOf(scan.path));
-  const how = new Set();
-  for (const name of others) {
-    const list = bySensor.get(name);
-    if (list.some((s) => firstFrames.has(s.frame))) continue;
-    if (numeric(first) && numeric(list)) {
-      const reference = first.map(time);
-      const sorted = [...reference].sort((a, b) => a - b);
-      const gaps = sorted.slice(1).map((t, i) => t - sorted[i]).sort((a, b) => a - b);
-      const reach = gaps.length ? gaps[gaps.length >> 1] / 2 : Infinity;
-      // One to one, closest pairs first.
-      const candidates = [];
-      list.forEach((scan, k) => reference.forEach((t, j) => {
-        const gap = Math.abs(time(scan) - t);
-        if (gap <= reach) candidates.push([gap, k, j]);
-      }));
-      candidates.sort((a, b) => a[0] - b[0]);
-      const [taken, given] = [new Set(), new Set()];
-      for (const [, k, j] of candidates) {
-        if (taken.has(k) || given.has(j)) continue;
-        list[k].frame = first[j].frame;
-        taken.add(k);
-        given.add(j);
-      }
-      how.add(`frames paired by the nearest timestamp to ${firstName}'s`);
-    } else {
-      list.forEach((s, k) => { if (k < first.length) s.frame = first[k].frame; });
-      how.add(`frames paired in order with ${firstName}'s`);
-    }
-  }
-  notes.push(...how);
-  return notes.length ? notes.join('; ') : null;
-}
-
-// Loose files whose names carry no sensor (`1.pcd 2.pcd 3.pcd` from the picker, no folder):
-// rather than one sensor per file, they are taken as the frames of one new sensor, named
-// `sensor_N` with the first N no sensor of `sensors` has. Changes those scans of `fresh` and
-// returns {sensor, scans} so the page can say so and ask, or null when there are fewer than two.
-export function groupNameless(fresh, sensors = []) {
-  const carriesSensor = (stem) => stem.lastIndexOf('_') > 0 && stem.lastIndexOf('_') < stem.length - 1; // as assign splits
-  const nameless = fresh.filter((s) => !s.named && !s.path.includes('/') && !carriesSensor(stemOf(s.path)));
+// Loose files whose names carry no sensor (`1.pcd 2.pcd 3.pcd` from the picker, no folder;
+// the library's `nameless`): rather than one sensor per file, they are taken as the frames of
+// one new sensor, named `sensor_N` with the first N no sensor of `sensors` has, and kept so
+// (placed by hand). Changes `nameless` and returns {sensor, scans} so the page can say so and
+// ask, or null when there are fewer than two.
+export function groupNameless(nameless, sensors = []) {
   if (nameless.length < 2) return null;
   let n = 1;
   while (sensors.includes(`sensor_${n}`)) n++;
   const sensor = `sensor_${n}`;
-  for (const s of nameless) Object.assign(s, { sensor, frame: stemOf(s.path) });
+  for (const s of nameless) Object.assign(s, { sensor, frame: stemOf(s.path), manual: true });
   return { sensor, scans: nameless };
-}
-
-// Loose files named `<frame>_<sensor>` (the Livox Mid-100's units: scene1_pose10_L0.pcd,
-// scene1_pose10_L1.pcd, ...) split at the last underscore would all be frames of one sensor,
-// none a frame number. When every such file of `fresh` shares what comes before its last
-// underscore and no part after it is a number, the parts after it are the sensors and the part
-// before the frame. Changes those scans; returns {frame, sensors} for the page to say so, or null.
-export function sensorsBySuffix(fresh) {
-  const loose = fresh.filter((s) => !s.named && !s.path.includes('/'));
-  const splits = (stem) => stem.lastIndexOf('_') > 0 && stem.lastIndexOf('_') < stem.length - 1;
-  if (loose.length < 2 || !loose.every((s) => splits(stemOf(s.path)))) return null;
-  const cut = loose.map((s) => stemOf(s.path)).map((stem) => [stem.slice(0, stem.lastIndexOf('_')), stem.slice(stem.lastIndexOf('_') + 1)]);
-  const prefixes = new Set(cut.map(([p]) => p));
-  const suffixes = new Set(cut.map(([, x]) => x));
-  if (prefixes.size !== 1 || [...prefixes][0] === '' || suffixes.size !== loose.length || cut.some(([p, x]) => p.length === 0 || x.length === 0 || /^\d+(\.\d+)?$/.test(x))) return null;
-  loose.forEach((s, i) => Object.assign(s, { sensor: cut[i][1], frame: cut[i][0] }));
-  return { frame: cut[0][0], sensors: cut.map(([, x]) => x) };
 }
 
 // Undoes groupNameless: each of `scans` a sensor of its own name, frame 1.
 export function splitNameless(scans) {
-  for (const s of scans) Object.assign(s, { sensor: stemOf(s.path), frame: '1' });
-}
-
-// Map from key(item) to the items with that key, in order.
-function groupBy(items, key) {
-  const groups = new Map();
-  for (const item of items) {
-    const k = key(item);
-    if (!groups.has(k)) groups.set(k, []);
-    groups.get(k).push(item);
-  }
-  return groups;
+  for (const s of scans) Object.assign(s, { sensor: stemOf(s.path), frame: '1', manual: true });
 }
 
 // Natural order: sensor_2 before sensor_10.
@@ -207,8 +124,9 @@ async function openCalibFolders(entries, read, bad) {
   return { config, names, folders };
 }
 
-// Reads `entries` ([{path, file}]): {scans: [{path, sensor, frame, ...parsed}], bad: [{path,
-// error}], config}. `read.cloud(bytes, path)` parses one cloud, `read.config(text, path)` one
+// Reads `entries` ([{path, file}]): {scans: [{path, ...parsed}], bad: [{path, error}], config};
+// a scan an OpenCalib list names has its sensor and frame (`named`), the rest are placed by
+// placeAll. `read.cloud(bytes, path)` parses one cloud, `read.config(text, path)` one
 // GMMCalib config and `read.opencalib(paths, pathsName, guess, guessName)` OpenCalib's rig
 // files (the library's readers, in the worker); `onFile(path, i, n)` reports progress.
 export async function readEntries(entries, read, onFile) {
@@ -233,7 +151,7 @@ export async function readEntries(entries, read, onFile) {
   for (const [i, { path, file }] of clouds.entries()) {
     onFile(path, i + 1, clouds.length);
     try {
-      scans.push({ path, ...(openCalib.names.get(path) ?? assign(path)), ...(await read.cloud(await file.arrayBuffer(), path)) });
+      scans.push({ path, ...openCalib.names.get(path), ...(await read.cloud(await file.arrayBuffer(), path)) });
     } catch (error) {
       bad.push({ path, error: error.message });
     }

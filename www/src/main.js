@@ -217,7 +217,8 @@ function updateCalibrate() {
 
 function reassign(scan, sensor, frame = scan.frame) {
   const what = sensor !== scan.sensor ? 'sensors' : 'frames';
-  Object.assign(scan, { sensor, frame });
+  // Placed by hand: the library's placement leaves it so when more files come.
+  Object.assign(scan, { sensor, frame, manual: true });
   sortScans(state);
   rigFrom();
   renderPanels();

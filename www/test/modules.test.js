@@ -2,9 +2,9 @@
 // (round trip through GMMCalib YAML), URL settings.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { assign, groupNameless, natural, pair, splitNameless } from '../src/files.js';
+import { groupNameless, natural, placeAll, splitNameless } from '../src/files.js';
 import { readFileSync } from 'node:fs';
-import { initSync, parseConfig, rosExports } from '../pkg/gmmcalib.js';
+import { initSync, parseConfig, placeScans, rosExports } from '../pkg/gmmcalib.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
 import { exportsOf, gmmcalibYaml, resultJson, targetPly } from '../src/exports.js';
 import { DEFAULTS, readHash } from '../src/url.js';
@@ -20,57 +20,68 @@ const JRMPC = ['views', 'jrmpc', 'finish'];
 
 const close = (a, b, tol = 1e-12) => a.every((v, i) => Math.abs(v - b[i]) < tol);
 
-test('files are assigned by sensor_N folder, else by the last underscore of the name', () => {
-  assert.deepEqual(assign('data/sensor_2/7.pcd'), { sensor: 'sensor_2', frame: '7' });
-  assert.deepEqual(assign('sensor_2_7.pcd'), { sensor: 'sensor_2', frame: '7' });
-  assert.deepEqual(assign('left_003.ply'), { sensor: 'left', frame: '003' });
-  assert.deepEqual(assign('scans/left_003.ply'), { sensor: 'left', frame: '003' });
-  assert.deepEqual(assign('scan.bin'), { sensor: 'scan', frame: '1' });
+// The page places files by the library's layout (`placeScans`, the CLI's too), as placeAll
+// asks it.
+const place = async (paths, already = []) => {
+  const scans = [...already, ...paths.map((path) => ({ path }))];
+  const found = await placeAll(scans, (list) => placeScans(list));
+  return { found, scans, rows: scans.map((s) => `${s.sensor}/${s.frame}`) };
+};
+
+test('files are placed by folder, else by the last underscore of the name', async () => {
+  assert.deepEqual((await place(['data/sensor_2/7.pcd', 'data/sensor_1/7.pcd'])).rows, ['sensor_2/7', 'sensor_1/7']);
+  assert.deepEqual((await place(['sensor_2_7.pcd', 'sensor_2_8.pcd', 'left_7.ply', 'left_8.ply'])).rows, ['sensor_2/7', 'sensor_2/8', 'left/7', 'left/8']);
+  // One snapshot each under other names: paired, the first sensor's name kept.
+  assert.deepEqual((await place(['sensor_2_7.pcd', 'left_003.ply'])).rows, ['sensor_2/003', 'left/003']);
+  // A folder of one sensor's named files is that folder's sensor.
+  assert.deepEqual((await place(['scans/left_003.ply'])).rows, ['scans/left_003']);
+  assert.deepEqual((await place(['scan.bin'])).rows, ['scan/1']);
   assert.deepEqual(['sensor_10', 'sensor_2', 'sensor_1'].sort(natural), ['sensor_1', 'sensor_2', 'sensor_10']);
+  // Named by a rig file, by hand or by a recording: left as they are.
+  const kept = [{ path: 'x.pcd', sensor: 'top', frame: '0001', named: true }, { path: 'y_2.pcd', sensor: 'rear', frame: '9', manual: true }];
+  assert.deepEqual((await place([], kept)).rows, ['top/0001', 'rear/9']);
 });
 
-test('recorded scans: a folder per sensor, frames paired by timestamp or order', () => {
-  const load = (paths) => {
-    const scans = paths.map((path) => ({ path, ...assign(path) }));
-    const note = pair(scans);
-    return { note, rows: scans.map((s) => `${s.sensor}/${s.frame}`) };
-  };
+test('recorded scans: a folder per sensor, frames paired by timestamp or order', async () => {
   // A bag export: per-topic folders, stems are timestamps 0.1 s apart, each sensor's own; rear
   // has one scan more and misses one, and 1700000000.55 is nowhere near front's.
   const front = ['1700000000.100', '1700000000.200', '1700000000.300', '1700000000.400'];
   const rear = ['1700000000.103', '1700000000.198', '1700000000.405', '1700000000.550'];
-  const bag = load([...front.map((t) => `bag/lidar_front/${t}.pcd`), ...rear.map((t) => `bag/lidar_rear/${t}.pcd`)]);
-  assert.equal(bag.note, "one sensor per folder; frames paired by the nearest timestamp to lidar_front's");
+  const bag = await place([...front.map((t) => `bag/lidar_front/${t}.pcd`), ...rear.map((t) => `bag/lidar_rear/${t}.pcd`)]);
+  assert.deepEqual(bag.found.pairings, ["lidar_rear's frames paired by the nearest timestamp to lidar_front's (3 of 4; the others have no scan of lidar_front near them)"]);
   assert.deepEqual(bag.rows, [
     ...front.map((t) => `lidar_front/${t}`),
     'lidar_rear/1700000000.100', 'lidar_rear/1700000000.200', 'lidar_rear/1700000000.400', 'lidar_rear/1700000000.550',
   ]);
   // Two of rear's scans near one of front's: only the closer is paired.
-  const twice = load(['f/10.pcd', 'f/20.pcd', 'r/19.pcd', 'r/21.5.pcd']);
-  assert.deepEqual(twice.rows, ['f/10', 'f/20', 'r/20', 'r/21.5']);
+  assert.deepEqual((await place(['f/10.pcd', 'f/20.pcd', 'r/19.pcd', 'r/21.5.pcd'])).rows, ['f/10', 'f/20', 'r/20', 'r/21.5']);
   // Names that are not numbers: in natural order.
-  const named = load(['a/scan-2.ply', 'a/scan-10.ply', 'b/x9.ply', 'b/x11.ply', 'b/x12.ply']);
-  assert.equal(named.note, "one sensor per folder; frames paired in order with a's");
+  const named = await place(['a/scan-2.ply', 'a/scan-10.ply', 'b/x9.ply', 'b/x11.ply', 'b/x12.ply']);
+  assert.deepEqual(named.found.pairings, ["b's frames paired in name order with a's (2)"]);
   assert.deepEqual(named.rows, ['a/scan-2', 'a/scan-10', 'b/scan-2', 'b/scan-10', 'b/x12']);
   // One snapshot per sensor folder.
-  assert.deepEqual(load(['x/front/5.pcd', 'x/rear/9.pcd']).rows, ['front/5', 'rear/5']);
+  assert.deepEqual((await place(['x/front/5.pcd', 'x/rear/9.pcd'])).rows, ['front/5', 'rear/5']);
   // Folder by folder, as the folder picker loads them: the second pairs with the first.
-  const frontOnly = ['front/10.pcd', 'front/20.pcd'].map((path) => ({ path, ...assign(path) }));
-  assert.equal(pair(frontOnly), 'one sensor per folder');
-  const rearToo = ['rear/11.pcd', 'rear/21.pcd'].map((path) => ({ path, ...assign(path) }));
-  const all = [...frontOnly, ...rearToo];
-  assert.equal(pair(all, rearToo), "one sensor per folder; frames paired by the nearest timestamp to front's");
-  assert.deepEqual(all.map((s) => `${s.sensor}/${s.frame}`), ['front/10', 'front/20', 'rear/10', 'rear/20']);
-  // Layouts that already pair are left alone: GMMCalib's, <sensor>_<frame> names in folders,
-  // loose files.
-  for (const paths of [
-    ['d/sensor_1/1.pcd', 'd/sensor_1/2.pcd', 'd/sensor_2/1.pcd', 'd/sensor_2/2.pcd'],
-    ['s1/left_001.pcd', 's1/left_002.pcd', 's2/right_001.pcd', 's2/right_002.pcd'],
-    ['left_001.pcd', 'right_001.pcd'],
+  const frontOnly = await place(['front/10.pcd', 'front/20.pcd']);
+  assert.deepEqual(frontOnly.found.pairings, []);
+  const both = await place(['rear/11.pcd', 'rear/21.pcd'], frontOnly.scans);
+  assert.deepEqual(both.found.pairings, ["rear's frames paired by the nearest timestamp to front's"]);
+  assert.deepEqual(both.rows, ['front/10', 'front/20', 'rear/10', 'rear/20']);
+  // Layouts that already pair are left alone: GMMCalib's, loose <sensor>_<frame> files.
+  for (const [paths, rows] of [
+    [['d/sensor_1/1.pcd', 'd/sensor_1/2.pcd', 'd/sensor_2/1.pcd', 'd/sensor_2/2.pcd'], ['sensor_1/1', 'sensor_1/2', 'sensor_2/1', 'sensor_2/2']],
+    [['left_001.pcd', 'right_001.pcd'], ['left/001', 'right/001']],
   ]) {
-    const before = paths.map((path) => { const a = assign(path); return `${a.sensor}/${a.frame}`; });
-    assert.deepEqual(load(paths), { note: null, rows: before }, paths.join(' '));
+    const got = await place(paths);
+    assert.deepEqual({ pairings: got.found.pairings, rows: got.rows }, { pairings: [], rows }, paths.join(' '));
   }
+  // The Livox Mid-100's units: the sensor last in the name.
+  const livox = await place(['scene1_pose10_L0.pcd', 'scene1_pose10_L1.pcd', 'scene1_pose10_L2.pcd']);
+  assert.equal(livox.found.sensorsLast, 'scene1_pose10');
+  assert.deepEqual(livox.rows, ['L0/scene1_pose10', 'L1/scene1_pose10', 'L2/scene1_pose10']);
+  // Two files for one frame of one sensor: the second is named, not placed.
+  const twice = await place(['sensor_1/3.pcd', 'sensor_1/3.ply']);
+  assert.deepEqual(twice.found.duplicates, [{ first: 'sensor_1/3.pcd', second: 'sensor_1/3.ply', frame: '3' }]);
 });
 
 test('GMMCalib config: nested and plain lists, our keys, errors naming file and key', () => {
@@ -247,13 +258,14 @@ test('view colours: robust range, the ramp, distance to a plane of reference poi
   assert.ok(Number.isNaN(grid.distance(5, 5, 5)));
 });
 
-test('loose files without a sensor in their names: one sensor with several frames, said and undoable', () => {
-  const scan = (path) => ({ path, ...assign(path) });
-  const fresh = ['1.pcd', '2.pcd', '10.pcd', 'left_1.pcd', 'rig/sensor_1/1.pcd'].map(scan);
-  const group = groupNameless(fresh, ['sensor_1']);
+test('loose files without a sensor in their names: one sensor with several frames, said and undoable', async () => {
+  const { found, scans } = await place(['1.pcd', '2.pcd', '10.pcd', 'left_1.pcd', 'rig/sensor_1/1.pcd']);
+  assert.deepEqual(found.nameless, ['1.pcd', '2.pcd', '10.pcd']);
+  const nameless = scans.filter((s) => found.nameless.includes(s.path));
+  const group = groupNameless(nameless, ['sensor_1']);
   assert.equal(group.sensor, 'sensor_2');
-  assert.deepEqual(fresh.map((s) => `${s.sensor}/${s.frame}`), ['sensor_2/1', 'sensor_2/2', 'sensor_2/10', 'left/1', 'sensor_1/1']);
+  assert.deepEqual(scans.map((s) => `${s.sensor}/${s.frame}`), ['sensor_2/1', 'sensor_2/2', 'sensor_2/10', 'left/1', 'sensor_1/1']);
   splitNameless(group.scans);
-  assert.deepEqual(fresh.slice(0, 3).map((s) => `${s.sensor}/${s.frame}`), ['1/1', '2/1', '10/1']);
-  assert.equal(groupNameless([scan('only.pcd')]), null, 'one file: nothing to ask');
+  assert.deepEqual(scans.slice(0, 3).map((s) => `${s.sensor}/${s.frame}`), ['1/1', '2/1', '10/1']);
+  assert.equal(groupNameless(nameless.slice(0, 1)), null, 'one file: nothing to ask');
 });

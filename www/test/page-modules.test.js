@@ -5,7 +5,7 @@ import assert from 'node:assert/strict';
 import { frame, robustBounds } from '../src/view/framing.js';
 import { alongAxis, handlesOf } from '../src/view/roi-editor.js';
 import { mostPoints, rebuildRig } from '../src/state.js';
-import { readEntries, sensorsBySuffix } from '../src/files.js';
+import { readEntries } from '../src/files.js';
 import { DEFAULTS, explicitSettings, hashOf, readRig } from '../src/url.js';
 import { readResult } from '../src/panels/result-file.js';
 import { adviceForError, autoRoiFound } from '../src/panels/advice.js';
@@ -86,13 +86,8 @@ test('files as users name them: OpenCalib\'s folder reads the devices its list n
   const { scans, bad } = await readEntries(entries, read, () => {});
   assert.deepEqual(scans.map((s) => `${s.sensor}/${s.frame}`), ['left/s', 'top/s']);
   assert.deepEqual(bad, [{ path: 's/stitching.pcd', error: 'ignored: not a device in its folder\'s lidar_cloud_path.txt' }]);
-  const livox = ['scene1_pose10_L0.pcd', 'scene1_pose10_L1.pcd', 'scene1_pose10_L2.pcd'].map((path) => ({ path, sensor: 'scene1_pose10', frame: path.slice(14, 16) }));
-  assert.deepEqual(sensorsBySuffix(livox), { frame: 'scene1_pose10', sensors: ['L0', 'L1', 'L2'] });
-  assert.deepEqual(livox.map((s) => `${s.sensor}/${s.frame}`), ['L0/scene1_pose10', 'L1/scene1_pose10', 'L2/scene1_pose10']);
-  // Frames that are numbers, a folder, or different prefixes: as before.
-  assert.equal(sensorsBySuffix(['left_1.pcd', 'left_2.pcd'].map((path) => ({ path }))), null);
-  assert.equal(sensorsBySuffix(['a_x.pcd', 'b_y.pcd'].map((path) => ({ path }))), null);
-  assert.equal(sensorsBySuffix(['d/a_x.pcd', 'd/a_y.pcd'].map((path) => ({ path }))), null);
+  // Loose files' places (the Livox units' <frame>_<sensor> names among them) are the library's:
+  // modules.test.js.
   // Sensors without a shared frame cannot calibrate: Calibrate says so.
   const scans3 = ['L0', 'L1'].map((sensor) => ({ sensor, frame: sensor }));
   assert.match(calibrateBlocker({ scans: scans3, rig: { sensors: ['L0', 'L1'] } }), /No frame is shared by two sensors/);

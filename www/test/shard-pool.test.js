@@ -61,9 +61,12 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.deepEqual(Array.from(driven.reconstruction.means), Array.from(direct.reconstruction.means));
   assert.equal(progress.filter((p) => p.maxIterations === 30).length, direct.iterations);
   // gmm's frame pairs come after EM's iterations: their beginning (none done), then one
-  // progress each, however they are shared.
+  // progress each, however they are shared; each of the 3 frames is refined from every start
+  // the selection weighs (JRMPC's result, the nominal, ...).
   const pairs = progress.filter((p) => p.maxIterations !== 30);
-  assert.deepEqual(pairs.map((p) => [p.stage, p.iteration]).sort(), [['framePairs', 0], ['framePairs', 1], ['framePairs', 2], ['framePairs', 3]]);
+  const count = pairs.length - 1;
+  assert.ok(count >= 3 && count % 3 === 0, `${count} frame pairs`);
+  assert.deepEqual(pairs.map((p) => [p.stage, p.iteration]).sort(), Array.from({ length: count + 1 }, (_, i) => ['framePairs', i]).sort());
   assert.equal(pairs[0].iteration, 0, 'the stage begins before its first pair is done');
   for (const workers of [2, 3]) {
     const shared = [];
@@ -72,7 +75,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
     assert.deepEqual(result.history, direct.history);
     assert.deepEqual(Array.from(result.reconstruction.means), Array.from(direct.reconstruction.means));
     assert.equal(result.workers, workers);
-    assert.equal(shared.filter((p) => p.maxIterations === pairs[0].maxIterations).length, 4);
+    assert.equal(shared.filter((p) => p.maxIterations === pairs[0].maxIterations).length, count + 1);
   }
   // A pool worker that fails mid-way fails the calibration with its message, once every loop
   // has stopped (none touches the freed session afterwards).
@@ -158,7 +161,9 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
     assert.notDeepEqual(global[2].corrections[1], global[0].corrections[1], 'OpenCalib\'s far-off start moved');
   }
   assert.equal(remoteSensors.length, 1);
-  assert.equal(remotePairs, 1, 'the lone reference view\'s two pairs are shared too');
+  // One reference view, its pairs (each side sensor from each start the selection weighs)
+  // shared between the two workers.
+  assert.ok(remotePairs >= 1, 'the lone reference view\'s pairs are shared too');
   assert.equal(typeof remoteSensors[0], 'bigint', 'the seed crosses as a BigInt, never rounded');
   assert.equal(trioWorkers, 2);
   // The global stage's calls, out of turn or with bad data, are errors, not crashes.
@@ -231,8 +236,8 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   const [tooFew] = wasm.alignPairs(work.icp, new Float32Array(3), [source], start);
   assert.match(tooFew, /./, 'a target ICP cannot use is a message for that pair');
   assert.throws(() => pairsOf.viewPoints(99), /no view 99 of 6/);
-  assert.throws(() => pairsOf.recordPair(99, aligned), /no frame pair 99 of 3/);
-  assert.throws(() => pairsOf.registerPairs(new Uint32Array([7]), () => true), /no frame pair 7 of 3/);
+  assert.throws(() => pairsOf.recordPair(99, aligned), /no frame pair 99 of \d+/);
+  assert.throws(() => pairsOf.registerPairs(new Uint32Array([99]), () => true), /no frame pair 99 of \d+/);
   assert.throws(() => pairsOf.recordPair(0, 5), /a pose or a message/);
   assert.throws(() => pairsOf.recordPair(0, new Float64Array([0, 0, 0, 2, 0, 0, 0])), /unit quaternion/);
   assert.equal(pairsOf.recordPair(0, aligned).iteration, 1);

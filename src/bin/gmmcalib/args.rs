@@ -13,7 +13,7 @@ pub fn usage() -> String {
 }
 
 const OWN_USAGE: &str = "\
-       gmmcalib inspect FILE
+       gmmcalib inspect FILE|BAG_FOLDER
        gmmcalib simulate --out DIR [--preset paper|paper-roof|paper-chair|...] [--frames F]
                           [--seed S] [--max-angle-deg 3] [--max-yaw-deg DEG]
                           [--max-translation 0.1] [--move SENSOR:ROLL,PITCH,YAW,X,Y,Z]
@@ -29,7 +29,8 @@ const OWN_USAGE: &str = "\
 ";
 
 const OWN_HELP: &str = "\
-  inspect: a recording's topics (count, rate, frame id, type) and its /tf_static tree.
+  inspect: a recording's topics (count, rate, frame id, type) and its /tf_static tree; a rosbag2
+  bag may be named by its folder (metadata.yaml beside the .mcap or .db3).
   Presets: paper, paper-roof (3 sensors), os1-128, sampled, paper-chair and paper-board (a
   chair / a board on a stand as the target), street (no target: walls, poles, cars); the rig
   zoo, no target either: stacked (a mast of two 32-beam LiDARs, the lower upside-down, float16
@@ -193,7 +194,7 @@ pub fn parse(args: impl IntoIterator<Item = String>) -> Result<Command, String> 
             return match (args.next(), args.next()) {
                 (Some(file), None) if !file.starts_with('-') => Ok(Command::Inspect(file.into())),
                 (Some(h), _) if h == "-h" || h == "--help" => Ok(Command::Help),
-                _ => Err("usage: gmmcalib inspect FILE".into()),
+                _ => Err("usage: gmmcalib inspect FILE|BAG_FOLDER".into()),
             };
         }
         Some(c @ ("calibrate" | "compare")) => {

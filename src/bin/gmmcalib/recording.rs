@@ -3,12 +3,17 @@
 
 use std::path::Path;
 
+use gmmcalib::command::recording_file;
 use gmmcalib::io::recording::{Recording, Tree};
+
+use crate::host::Native;
 
 /// Opens `path`, with a progress line on stderr while a file without index is scanned.
 fn open(path: &Path) -> Result<Recording, String> {
     let show = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let rec = Recording::open_path(path, &mut |done, total| {
+    // A rosbag2 bag named by its folder: the library finds the storage file.
+    let path = recording_file(&mut Native::new(), &path.to_string_lossy())?;
+    let rec = Recording::open_path(Path::new(&path), &mut |done, total| {
         if show {
             eprint!("\r\x1b[Kscanning {}%", done * 100 / total.max(1));
         }

@@ -1,7 +1,7 @@
 // Loading what a user drops or picks: point clouds with their rig files (GMMCalib's config,
 // OpenCalib's lists), a recording (its topics offered, then the scans chosen), a target's CAD
 // model, a result saved as a file. Each becomes the page's state; main.js renders it.
-import { groupNameless, isMesh, pair, readEntries, sensorsBySuffix, splitNameless } from '../files.js';
+import { groupNameless, isMesh, placeAll, readEntries, splitNameless } from '../files.js';
 import { renderLooseQuestion } from '../loose.js';
 import { describeInstants, isRecording, renderRecording } from '../recording.js';
 import { isResultFile, readResult } from './result-file.js';
@@ -66,16 +66,23 @@ export function initLoading(page) {
     const paths = new Set(scans.map((s) => s.path));
     const fresh = scans.map((s) => ({ id: page.nextId(), ...s }));
     state.scans = [...state.scans.filter((v) => !paths.has(v.path)), ...fresh];
-    const loose = groupNameless(fresh, state.scans.filter((v) => !paths.has(v.path)).map((v) => v.sensor));
-    const bySuffix = sensorsBySuffix(fresh);
-    const paired = pair(state.scans, fresh);
+    // Every scan placed again with the new ones, as the CLI places a folder: a folder loaded
+    // after another pairs its frames with the first sensor's.
+    const placed = await placeAll(state.scans, (list) => client.request('layout', { paths: list }));
+    const dropped = new Set(placed.duplicates.map((d) => d.second));
+    for (const d of placed.duplicates) bad.push({ path: d.second, error: `ignored: ${d.first} is frame ${d.frame} of the same sensor` });
+    state.scans = state.scans.filter((s) => !dropped.has(s.path));
+    const nameless = new Set(placed.nameless);
+    const loose = groupNameless(fresh.filter((s) => nameless.has(s.path)), state.scans.filter((s) => !nameless.has(s.path)).map((s) => s.sensor));
+    const lastSensors = placed.sensorsLast ? [...new Set(fresh.filter((s) => s.frame === placed.sensorsLast).map((s) => s.sensor))] : [];
+    const paired = placed.pairings.join('; ');
     state.bad.push(...bad);
     sortScans(state);
     state.settings.demo = '';
     writeHash(state.settings, state.rig);
     showLoaded(config);
     const assumed = loose ? `; ${loose.scans.length} files without a sensor in their names taken as frames of ${loose.sensor}` : '';
-    const suffixed = bySuffix ? `; the names end in a sensor, not a frame number: sensors ${bySuffix.sensors.join(', ')}, frame ${bySuffix.frame}` : '';
+    const suffixed = lastSensors.length ? `; the names end in a sensor, not a frame number: sensors ${lastSensors.join(', ')}, frame ${placed.sensorsLast}` : '';
     setStatus(`${countLine(state)} loaded${paired ? ` (${paired})` : ''}${assumed}${suffixed}${state.bad.length ? `, ${state.bad.length} file(s) with problems` : ''}.`);
     renderLooseQuestion($('loose'), loose, () => {
       splitNameless(loose.scans);
