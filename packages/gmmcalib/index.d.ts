@@ -249,6 +249,23 @@ export interface ParsedCloud {
 }
 export function parseCloud(bytes: Uint8Array, fileName: string): ParsedCloud;
 
+/** Which scan file is which sensor and frame, from '/'-separated paths alone (as the CLI and
+ * the page read a folder): GMMCalib's `sensor_N/`, a folder per sensor under any name, loose
+ * `<sensor>_<frame>` or `<frame>_<sensor>` files; frames paired by the nearest timestamp where
+ * names do not pair them. */
+export interface Layout {
+  scans: { path: string; sensor: string; frame: string }[];
+  /** How frames were paired, in words. */
+  pairings: string[];
+  /** Loose files whose names carry no sensor, each placed as a sensor of its own name. */
+  nameless: string[];
+  /** The frame shared by loose `<frame>_<sensor>` files, when read that way. */
+  sensorsLast: string | null;
+  /** Files that would be one sensor's one frame after `first`: left out of `scans`. */
+  duplicates: { first: string; second: string; frame: string }[];
+}
+export function placeScans(paths: string[]): Layout;
+
 export interface SimulateOptions {
   preset?: 'paper' | 'paper-roof' | 'os1-128' | 'sampled' | 'paper-chair' | 'paper-board' | 'street';
   frames?: number;

@@ -378,22 +378,6 @@ impl fmt::Display for crate::calib::up::NoGround {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn warnings_read_as_before() {
-        let range = SearchRange { yaw: 10f64.to_radians(), shift: 0.75 };
-        let edge = BevWarning::AtEdge { range }.to_string();
-        assert!(edge.contains("edge of its range (yaw 10 deg, shift 0.75 m either way)"), "{edge}");
-        let low = BevWarning::LowOverlap { share: 0.0, range }.to_string();
-        assert!(low.contains("only 0 % of this sensor"), "{low}");
-        let none = BevWarning::NothingToOverlay { range }.to_string();
-        assert!(none.contains("no structure above the ground"), "{none}");
-    }
-}
-
 impl fmt::Display for crate::layout::Pairing {
     /// `up's frames paired by the nearest timestamp to down's (2 of 3; ...)`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -409,5 +393,21 @@ impl fmt::Display for crate::layout::Pairing {
                 write!(f, "{sensor}'s frames paired in name order with {to}'s ({paired})")
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn warnings_read_as_before() {
+        let range = SearchRange { yaw: 10f64.to_radians(), shift: 0.75 };
+        let edge = BevWarning::AtEdge { range }.to_string();
+        assert!(edge.contains("edge of its range (yaw 10 deg, shift 0.75 m either way)"), "{edge}");
+        let low = BevWarning::LowOverlap { share: 0.0, range }.to_string();
+        assert!(low.contains("only 0 % of this sensor"), "{low}");
+        let none = BevWarning::NothingToOverlay { range }.to_string();
+        assert!(none.contains("no structure above the ground"), "{none}");
     }
 }

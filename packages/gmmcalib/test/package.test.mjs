@@ -78,6 +78,30 @@ test('the Node command writes the native CLI calibration bit for bit, and the sa
   assert.match(fromNode.stdout, /verdict: GOOD/);
 });
 
+test('one input door: a folder per sensor named by timestamps places and pairs as natively', () => {
+  // Rig a as a bag export leaves it: front/ and rear/, each scan named by its own time stamp.
+  const bag = path.join(dir, 'bag');
+  for (const [sensor, folder, offset] of [['sensor_1', 'front', 0], ['sensor_2', 'rear', 0.004]]) {
+    fs.mkdirSync(path.join(bag, 'data', folder), { recursive: true });
+    for (const name of fs.readdirSync(path.join(dir, 'a/data', sensor))) {
+      const stamp = (1700000000 + 0.1 * Number(name.split('.')[0]) + offset).toFixed(3);
+      fs.copyFileSync(path.join(dir, 'a/data', sensor, name), path.join(bag, 'data', folder, `${stamp}.pcd`));
+    }
+  }
+  const config = fs.readFileSync(path.join(dir, 'a/config.yaml'), 'utf8').replace('transform_sensor_1:', 'transform_front:').replace('transform_sensor_2:', 'transform_rear:');
+  fs.writeFileSync(path.join(bag, 'config.yaml'), config);
+  const args = (json) => [...calibrateArgs('bag', json), '--method', 'jrmpc', '--iterations', '10'];
+  const fromNode = run(node, args('bag.node.json'));
+  const fromNative = run(native, args('bag.native.json'));
+  assert.ok([0, 2].includes(fromNode.status), fromNode.stderr);
+  assert.equal(fromNode.stderr, fromNative.stderr);
+  assert.match(fromNode.stderr, /rear's frames paired by the nearest timestamp to front's\n/);
+  const read = (f) => JSON.parse(fs.readFileSync(path.join(dir, f), 'utf8'));
+  const [a, b] = [read('bag.node.json'), read('bag.native.json')];
+  assert.deepEqual(a.sensors.map((s) => [s.name, s.spread.frames]), [['front', 5], ['rear', 5]]);
+  assert.deepEqual(a.sensors.map((s) => s.extrinsic), b.sensors.map((s) => s.extrinsic));
+});
+
 test('recordings under Node: MCAP and ROS 1 bag calibrate to the native JSON, with the same text', () => {
   const fixtures = path.resolve(pkg, '../../tests/fixtures/recording');
   for (const file of ['calib_zstd.mcap', 'calib_bz2.bag']) {

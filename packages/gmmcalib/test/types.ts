@@ -1,6 +1,6 @@
 // Strict-typed use of the package, checked by `tsc --noEmit` (test/package.test.mjs): the
 // declarations must type real calls, and a wrong call must fail (see the @ts-expect-error).
-import { calibrate, compareCalibrations, simulateRig, type CalibrationResult, type DriftReport, type Progress } from 'gmmcalib';
+import { calibrate, compareCalibrations, placeScans, simulateRig, type CalibrationResult, type DriftReport, type Layout, type Progress } from 'gmmcalib';
 
 const rig = simulateRig({ preset: 'sampled', frames: 2, seed: 1 });
 const result: CalibrationResult = calibrate(
@@ -18,4 +18,7 @@ const moved: string[] = drift.sensors.filter((s) => s.moved).map((s) => s.name);
 if (drift.sensors[0]?.limit.kind === 'sigmas') console.log(drift.sensors[0].limit.position[0]);
 // @ts-expect-error a method that does not exist
 calibrate({ scans: [], nominal: {}, method: 'ndt' });
-console.log(sigma, moved);
+// A folder's files placed as the CLI and the page place them.
+const layout: Layout = placeScans(['up/100.pcd', 'down/100.03.pcd']);
+const sensors: string[] = layout.scans.map((s) => s.sensor);
+console.log(sigma, moved, sensors, layout.pairings.join('; '));
