@@ -1,9 +1,10 @@
 // Issue 39, a long run on a real rig: the Livox Mid-100's three units (../shared/data, read at
 // test time, never copied: GPL), dropped as the three loose files they come as, read as three
-// sensors, calibrated with no target. The first frame pair takes 14 s here, and the stage
-// before it reports nothing: the status says what runs, the bar moves, the time line under the
-// bar counts the seconds from the start and says the time left once a stage has a measure of it
-// (after the first pair). Then the results at a glance (e2e/glance.js).
+// sensors, calibrated with no target. The stage before the frame pairs reports nothing of its
+// own and the first pairs take seconds here: the status says what runs, the bar moves, the time
+// line under the bar counts the seconds from the start. (The time left, once a stage has a
+// measure of it, is checked on JRMPC's iterations in e2e/page.test.js: here every start's
+// refinements end together.) Then the results at a glance (e2e/glance.js).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { mkdirSync } from 'node:fs';
@@ -34,24 +35,21 @@ test('the Livox rig: its files read as three sensors; the bar and the time line 
   await page.getByTestId('calibrate').click();
   await waitForStatus(page, /^Done/, 300_000);
   const samples = await page.evaluate(() => { clearInterval(window.sampler); return window.samples; });
-  console.log(samples.filter((_, i) => i % 8 === 0).map((s) => `${s.t.toFixed(1)} s: ${s.status} [${s.time}] ${s.bar.toFixed(3)}`).join('\n'));
+  console.log(samples.filter((_, i) => i % 4 === 0).map((s) => `${s.t.toFixed(1)} s: ${s.status} [${s.time}] ${s.bar.toFixed(3)}`).join('\n'));
   // The global stage, then a stage the library reports nothing of (levelling, the bird's-eye
   // search, the crop): the status says what it does.
   assert.ok(samples.some((s) => /^global alignment: 0 of 2 sensors aligned/.test(s.status)), 'the global stage');
   assert.ok(samples.some((s) => /^global alignment: 2 of 2 sensors aligned; now levelling the grounds, the bird's-eye search and the crop to the ROI$/.test(s.status)), 'the silent stage named');
-  // The first frame pair takes 14 s here (its reference's ICP target built on 330k points): the
-  // time line counts on and the bar moves while no pair is done.
-  const first = samples.filter((s) => s.status === 'frame pair 0/2');
-  const span = first.length ? first.at(-1).t - first[0].t : 0;
-  assert.ok(span > 3, `the first pair took ${span} s`);
+  // The frame pairs (two sensors, each refined from the stages' several starts) take seconds
+  // before the first ends: the time line counts on and the bar moves while none is done.
+  const first = samples.filter((s) => /^frame pair 0\/\d+$/.test(s.status));
+  assert.ok(first.length >= 2, `the first pairs were seen ${first.length} times`);
   const elapsed = first.map((s) => Number(s.time.match(/^([\d.]+) s elapsed/)?.[1]));
-  assert.ok(elapsed.every(Number.isFinite) && elapsed.at(-1) - elapsed[0] > span - 1.5, JSON.stringify(first.map((s) => s.time)));
-  assert.ok(first.at(-1).bar > first[0].bar + 0.02, `the bar ${first[0].bar} -> ${first.at(-1).bar}`);
+  assert.ok(elapsed.every(Number.isFinite) && elapsed.at(-1) > elapsed[0], JSON.stringify(first.map((s) => s.time)));
+  assert.ok(first.at(-1).bar > first[0].bar, `the bar ${first[0].bar} -> ${first.at(-1).bar}`);
   const bars = samples.map((s) => s.bar);
   assert.ok(bars.every((v, i) => i === 0 || v >= bars[i - 1]), 'the bar never goes back');
-  // A frame pair takes seconds: after the first, the time left.
-  const second = samples.filter((s) => s.status === 'frame pair 1/2');
-  assert.ok(second.length > 4 && second.slice(2).every((s) => /^[\d.]+ s elapsed, about \d+ s left in this stage$/.test(s.time)), JSON.stringify(second.map((s) => s.time)));
+  assert.ok(samples.some((s) => /^frame pair (\d+)\/\1; now the plane adjustment and the verdict$/.test(s.status)), 'the last stage named');
   const r = await glance(page, 'livox');
   // L0 keeps identity as the reference: T_L0_Lk is T_vehicle_Lk, printed once.
   assert.equal(r.reference, 'L0');
