@@ -198,8 +198,12 @@ export interface Hypothesis {
   parent: number | null;
   /** On top of the nominal, row-major 4x4. */
   correction: number[];
-  /** Share of the points landing on another sensor's surfaces (0..1). */
+  /** The selection's score: `landing` less `contradiction` (-1..1). */
   score: number;
+  /** Share of the points landing on another sensor's surfaces (0..1). */
+  landing: number;
+  /** Share of the points standing where another sensor saw through (0..1). */
+  contradiction: number;
   /** Share of the points with another sensor's surface beside them (0..1). */
   overlap: number;
 }

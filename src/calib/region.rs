@@ -21,8 +21,9 @@ const BELOW: f64 = 1.0;
 const ABOVE: f64 = 3.0;
 
 /// The box over the columns occupied both by the reference's points (sensor `r`) and by
-/// another sensor's, with every sensor's points placed by its start; `None` when no column is
-/// shared.
+/// another sensor's, with every sensor's points placed by its start; a sensor that shares no
+/// column with the reference (a chain of units, each overlapping only its neighbour) adds the
+/// columns it shares with the others. `None` when no column is shared.
 pub fn overlap_region(scans: &[Vec<[f32; 3]>], starts: &[Pose], r: usize) -> Option<Aabb> {
     let placed = |s: usize| {
         let pose = starts[s];
@@ -35,9 +36,15 @@ pub fn overlap_region(scans: &[Vec<[f32; 3]>], starts: &[Pose], r: usize) -> Opt
     let columns = |s: usize| -> HashSet<[i64; 2]> {
         placed(s).map(|q| [(q.x / COLUMN).floor() as i64, (q.y / COLUMN).floor() as i64]).collect()
     };
-    let others: HashSet<[i64; 2]> =
-        (0..scans.len()).filter(|&s| s != r).flat_map(columns).collect();
-    let shared: Vec<[i64; 2]> = columns(r).intersection(&others).copied().collect();
+    let all: Vec<HashSet<[i64; 2]>> = (0..scans.len()).map(columns).collect();
+    let others_than = |s: usize| -> HashSet<[i64; 2]> {
+        (0..scans.len()).filter(|&o| o != s).flat_map(|o| all[o].iter().copied()).collect()
+    };
+    let mut shared: HashSet<[i64; 2]> = all[r].intersection(&others_than(r)).copied().collect();
+    for s in (0..scans.len()).filter(|&s| s != r && all[s].is_disjoint(&all[r])) {
+        shared.extend(all[s].intersection(&others_than(s)));
+    }
+    let shared: Vec<[i64; 2]> = shared.into_iter().collect();
     if shared.is_empty() {
         return None;
     }
@@ -89,5 +96,22 @@ mod tests {
         assert!((region.min[2] + 1.0).abs() < 1e-9 && (region.max[2] - 3.0).abs() < 1e-9);
         let far: Vec<[f32; 3]> = ground(0.0).iter().map(|p| [p[0] + 100.0, p[1], p[2]]).collect();
         assert_eq!(overlap_region(&[ground(0.0), far], &[Pose::identity(); 2], 0), None);
+    }
+
+    #[test]
+    fn a_sensor_that_overlaps_only_its_neighbour_keeps_its_link() {
+        let ground = |from: f64| -> Vec<[f32; 3]> {
+            (0..200)
+                .flat_map(|i| {
+                    (0..20).map(move |j| [(from + i as f64 * 0.1) as f32, j as f32 * 0.2, 0.0])
+                })
+                .collect()
+        };
+        // The reference sees x 0-20, the middle unit 10-30, the last 25-45: only the middle
+        // unit shares columns with the reference.
+        let scans = [ground(0.0), ground(10.0), ground(25.0)];
+        let region = overlap_region(&scans, &[Pose::identity(); 3], 0).unwrap();
+        assert!((region.min[0] - 10.0).abs() < 1.01, "{region:?}");
+        assert!((region.max[0] - 30.0).abs() < 1.01, "{region:?}");
     }
 }

@@ -574,8 +574,12 @@ pub struct HypothesisReport {
     /// The hypothesis it was refined from.
     pub parent: Option<usize>,
     pub correction: [f64; 16],
-    /// Share of the points compared that land on another sensor's surfaces (0..1).
+    /// The selection's score: `landing` less `contradiction` (-1..1).
     pub score: f64,
+    /// Share of the points compared that land on another sensor's surfaces (0..1).
+    pub landing: f64,
+    /// Share of the points compared that stand where another sensor saw through (0..1).
+    pub contradiction: f64,
     /// Share of the points compared with another sensor's surface beside them (0..1).
     pub overlap: f64,
 }
@@ -594,6 +598,8 @@ impl From<&crate::calib::SensorSelection> for SelectionReport {
                 parent: h.parent,
                 correction: to_row_major(&h.correction),
                 score: h.score.value(),
+                landing: h.score.landing(),
+                contradiction: h.score.contradiction(),
                 overlap: h.score.overlap(),
             })
             .collect();

@@ -133,8 +133,11 @@ fn selection(out: &mut String, c: &Calibration) {
     if c.selection.is_empty() {
         return;
     }
-    let _ =
-        writeln!(out, "\nselection (share of the points landing on the other sensors' surfaces):");
+    let _ = writeln!(
+        out,
+        "\nselection (share of the points landing on the other sensors' surfaces, less the share \
+         standing where they saw through):"
+    );
     for s in &c.selection {
         let _ = writeln!(out, "  {}", s.sensor);
         for (i, h) in s.hypotheses.iter().enumerate() {
@@ -145,8 +148,11 @@ fn selection(out: &mut String, c: &Calibration) {
             };
             let _ = writeln!(
                 out,
-                "  {mark} {stage:<20} {:>5.1} %   {:>7.3} deg {:>7.3} m from the nominal",
+                "  {mark} {stage:<20} {:>5.1} % ({:>4.1} - {:>4.1})   {:>7.3} deg {:>7.3} m from the \
+                 nominal",
                 100.0 * h.score.value(),
+                100.0 * h.score.landing(),
+                100.0 * h.score.contradiction(),
                 h.correction.rotation.angle().to_degrees(),
                 h.correction.translation.vector.norm()
             );

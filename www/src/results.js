@@ -123,18 +123,18 @@ function selectionHtml(selection) {
   if (!selection.length) return '';
   const summary = selection.map((s) => {
     const c = s.hypotheses[s.chosen];
-    return `${esc(s.sensor)}: ${stageText(c)} (${(100 * c.score).toFixed(1)} % land; nominal ${(100 * s.hypotheses[0].score).toFixed(1)} %)`;
+    return `${esc(s.sensor)}: ${stageText(c)} (score ${(100 * c.score).toFixed(1)} %; nominal ${(100 * s.hypotheses[0].score).toFixed(1)} %)`;
   }).join('; ');
   const rows = selection.flatMap((s) => s.hypotheses.map((h, i) => {
     const [deg, m] = moved(h.correction);
     const chosen = i === s.chosen;
     return `<tr${chosen ? ' class="chosen"' : ''} data-testid="hypothesis" data-sensor="${esc(s.sensor)}" data-stage="${h.stage}"${chosen ? ' data-chosen' : ''}>` +
       `<td>${i === 0 ? esc(s.sensor) : ''}</td><td>${chosen ? '▶ ' : ''}${stageText(h)}</td>` +
-      `<td>${(100 * h.score).toFixed(1)} %</td><td>${(100 * h.overlap).toFixed(1)} %</td><td>${deg.toFixed(3)} deg / ${m.toFixed(3)} m</td></tr>`;
+      `<td>${(100 * h.score).toFixed(1)} %</td><td>${(100 * h.landing).toFixed(1)} %</td><td>${(100 * h.contradiction).toFixed(1)} %</td><td>${(100 * h.overlap).toFixed(1)} %</td><td>${deg.toFixed(3)} deg / ${m.toFixed(3)} m</td></tr>`;
   }));
   return `<details class="selection" data-testid="selection"><summary>Selection: ${summary}</summary>
-    <p class="hint">Every stage proposes a placement; each is scored on the whole scans by the share of points landing on the other sensors' surfaces (and theirs on its), and the rule picks one: never below the nominal, the latest stage among those the scans cannot tell apart.</p>
-    <div class="table-wrap"><table class="compare"><tr><th>sensor</th><th>hypothesis</th><th>points landing</th><th>overlap</th><th>from the nominal</th></tr>${rows.join('')}</table></div></details>`;
+    <p class="hint">Every stage proposes a placement; each is scored on the whole scans by the share of points landing on the other sensors' surfaces (and theirs on its), less the share standing where another sensor saw through (its free space), and the rule picks one: never below the nominal, the latest stage among those the scans cannot tell apart.</p>
+    <div class="table-wrap"><table class="compare"><tr><th>sensor</th><th>hypothesis</th><th>score</th><th>landing</th><th>in free space</th><th>overlap</th><th>from the nominal</th></tr>${rows.join('')}</table></div></details>`;
 }
 
 // `results`: one report per method run; the first is shown in detail. `failures`: {method, error}

@@ -27,6 +27,7 @@
 
 mod ground;
 mod score;
+mod sight;
 mod surface;
 pub use surface::Surface;
 
@@ -306,7 +307,13 @@ mod tests {
     fn hypothesis(source: Source, parent: Option<usize>, blocks: &[f64]) -> Hypothesis {
         let agreeing = [blocks.iter().sum(), 0.0];
         let blocks = blocks.iter().map(|&b| [b, 0.0]).collect();
-        let score = SensorScore { agreeing, overlapping: agreeing, total: [100.0, 0.0], blocks };
+        let score = SensorScore {
+            agreeing,
+            overlapping: agreeing,
+            contradicting: [0.0; 2],
+            total: [100.0, 0.0],
+            blocks,
+        };
         Hypothesis {
             source,
             correction: Pose::identity(),

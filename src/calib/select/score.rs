@@ -3,7 +3,9 @@
 //! a surface of the other scan lies within that surface's own sampling distance of it; how
 //! well it lands is a Gaussian of its distance along the surface normal, in units of the two
 //! neighbourhoods' measured thickness (noise and curvature together), so a sparse 32-beam pair
-//! and a dense solid-state pair are judged alike.
+//! and a dense solid-state pair are judged alike. A point that stands where the other sensor
+//! saw through (well in front of every one of its rays around it) counts against: overlap
+//! alone would reward piling one sensor's view onto another's.
 
 use nalgebra::Point3;
 
@@ -26,6 +28,9 @@ pub struct SensorScore {
     pub agreeing: [f64; 2],
     /// Weight of the points with a surface of the other scan beside them.
     pub overlapping: [f64; 2],
+    /// Weight of the points standing in the other scan's free space (less what of them
+    /// lands).
+    pub contradicting: [f64; 2],
     /// Weight of every point compared: the same for every hypothesis.
     pub total: [f64; 2],
     /// Landing weight per block and class, in a fixed order of (other sensor, frame,
@@ -35,10 +40,21 @@ pub struct SensorScore {
 }
 
 impl SensorScore {
-    /// The share of points landing on another sensor's surface, the mean over the classes
-    /// present (0..=1).
+    /// The share of points landing on another sensor's surface less the share standing in
+    /// its free space, the mean over the classes present (-1..=1).
     pub fn value(&self) -> f64 {
+        self.shares(&[0, 1].map(|c| self.agreeing[c] - self.contradicting[c]))
+    }
+
+    /// The share of points landing on another sensor's surface, as [`SensorScore::value`].
+    pub fn landing(&self) -> f64 {
         self.shares(&self.agreeing)
+    }
+
+    /// The share of points standing where another sensor saw through, as
+    /// [`SensorScore::value`].
+    pub fn contradiction(&self) -> f64 {
+        self.shares(&self.contradicting)
     }
 
     /// The share of points with another sensor's surface beside them, as [`SensorScore::value`].
@@ -230,14 +246,31 @@ impl Scenes {
             score.total[class] += weight;
             let p = source.points[i].map(f64::from);
             let q = (t_target_source * Point3::new(p[0], p[1], p[2])).coords;
-            let Some((j, normal)) = target.landing([q.x, q.y, q.z]) else { continue };
-            score.overlapping[class] += weight;
-            let x = target.points[j].map(f64::from);
-            let e = normal.x * (q.x - x[0]) + normal.y * (q.y - x[1]) + normal.z * (q.z - x[2]);
-            let sigma2 = (source.noise[i] as f64).powi(2) + (target.noise[j] as f64).powi(2);
-            let landed = weight * (-0.5 * e * e / sigma2).exp();
+            let landed = match target.landing([q.x, q.y, q.z]) {
+                Some((j, normal)) => {
+                    score.overlapping[class] += weight;
+                    let x = target.points[j].map(f64::from);
+                    let e =
+                        normal.x * (q.x - x[0]) + normal.y * (q.y - x[1]) + normal.z * (q.z - x[2]);
+                    let sigma2 =
+                        (source.noise[i] as f64).powi(2) + (target.noise[j] as f64).powi(2);
+                    weight * (-0.5 * e * e / sigma2).exp()
+                }
+                None => 0.0,
+            };
+            // In front of the other sensor's rays by three noise widths of both scans (taken
+            // alike), and by what a neighbouring ray's range differs on a surface inclined
+            // 45 deg: nothing a right placement's noise or sampling explains.
+            let margin = 3.0 * std::f64::consts::SQRT_2 * source.noise[i] as f64
+                + q.norm() * target.sight.cell();
+            let against = if target.sight.sees_through([q.x, q.y, q.z], margin) {
+                weight - landed
+            } else {
+                0.0
+            };
             score.agreeing[class] += landed;
-            score.blocks[at + source.blocks[k] as usize][class] += landed;
+            score.contradicting[class] += against;
+            score.blocks[at + source.blocks[k] as usize][class] += landed - against;
         }
     }
 }

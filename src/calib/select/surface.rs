@@ -8,6 +8,7 @@
 use nalgebra::Vector3;
 
 use super::SelectSettings;
+use super::sight::Sight;
 use crate::cloud::{Cloud, is_valid_point};
 use crate::icp::KdTree;
 use crate::icp::normals;
@@ -41,6 +42,9 @@ pub struct Surface {
     gate: f64,
     /// The voxel edge (m) the scan was thinned to: the finest motion the score resolves.
     pub voxel: f64,
+    /// What the scan saw through, from every return (not the thinned points): its rays are
+    /// as dense as the sensor made them.
+    pub sight: Sight,
 }
 
 impl Surface {
@@ -62,6 +66,7 @@ impl Surface {
         if valid.len() < settings.neighbours {
             return None;
         }
+        let sight = Sight::new(&valid);
         let cloud = Cloud::from_points(valid);
         // A dense scan is thinned with a larger voxel until it fits: the score needs the
         // surfaces' shape, not every return.
@@ -120,6 +125,7 @@ impl Surface {
             block_count,
             gate: settings.max_gate,
             voxel,
+            sight,
         })
     }
 }
