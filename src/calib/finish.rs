@@ -102,6 +102,18 @@ pub(super) fn finish(
     // The selection: one hypothesis per sensor, on the whole scans. The paper's methods keep
     // their own result as published; their scores still reach the verdict.
     let mut chosen: Vec<usize> = hypotheses.iter().map(|h| h.len() - 1).collect();
+    // A paper method whose own stage registered no frame of a sensor has no result to keep.
+    if !stages.select {
+        for s in (0..sensors.len()).filter(|&s| s != r) {
+            let own = hypotheses[s].last().map(|h| h.source);
+            if matches!(
+                own,
+                None | Some(Source::Nominal | Source::Global { .. } | Source::Levelled)
+            ) {
+                return Err(CalibError::FramesFailed { sensor: sensors[s].clone() });
+            }
+        }
+    }
     let choose = |hypotheses: &mut Vec<Vec<Hypothesis>>, chosen: &mut Vec<usize>| {
         let mut picked = chosen.clone();
         select::choose_all(
