@@ -73,18 +73,24 @@ test('the demo with its E-step on the GPU holds the fidelity rule against the CP
 });
 
 // `gmm`'s frame pairs' GICP after EM hides small differences in EM; JRMPC alone shows the
-// E-step's own. This run (100 iterations, not converged) is ill-conditioned: 1e-6 of random
-// relative noise in the CPU's statistics moves it by 0.009 deg / 0.7 mm. Held to the same bound
-// all the same (measured 0.0004 deg / 0.09 mm).
-test('JRMPC alone with its E-step on the GPU stays within the same bound of the CPU', async () => {
+// E-step's own. Its 100 iterations on this rig do not converge and the run is chaotic: the mean
+// sigma of the GPU and CPU runs agrees to 5e-10 at the first iteration, and the gap grows about
+// tenfold every five iterations from the 20th (measured: 2.5e-8 at 10, 6.6e-7 at 20, 1e-3 at
+// 40), ending 0.03 deg / 5 mm apart, the weak direction's one sigma being 6-14 mm on these
+// twins. So the E-step is held where its own error shows, before the trajectory amplifies it:
+// the first ten iterations' mean sigma within 1e-7 of the CPU's. The end result is printed.
+test('JRMPC alone: its E-step on the GPU follows the CPU iteration by iteration', async () => {
   const gpu = await run(withGpu, 'gpu', { method: 'jrmpc' });
   const cpu = await run(withGpu, 'cpu', { method: 'jrmpc' });
   assert.equal(gpu.result.estep, 'gpu');
   assert.equal(gpu.result.iterations, cpu.result.iterations);
-  for (const [g, c] of gpu.result.sensors.map((s, i) => [s, cpu.result.sensors[i]])) {
-    const d = between(g.extrinsic, c.extrinsic);
-    console.log(`jrmpc ${g.name}: GPU against CPU ${d.deg.toExponential(2)} deg / ${d.mm.toExponential(2)} mm`);
-    assert.ok(d.deg <= FIDELITY.deg && d.mm <= FIDELITY.mm, `${g.name}: ${d.deg} deg / ${d.mm} mm`);
+  const [g, c] = [gpu.result.history.meanSigma, cpu.result.history.meanSigma];
+  const gap = g.map((v, i) => Math.abs(v - c[i]) / c[i]);
+  console.log(`jrmpc: mean sigma GPU against CPU, relative: ${gap.map((x, i) => `${i + 1}: ${x.toExponential(1)}`).filter((_, i) => i < 10 || i % 10 === 9).join(', ')}`);
+  assert.ok(gap.length >= 10 && gap.slice(0, 10).every((x) => x <= 1e-7), JSON.stringify(gap.slice(0, 10)));
+  for (const [a, b] of gpu.result.sensors.map((s, i) => [s, cpu.result.sensors[i]])) {
+    const d = between(a.extrinsic, b.extrinsic);
+    console.log(`jrmpc ${a.name}: GPU against CPU after ${gpu.result.iterations} iterations ${d.deg.toExponential(2)} deg / ${d.mm.toExponential(2)} mm`);
   }
 });
 
