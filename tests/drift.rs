@@ -1,6 +1,7 @@
 //! The drift check end to end through the native CLI: twin rigs calibrated to JSON, the stored
 //! calibration as that JSON, a tf YAML and a URDF exported from it; a sensor whose true mount
-//! turned 0.5 deg is found and named, the same rig is not.
+//! turned 0.5 deg or moved 2 cm is found and named, the same rig is not; OpenCalib's road rig
+//! calibrated from two scenes five minutes apart is unchanged (issue 37).
 
 use std::path::Path;
 use std::process::Command;
@@ -37,7 +38,12 @@ fn extrinsics(json: &str) -> Vec<Extrinsic> {
 fn a_turned_sensor_fails_against_every_stored_form() {
     let dir = std::env::temp_dir().join(format!("gmmcalib-drift-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    for (rig, extra) in [("a", vec![]), ("c", vec!["--move", "sensor_2:0,0,0.5,0,0,0"])] {
+    let rigs = [
+        ("a", vec![]),
+        ("c", vec!["--move", "sensor_2:0,0,0.5,0,0,0"]),
+        ("d", vec!["--move", "sensor_2:0,0,0,0,0.02,0"]),
+    ];
+    for (rig, extra) in rigs {
         let mut args = vec!["simulate", "--out", rig, "--frames", "3", "--seed", "7"];
         args.extend(extra);
         assert_eq!(gmmcalib(&dir, &args).0, 0);
@@ -73,6 +79,15 @@ fn a_turned_sensor_fails_against_every_stored_form() {
     let (code, _, err) = gmmcalib(&dir, &["compare", "a.json", "c.json", "--sigmas", "3"]);
     assert_eq!(code, 3, "{err}");
     assert!(err.contains("3 sigma"), "{err}");
+    // A mount moved 2 cm sideways, by the default limit and by 3 sigma.
+    for extra in [&[][..], &["--sigmas", "3"][..]] {
+        let mut args = vec!["compare", "a.json", "d.json"];
+        args.extend(extra);
+        let (code, out, err) = gmmcalib(&dir, &args);
+        println!("sensor_2 moved 2 cm ({extra:?}):\n{out}");
+        assert_eq!(code, 3, "{out}{err}");
+        assert!(err.starts_with("gmmcalib: drift: sensor_2 moved "), "{err}");
+    }
 
     // Errors: one line naming the file and the place; status 1.
     std::fs::write(dir.join("bad.json"), "{\"reference\": \"sensor_1\",\n \"sensors\": 5}")
@@ -86,4 +101,30 @@ fn a_turned_sensor_fails_against_every_stored_form() {
         (1, "gmmcalib: gone.json: No such file or directory (os error 2)")
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// OpenCalib's road rig, scenes 0001 and 0002 (five minutes apart, the same mounts): the
+/// change between the two calibrations (0.2 deg / 15-18 mm) lies beyond the default limit but
+/// within both calibrations' precision, which the scans' own resolution sets (0.05-0.23 deg,
+/// 5-27 mm per axis): not a move, and the check passes.
+#[test]
+fn an_unchanged_real_rig_is_not_called_moved() {
+    let dir = std::env::temp_dir().join(format!("gmmcalib-drift-oc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let fixtures = format!("{}/tests/fixtures/opencalib", env!("CARGO_MANIFEST_DIR"));
+    for scene in ["0001", "0002"] {
+        let data = format!("{fixtures}/{scene}");
+        let json = format!("{scene}.json");
+        let (code, out, err) = gmmcalib(&dir, &["calibrate", "--data", &data, "--json", &json]);
+        assert!(code == 0, "{scene}: {out}{err}");
+    }
+    for extra in [&[][..], &["--sigmas", "3"][..]] {
+        let mut args = vec!["compare", "0001.json", "0002.json"];
+        args.extend(extra);
+        let (code, out, err) = gmmcalib(&dir, &args);
+        println!("OpenCalib 0001 against 0002 ({extra:?}):\n{out}{err}");
+        assert_eq!(code, 0, "{out}{err}");
+        assert!(out.contains("passed: no sensor moved"), "{out}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -307,6 +307,8 @@ export type Limit =
 export interface SensorDrift {
   name: string;
   moved: boolean;
+  /** Beyond a fixed limit, yet within 3 sigma of both calibrations' combined precision: not a move they can tell from their own scatter. */
+  unresolved: boolean;
   /** Rotation vector of the change about the vehicle's axes (rad), and its angle. */
   rotation: Vec3;
   angle: number;

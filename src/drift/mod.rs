@@ -101,7 +101,15 @@ pub struct SensorDrift {
     pub precision: Option<Precision>,
     pub limit: Limit,
     pub moved: bool,
+    /// Beyond a fixed limit, yet within [`UNRESOLVED_SIGMAS`] of both calibrations' combined
+    /// precision on every axis: the two cannot tell such a change from their own scatter, so
+    /// it is not called a move.
+    pub unresolved: bool,
 }
+
+/// With a fixed limit, a change within this many combined sigmas on every axis is
+/// unresolved rather than moved (three: a one-sided 99.9 % on one axis, about 99 % over six).
+pub const UNRESOLVED_SIGMAS: f64 = 3.0;
 
 /// The comparison of two calibrations.
 #[derive(Clone, Debug, PartialEq)]
@@ -179,11 +187,28 @@ pub fn compare(
             (m.extrinsic.translation.vector - was.translation.vector).into();
         let limit = limit(tolerance, m.precision.as_ref(), old.precision.as_ref());
         let (angle, distance) = (norm(rotation), norm(translation));
-        let moved = match limit {
-            Limit::Fixed { rotation: r, translation: t } => angle > r || distance > t,
-            Limit::Sigmas { rotation: r, position: p, .. } => {
-                (0..3).any(|i| rotation[i].abs() > r[i] || translation[i].abs() > p[i])
+        let beyond = |r: [f64; 3], p: [f64; 3]| {
+            (0..3).any(|i| rotation[i].abs() > r[i] || translation[i].abs() > p[i])
+        };
+        let (moved, unresolved) = match limit {
+            Limit::Fixed { rotation: r, translation: t } => {
+                let over = angle > r || distance > t;
+                // Both precisions must be known: one calibration's alone would let the
+                // other's scatter pass for a move.
+                let scatter = match (m.precision.as_ref(), old.precision.as_ref()) {
+                    (Some(a), Some(b)) => {
+                        let Limit::Sigmas { rotation, position, .. } =
+                            limit_of(UNRESOLVED_SIGMAS, a, Some(b))
+                        else {
+                            unreachable!()
+                        };
+                        !beyond(rotation, position)
+                    }
+                    _ => false,
+                };
+                (over && !scatter, over && scatter)
             }
+            Limit::Sigmas { rotation: r, position: p, .. } => (beyond(r, p), false),
         };
         sensors.push(SensorDrift {
             sensor: m.sensor.clone(),
@@ -194,6 +219,7 @@ pub fn compare(
             precision: m.precision,
             limit,
             moved,
+            unresolved,
         });
     }
     let missing = match stored.source {
@@ -216,20 +242,23 @@ fn limit(tolerance: &Tolerance, new: Option<&Precision>, stored: Option<&Precisi
         | (Tolerance::Precision { rotation, translation, .. }, None) => {
             Limit::Fixed { rotation, translation }
         }
-        (Tolerance::Precision { sigmas, .. }, Some(p)) => {
-            // Independent estimates: their variances add.
-            let combined = |a: [f64; 3], b: Option<[f64; 3]>| {
-                std::array::from_fn(|i| {
-                    let b = b.map_or(0.0, |b| b[i]);
-                    sigmas * (a[i] * a[i] + b * b).sqrt()
-                })
-            };
-            Limit::Sigmas {
-                sigmas,
-                rotation: combined(p.rotation, stored.map(|s| s.rotation)),
-                position: combined(p.position, stored.map(|s| s.position)),
-            }
-        }
+        (Tolerance::Precision { sigmas, .. }, Some(p)) => limit_of(sigmas, p, stored),
+    }
+}
+
+/// `sigmas` times the combined precision of `new` and, when known, `stored`.
+fn limit_of(sigmas: f64, new: &Precision, stored: Option<&Precision>) -> Limit {
+    // Independent estimates: their variances add.
+    let combined = |a: [f64; 3], b: Option<[f64; 3]>| {
+        std::array::from_fn(|i| {
+            let b = b.map_or(0.0, |b| b[i]);
+            sigmas * (a[i] * a[i] + b * b).sqrt()
+        })
+    };
+    Limit::Sigmas {
+        sigmas,
+        rotation: combined(new.rotation, stored.map(|s| s.rotation)),
+        position: combined(new.position, stored.map(|s| s.position)),
     }
 }
 
@@ -277,6 +306,30 @@ mod tests {
         let drift = compare(&shifted, &new, &Tolerance::default()).unwrap();
         assert!((drift.sensors[0].angle.to_degrees() - 0.5).abs() < 1e-9);
         assert!((drift.sensors[1].distance - 0.004).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_change_within_both_calibrations_scatter_is_not_a_move() {
+        let (a, b) = (Pose::identity(), Pose::translation(0.0, 1.0, 0.0));
+        // 0.2 deg and 18 mm apart, each calibration good to 0.1 deg / 10 mm per axis.
+        let turned = pose_from_xyz_rpy([0.018, 1.0, 0.0], [0.0, 0.0, 0.2f64.to_radians()]);
+        let scatter = Precision { rotation: [0.1f64.to_radians(); 3], position: [0.01; 3] };
+        let mut stored = mounts(Source::Json, &[("a", a), ("b", b)]);
+        let mut new = mounts(Source::Json, &[("a", a), ("b", turned)]);
+        // Without the precisions: beyond 0.1 deg / 1 cm, moved.
+        let drift = compare(&stored, &new, &Tolerance::default()).unwrap();
+        assert!(drift.sensors[0].moved && !drift.sensors[0].unresolved);
+        // With them: within 3 combined sigmas (0.42 deg, 42 mm), unresolved, and it passes.
+        stored.mounts[1].precision = Some(scatter);
+        new.mounts[1].precision = Some(scatter);
+        let drift = compare(&stored, &new, &Tolerance::default()).unwrap();
+        assert!(!drift.sensors[0].moved && drift.sensors[0].unresolved);
+        assert!(drift.passed());
+        // A move beyond them is a move.
+        let far = pose_from_xyz_rpy([0.06, 1.0, 0.0], [0.0, 0.0, 0.0]);
+        new.mounts[1].extrinsic = far;
+        let drift = compare(&stored, &new, &Tolerance::default()).unwrap();
+        assert!(drift.sensors[0].moved && !drift.sensors[0].unresolved);
     }
 
     #[test]

@@ -15,7 +15,8 @@ pub struct DriftReport {
     pub sensors: Vec<SensorDriftReport>,
     pub missing: Vec<String>,
     pub added: Vec<String>,
-    /// One sentence per sensor that moved or went missing.
+    /// One sentence per sensor that moved, changed within the calibrations' scatter, or went
+    /// missing.
     pub findings: Vec<String>,
 }
 
@@ -24,6 +25,9 @@ pub struct DriftReport {
 pub struct SensorDriftReport {
     pub name: String,
     pub moved: bool,
+    /// Beyond the fixed limit, within three combined sigmas of both calibrations' precision:
+    /// not a move the two can tell from their own scatter.
+    pub unresolved: bool,
     /// Rotation vector of the change (rad) and its angle.
     pub rotation: [f64; 3],
     pub angle: f64,
@@ -62,6 +66,7 @@ impl From<&SensorDrift> for SensorDriftReport {
         Self {
             name: s.sensor.clone(),
             moved: s.moved,
+            unresolved: s.unresolved,
             rotation: s.rotation,
             angle: s.angle,
             translation: s.translation,
@@ -115,7 +120,11 @@ pub fn drift_table(d: &Drift, stored: &str) -> String {
             deg(s.angle),
             s.distance * 1e3,
             limit_words(&s.limit),
-            if s.moved { "MOVED" } else { "ok" }
+            match (s.moved, s.unresolved) {
+                (true, _) => "MOVED",
+                (false, true) => "ok (beyond the limit, within both calibrations' scatter)",
+                (false, false) => "ok",
+            }
         );
     }
     for name in &d.missing {
@@ -128,7 +137,8 @@ pub fn drift_table(d: &Drift, stored: &str) -> String {
     out
 }
 
-/// One sentence per sensor that moved or went missing.
+/// One sentence per sensor that moved, changed beyond the limit within the calibrations'
+/// scatter, or went missing.
 pub fn drift_findings(d: &Drift) -> Vec<String> {
     let moved = d.sensors.iter().filter(|s| s.moved).map(|s| {
         format!(
@@ -140,6 +150,19 @@ pub fn drift_findings(d: &Drift) -> Vec<String> {
             limit_words(&s.limit)
         )
     });
+    let unresolved = d.sensors.iter().filter(|s| s.unresolved).map(|s| {
+        format!(
+            "{} changed {:.3} deg and {:.1} mm relative to {}, beyond the limit ({}) but within \
+             {} sigma of both calibrations' precision: they cannot tell it from their own \
+             scatter (more frames, or a scene with more structure, sharpen them)",
+            s.sensor,
+            deg(s.angle),
+            s.distance * 1e3,
+            d.reference,
+            limit_words(&s.limit),
+            crate::drift::UNRESOLVED_SIGMAS
+        )
+    });
     let missing = d.missing.iter().map(|m| format!("{m} is missing from the new calibration"));
-    moved.chain(missing).collect()
+    moved.chain(unresolved).chain(missing).collect()
 }

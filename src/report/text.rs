@@ -52,7 +52,7 @@ pub fn summary(c: &Calibration) -> String {
         if let Some(p) = &s.precision {
             let _ = writeln!(
                 out,
-                "  precision   xyz {} m   rot {} deg   (1 sigma, plane adjustment)",
+                "  precision   xyz {} m   rot {} deg   (1 sigma: what the scans tell apart)",
                 m3(p.position),
                 deg3(p.rotation)
             );

@@ -94,7 +94,7 @@ function sensorCard(s, r, { truth, parent, warnings }) {
     ? `<p class="direction" data-testid="relative" data-sensor="${esc(s.name)}"><code>T_${esc(r.reference)}_${esc(s.name)}</code> = <code>T_${esc(parent)}_${esc(s.name)}</code> (the table above): ${esc(r.reference)} sits at ${esc(parent)}'s origin. Quaternion (x y z w) ${f(quaternionOf(s.extrinsic), 7)}</p>`
     : transformHtml(`T_${r.reference}_${s.name}`, s.name, r.reference, s.relative, 'relative');
   const precision = s.precision
-    ? `<p class="precision" title="One-sigma uncertainty of the final estimate from the joint plane adjustment">precision (1 sigma): position ${s.precision.position.map((v) => (v * 1000).toFixed(1)).join(', ')} mm, rotation about x, y, z ${s.precision.rotation.map((v) => degrees(v).toFixed(4)).join(', ')} deg</p>`
+    ? `<p class="precision" title="One-sigma uncertainty of the final estimate: the larger of the joint plane adjustment's and the smallest move the scans tell apart (at 2 standard errors, divided by 2)">precision (1 sigma): position ${s.precision.position.map((v) => (v * 1000).toFixed(1)).join(', ')} mm, rotation about x, y, z ${s.precision.rotation.map((v) => degrees(v).toFixed(4)).join(', ')} deg</p>`
     : '';
   // One frame has no spread to speak of.
   const spread = s.spread.frames > 1

@@ -40,14 +40,15 @@ function sensorRow(s) {
   const precision = s.precision ? `${degrees(max(s.precision.rotation)).toFixed(4)} / ${mm(max(s.precision.position))}` : 'none';
   return `<tr data-testid="drift-sensor" data-sensor="${esc(s.name)}" data-moved="${s.moved}" class="${s.moved ? 'moved' : 'within'}">
     <td>${esc(s.name)}</td><td>${degrees(s.angle).toFixed(3)}</td><td>${mm(s.distance)}</td><td>${precision}</td><td>${limitText(s.limit)}</td>
-    <td>${s.moved ? 'moved' : 'within'}</td></tr>`;
+    <td${s.unresolved ? ' title="Beyond the limit, but within 3 sigma of both calibrations\' precision: they cannot tell this change from their own scatter"' : ''}>${s.moved ? 'moved' : s.unresolved ? 'within their scatter' : 'within'}</td></tr>`;
 }
 
-// The comparison: the outcome first (the library's findings when something moved), then the table.
+// The comparison: the outcome first (the library's findings: what moved, and what changed
+// beyond the limit within both calibrations' scatter), then the table.
 function reportHtml(report, storedName) {
   const n = report.sensors.length;
   const outcome = report.passed
-    ? [`No sensor moved since ${storedName}: ${n} sensor${n === 1 ? '' : 's'} within the limits relative to ${report.reference}.`]
+    ? [`No sensor moved since ${storedName}: ${n} sensor${n === 1 ? '' : 's'} within the limits relative to ${report.reference}.`, ...report.findings]
     : report.findings;
   const added = report.added.map((name) => `${name} is not in ${storedName}: not compared.`);
   const head = `<tr><th title="The sensor, compared by its pose relative to the reference">sensor</th>
@@ -55,7 +56,7 @@ function reportHtml(report, storedName) {
     <th title="Translation change: the distance from the stored position to the current one">translation (mm)</th>
     <th title="The current result's one-sigma precision, rotation / position, largest axis (gmm only)">1σ (deg / mm)</th>
     <th title="What counts as moved for this sensor: an angle / a distance, or K sigma of the combined precision per axis (largest axis shown)">limit (deg / mm)</th>
-    <th title="Beyond the limit (moved) or not (within)">moved?</th></tr>`;
+    <th title="Beyond the limit (moved), or not (within); beyond a fixed limit yet within 3 sigma of both calibrations' precision is within their scatter">moved?</th></tr>`;
   return `<div class="drift-outcome ${report.passed ? 'passed' : 'failed'}" data-testid="drift-outcome" data-passed="${report.passed}">
       ${outcome.map((line) => `<p>${esc(line)}</p>`).join('')}${added.map((line) => `<p class="hint">${esc(line)}</p>`).join('')}
     </div>

@@ -174,6 +174,56 @@ impl Scenes {
         score
     }
 
+    /// How finely the scans place sensor `s` at `poses[s]` (the others at theirs), per axis of
+    /// the vehicle frame: one sigma, rotation about x, y, z through the sensor (rad) and
+    /// position along x, y, z (m). Along each axis, both ways, the smallest move after which
+    /// the placement beats the moved one by `z` standard errors of the paired block test
+    /// (doubled until it does, then halved back by bisection), divided by `z`. What the
+    /// scans cannot tell apart they cannot tell apart, whatever a fit's curvature says.
+    pub fn resolve(&self, s: usize, poses: &[Pose], z: f64) -> ([f64; 3], [f64; 3]) {
+        const FIRST: [f64; 2] = [0.01 * std::f64::consts::PI / 180.0, 0.001];
+        const DOUBLINGS: usize = 10;
+        const BISECTIONS: usize = 3;
+        let at = self.score(s, poses);
+        let origin = poses[s].translation.vector;
+        let moved = |axis: usize, delta: f64| -> Pose {
+            let mut e = nalgebra::Vector3::zeros();
+            e[axis % 3] = 1.0;
+            let motion = if axis < 3 {
+                let turn = nalgebra::UnitQuaternion::from_scaled_axis(e * delta);
+                Pose::from_parts((origin - turn * origin).into(), turn)
+            } else {
+                Pose::from_parts((e * delta).into(), nalgebra::UnitQuaternion::identity())
+            };
+            motion * poses[s]
+        };
+        let told = |axis: usize, delta: f64| -> bool {
+            let mut shifted = poses.to_vec();
+            shifted[s] = moved(axis, delta);
+            at.beats(&self.score(s, &shifted), z)
+        };
+        let mut sigma = [0.0; 6];
+        for (axis, out) in sigma.iter_mut().enumerate() {
+            let first = FIRST[axis / 3];
+            let mut found = 0.0;
+            for sign in [1.0, -1.0] {
+                let (mut low, mut high) = (0.0, first);
+                let mut steps = 0;
+                while !told(axis, sign * high) && steps < DOUBLINGS {
+                    (low, high) = (high, 2.0 * high);
+                    steps += 1;
+                }
+                for _ in 0..BISECTIONS {
+                    let mid = 0.5 * (low + high);
+                    if told(axis, sign * mid) { high = mid } else { low = mid }
+                }
+                found += 0.5 * high;
+            }
+            *out = found / z;
+        }
+        ([sigma[0], sigma[1], sigma[2]], [sigma[3], sigma[4], sigma[5]])
+    }
+
     /// Sensor `s`'s scored frames: (frame name, surface).
     pub(super) fn frames_of(&self, s: usize) -> impl Iterator<Item = (&str, &Surface)> {
         self.surfaces.get(s).into_iter().flatten().map(|(f, surface)| (f.as_str(), surface))
