@@ -64,6 +64,14 @@ fn the_livox_units_keep_their_right_start() {
     let t_l1_l0 = pose(&mlcc["T_L1_L0"]);
     // Truth as T_L0_Lk: the reference L0 keeps identity.
     let truth = [Pose::identity(), t_l1_l0.inverse(), t_l1_l0.inverse() * pose(&mlcc["T_L1_L2"])];
+    // L2 overlaps L1 only: its verdict names L1 as the reference to choose.
+    let l2 = result.verdict.sensors.iter().find(|v| v.sensor == "L2").unwrap();
+    let said: Vec<String> = l2.reasons.iter().map(|r| r.kind.to_string()).collect();
+    assert!(
+        l2.level == Level::Good
+            || said.iter().any(|r| r.contains("calibrate with L1 as the reference")),
+        "{said:?}"
+    );
     for (s, sensor) in result.sensors.iter().enumerate() {
         let off = truth[s].inverse() * sensor.extrinsic;
         let (angle, distance) = (off.rotation.angle().to_degrees(), off.translation.vector.norm());

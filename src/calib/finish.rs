@@ -309,6 +309,15 @@ pub(super) fn finish(
                 warning: level.and_then(|l| l.warning),
                 not_levelled: level.and_then(|l| l.skipped.clone()),
                 global: global.get(s).filter(|_| s != r),
+                neighbour: (s != r)
+                    .then(|| {
+                        (0..results.len())
+                            .filter(|&o| o != s && o != r)
+                            .map(|o| (o, scenes.overlap_with(s, o, &placed)))
+                            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+                    })
+                    .flatten()
+                    .map(|(o, share)| (results[o].name.clone(), share)),
             },
             &others,
         );

@@ -95,7 +95,7 @@ pub struct Reason {
 #[derive(Clone, Debug, PartialEq)]
 pub enum ReasonKind {
     /// Too little of the sensor's structure overlaps the reference's after the calibration.
-    NothingOverlaps { overlap: f64, overlapping: usize },
+    NothingOverlaps { overlap: f64, overlapping: usize, neighbour: Option<(String, f64)> },
     /// Too few of the sensor's points overlap the reference's to judge agreement by.
     FewPoints { overlapping: usize },
     /// Share of the overlapping structure (all points where no ground is known) that lands on
@@ -183,6 +183,9 @@ pub(super) struct SensorInputs<'a> {
     pub warning: Option<BevWarning>,
     pub not_levelled: Option<LevellingSkipped>,
     pub global: Option<&'a GlobalAlignment>,
+    /// The other non-reference sensor whose scans this one overlaps most, and the share of
+    /// its points overlapping them: a chain's next link, when the reference is not one.
+    pub neighbour: Option<(String, f64)>,
 }
 
 /// Judges one sensor.
@@ -202,7 +205,7 @@ pub(super) fn judge_sensor(inputs: SensorInputs, others: &[&SensorResult]) -> Se
         }
     }
     if let Some(e) = &inputs.evidence {
-        judge_evidence(e, &mut say);
+        judge_evidence(e, inputs.neighbour, &mut say);
     }
     if inputs.empty > 0 {
         say(Level::Check, ReasonKind::EmptyScans { scans: inputs.empty });
@@ -283,10 +286,17 @@ fn judge_selection(selection: &SensorSelection, z: f64, say: &mut impl FnMut(Lev
 }
 
 /// The reasons the measurements give.
-fn judge_evidence(e: &SensorEvidence, say: &mut impl FnMut(Level, ReasonKind)) {
+fn judge_evidence(
+    e: &SensorEvidence,
+    neighbour: Option<(String, f64)>,
+    say: &mut impl FnMut(Level, ReasonKind),
+) {
     let a: &Agreement = &e.after;
     if a.overlap() < MIN_OVERLAP {
-        let kind = ReasonKind::NothingOverlaps { overlap: a.overlap(), overlapping: a.overlapping };
+        // A neighbour whose overlap would have passed names the reference to choose.
+        let neighbour = neighbour.filter(|(_, share)| *share >= MIN_OVERLAP);
+        let (overlap, overlapping) = (a.overlap(), a.overlapping);
+        let kind = ReasonKind::NothingOverlaps { overlap, overlapping, neighbour };
         say(Level::Failed, kind);
         return;
     }

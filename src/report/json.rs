@@ -427,8 +427,16 @@ impl From<&Reason> for ReasonReport {
     fn from(r: &Reason) -> Self {
         use Value::{Names, Number, Text};
         let values: Vec<(&'static str, Value)> = match &r.kind {
-            ReasonKind::NothingOverlaps { overlap, overlapping } => {
-                vec![("overlap", Number(*overlap)), ("overlapping", Number(*overlapping as f64))]
+            ReasonKind::NothingOverlaps { overlap, overlapping, neighbour } => {
+                let mut v = vec![
+                    ("overlap", Number(*overlap)),
+                    ("overlapping", Number(*overlapping as f64)),
+                ];
+                if let Some((other, share)) = neighbour {
+                    v.push(("neighbour", Text(other.clone())));
+                    v.push(("neighbourOverlap", Number(*share)));
+                }
+                v
             }
             ReasonKind::FewPoints { overlapping } => {
                 vec![("overlapping", Number(*overlapping as f64))]

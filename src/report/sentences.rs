@@ -156,13 +156,27 @@ fn axes(list: &[Axis]) -> String {
 impl fmt::Display for ReasonKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            ReasonKind::NothingOverlaps { overlap, overlapping } => write!(
-                f,
-                "after the calibration only {:.0} % of this sensor's points ({overlapping}) lie \
-                 near the reference's surfaces: nothing supports this extrinsic (a nominal far \
-                 off, another scene, or a region of interest the sensors do not share)",
-                100.0 * overlap
-            ),
+            ReasonKind::NothingOverlaps { overlap, overlapping, neighbour } => {
+                write!(
+                    f,
+                    "after the calibration only {:.0} % of this sensor's points ({overlapping}) \
+                     lie near the reference's surfaces: nothing supports this extrinsic",
+                    100.0 * overlap
+                )?;
+                match neighbour {
+                    Some((other, share)) => write!(
+                        f,
+                        "; it overlaps {other}'s scans ({:.0} % of its points), not the \
+                         reference's: calibrate with {other} as the reference",
+                        100.0 * share
+                    ),
+                    None => write!(
+                        f,
+                        " (a nominal far off, another scene, or a region of interest the \
+                         sensors do not share)"
+                    ),
+                }
+            }
             ReasonKind::FewPoints { overlapping } => write!(
                 f,
                 "only {overlapping} of this sensor's points overlap the reference's surfaces: \

@@ -224,6 +224,22 @@ impl Scenes {
         ([sigma[0], sigma[1], sigma[2]], [sigma[3], sigma[4], sigma[5]])
     }
 
+    /// The share of sensor `s`'s points with a surface of sensor `o`'s scans of the same
+    /// frames beside them, each placed by `poses` (`T_vehicle_sensor`).
+    pub fn overlap_with(&self, s: usize, o: usize, poses: &[Pose]) -> f64 {
+        let mut score = SensorScore::default();
+        let (Some(own), Some(theirs)) = (self.surfaces.get(s), self.surfaces.get(o)) else {
+            return 0.0;
+        };
+        let t_o_s = poses[o].inverse() * poses[s];
+        for (frame, mine) in own {
+            if let Some((_, other)) = theirs.iter().find(|(f, _)| f == frame) {
+                self.compare(mine, other, &t_o_s, &mut score);
+            }
+        }
+        score.overlap()
+    }
+
     /// Sensor `s`'s scored frames: (frame name, surface).
     pub(super) fn frames_of(&self, s: usize) -> impl Iterator<Item = (&str, &Surface)> {
         self.surfaces.get(s).into_iter().flatten().map(|(f, surface)| (f.as_str(), surface))
