@@ -50,13 +50,16 @@ function verdictHtml(r, advice = []) {
   const v = r.verdict;
   const flagged = Object.entries(v.sensors).filter(([, s]) => s.level !== 'good').map(([name]) => name);
   const support = Object.entries(v.sensors).map(([name, s]) => [name, s.reasons.filter((x) => x.level === 'good')]).filter(([, list]) => list.length);
-  // A run-level finding the advice quotes (no target found) is said there only.
-  const runSupport = v.reasons.filter((x) => x.level === 'good' && !(advice.length && x.kind === 'noTarget'));
+  // A run-level finding the advice quotes (no target found) is said there only, whatever its
+  // level.
+  const quoted = (x) => advice.length && x.kind === 'noTarget';
+  const runReasons = v.reasons.filter((x) => !quoted(x));
+  const runSupport = runReasons.filter((x) => x.level === 'good');
   const evidence = support.map(([name, list]) => `<p><b>${esc(name)}</b></p>${reasonsHtml(list)}`).join('') +
     (runSupport.length ? `<p><b>reconstruction and run</b></p>${reasonsHtml(runSupport)}` : '');
   return `<div class="verdict ${v.level}" data-testid="verdict" data-level="${v.level}">
     <p><strong>${VERDICT_TITLE[v.level]}</strong>${flagged.length ? ` <span class="flagged">Reasons on the card of ${flagged.map(esc).join(', ')} below.</span>` : ''}</p>
-    ${concerns(v.reasons).length ? reasonsHtml(concerns(v.reasons)) : ''}
+    ${concerns(runReasons).length ? reasonsHtml(concerns(runReasons)) : ''}
     ${advice.map(adviceHtml).join('')}
     ${evidence ? `<details><summary>Evidence that supports it</summary>${evidence}</details>` : ''}
   </div>`;
