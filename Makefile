@@ -51,6 +51,7 @@ bench-browser: build setup-browser
 wasm: setup-rust
 	cargo build --lib --release --target $(WASM_TARGET)
 	wasm-bindgen --target web --out-dir www/pkg $(WASM_OUT)
+	node www/tools/defaults.mjs
 
 # The npm package (packages/gmmcalib): the page's wasm, one binary for Node and browsers,
 # packed as packages/gmmcalib/gmmcalib-<version>.tgz.

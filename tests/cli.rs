@@ -313,8 +313,9 @@ fn bad_input_is_one_clear_line() {
     });
     assert!(e.contains("no transform_sensor_3 for the data folder sensor_3"), "{e}");
 
-    let e = error_of("configmethod", &[], |d| append(d, "method: ndt\n"));
-    assert!(e.contains("unknown method 'ndt'"), "{e}");
+    // A config is checked whole when read, whatever the flags override.
+    let e = error_of("configmethod", &["--method", "p2l"], |d| append(d, "method: ndt\n"));
+    assert!(e.contains("config.yaml: method: unknown method 'ndt'"), "{e}");
 }
 
 fn append(dir: &Path, text: &str) {
@@ -328,7 +329,7 @@ fn flags_override_the_config() {
         generate(&RigSpec { sensors: 2, frames: 2, points_per_view: 300, ..Default::default() });
     let tmp = TempDir::new("override");
     write_rig(&tmp.0, &rig);
-    append(&tmp.0, "method: ndt\nreference: sensor_9\n");
+    append(&tmp.0, "method: jrmpc\nreference: sensor_9\n");
     let json_path = tmp.0.join("p2l.json");
     let args =
         ["--method", "p2l", "--reference", "sensor_2", "--json", json_path.to_str().unwrap()];

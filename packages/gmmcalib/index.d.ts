@@ -28,7 +28,37 @@ export interface Scan {
   points: Float32Array;
 }
 
-export interface CalibrationInput {
+/**
+ * What a user sets, under the keys every door shares: config.yaml (snake_case there), the CLI's
+ * flags and this input. Unset keeps the library's default (`defaults()`).
+ */
+export interface SettingsInput {
+  /** A method, several joined by commas (compared), or 'all'. Default 'gmm'. */
+  method?: MethodName | 'all' | string;
+  /** `cube:EDGE`, `box:W,D,H`, `sphere:DIAMETER`, `mesh:NAME` (its file in `targetMesh`) or `none`, or the object form. Default a 0.5 m cube. */
+  target?: string | Target;
+  components?: number;
+  /** The most EM iterations (JRMPC's or cad's). */
+  iterations?: number;
+  /** EM's convergence test, for whichever method runs; default each method's own. */
+  tolerance?: number;
+  multiresolution?: boolean;
+  /** JRMPC's exact E-step: every point against every component in f64 (7-13x slower). */
+  exact?: boolean;
+  initialSigma?: 'bbox' | 'prior' | number;
+  seed?: number;
+  /** The global alignment first; default: for the methods that run it (`gmm`, `cad`). Also read as `alignGlobally`. */
+  global?: boolean;
+  /** Levelling onto the reference's ground; default: for `gmm` and `cad`. */
+  level?: boolean;
+  /** The search from above after levelling. Default true. */
+  bev?: boolean;
+  /** Refine only, from the nominal. */
+  refine?: boolean;
+  threads?: number;
+}
+
+export interface CalibrationInput extends SettingsInput {
   scans: Scan[];
   /** Nominal `T_vehicle_sensor` per sensor. */
   nominal: Record<string, XyzRpy>;
@@ -36,21 +66,13 @@ export interface CalibrationInput {
   roi?: { min: Vec3; max: Vec3 };
   /** Default: the sensor of the first scan. */
   reference?: string;
-  /** Default 'gmm'. */
-  method?: MethodName | 'all';
-  /** Default a 0.5 m cube. */
-  target?: Target;
   targetMesh?: { name: string; bytes: Uint8Array };
-  components?: number;
-  iterations?: number;
-  tolerance?: number;
-  multiresolution?: boolean;
-  /** JRMPC's exact E-step: every point against every component in f64 (7-13x slower). */
-  exact?: boolean;
-  initialSigma?: 'bbox' | 'prior' | number;
-  seed?: number;
+  /** The former name of `global`. */
   alignGlobally?: boolean;
 }
+
+/** The library's defaults, as a user would write them (the EM tolerance differs by method and is left out). */
+export function defaults(): SettingsInput;
 
 export interface Progress {
   method: MethodName;
@@ -228,16 +250,12 @@ export interface MethodInfo {
 }
 export function methods(): MethodInfo[];
 
-export interface Config {
+/** A GMMCalib config: the nominals, the ROI, the reference and the settings it sets (a cube's `target_edge` as its `target`). */
+export interface Config extends SettingsInput {
   nominal: Record<string, XyzRpy>;
   roi: { min: Vec3; max: Vec3 } | null;
   reference: string | null;
-  method: string | null;
-  components: number | null;
-  iterations: number | null;
-  edge: number | null;
-  target: string | null;
-  initialSigma: 'bbox' | 'prior' | number | null;
+  target?: string;
 }
 export function parseConfig(text: string, fileName: string): Config;
 

@@ -24,6 +24,7 @@ mod error;
 mod evidence;
 mod finish;
 pub mod global;
+mod input;
 mod level;
 mod notes;
 mod pairs;
@@ -48,6 +49,7 @@ pub use evidence::{Agreement, Observability, SensorEvidence};
 pub use global::{
     GlobalAlignment, GlobalJob, GlobalReference, GlobalSettings, GlobalSkip, GlobalStage,
 };
+pub use input::{Methods, SettingsInput, TargetChoice};
 pub use level::GroundSettings;
 pub use notes::{BevWarning, LevellingSkipped, Note, NoteKind, SearchRange};
 pub use pairs::{

@@ -1,6 +1,7 @@
 //! The arguments of `calibrate` and `compare`, `--flag VALUE` or `--flag=VALUE`, and the
 //! checks every command's flags share.
 
+use crate::calib::SettingsInput;
 use crate::drift::{DEFAULT_ROTATION_TOLERANCE, DEFAULT_TRANSLATION_TOLERANCE, Tolerance};
 
 pub const USAGE: &str = "\
@@ -65,23 +66,11 @@ pub enum CommandArgs {
 pub struct CalibrateArgs {
     pub config: Option<String>,
     pub data: String,
-    pub target: Option<String>,
+    /// The settings the flags set (`--method`, `--target`, `--global`, `--level`, `--bev`,
+    /// `--refine`, `--iterations`, `--components`, `--threads`, `--exact`): over the config's.
+    pub settings: SettingsInput,
     pub roi: Option<[f64; 6]>,
-    pub global: Option<bool>,
-    /// Levelling onto the reference's ground, and the search from above after it.
-    pub level: Option<bool>,
-    pub bev: Option<bool>,
-    /// Refine only, from the nominal (`--refine`, a flag without a value).
-    pub refine: bool,
-    /// A method name or `all`.
-    pub method: Option<String>,
     pub reference: Option<String>,
-    pub iterations: Option<usize>,
-    pub components: Option<usize>,
-    /// Threads sharing JRMPC's E-step; default: the host's.
-    pub threads: Option<usize>,
-    /// JRMPC's exact E-step (`--exact`, a flag without a value).
-    pub exact: bool,
     pub json: Option<String>,
     /// A recording instead of `data`, and what to take from it.
     pub bag: Option<String>,
@@ -152,18 +141,20 @@ pub fn calibrate(flags: Vec<(String, String)>) -> Result<CalibrateArgs, String> 
         match flag.as_str() {
             "--config" => out.config = Some(value),
             "--data" => data = Some(value),
-            "--method" => out.method = Some(value),
+            "--method" => out.settings.method = Some(value.parse()?),
             "--reference" => out.reference = Some(value),
-            "--target" => out.target = Some(value),
+            "--target" => {
+                out.settings.target = Some(value.parse().map_err(|e| format!("--target: {e}"))?)
+            }
             "--roi" => out.roi = Some(six(&flag, &value)?),
-            "--global" => out.global = Some(on_off(&flag, &value)?),
-            "--level" => out.level = Some(on_off(&flag, &value)?),
-            "--bev" => out.bev = Some(on_off(&flag, &value)?),
-            "--refine" => out.refine = true,
-            "--iterations" => out.iterations = Some(positive(&flag, &value)?),
-            "--components" => out.components = Some(positive(&flag, &value)?),
-            "--threads" => out.threads = Some(positive(&flag, &value)?),
-            "--exact" => out.exact = true,
+            "--global" => out.settings.global = Some(on_off(&flag, &value)?),
+            "--level" => out.settings.level = Some(on_off(&flag, &value)?),
+            "--bev" => out.settings.bev = Some(on_off(&flag, &value)?),
+            "--refine" => out.settings.refine = Some(true),
+            "--iterations" => out.settings.iterations = Some(positive(&flag, &value)?),
+            "--components" => out.settings.components = Some(positive(&flag, &value)?),
+            "--threads" => out.settings.threads = Some(positive(&flag, &value)?),
+            "--exact" => out.settings.exact = Some(true),
             "--json" => out.json = Some(value),
             "--bag" => out.bag = Some(value),
             "--topics" => out.topics = Some(value),
@@ -278,12 +269,13 @@ mod tests {
             panic!("expected calibrate");
         };
         assert_eq!((a.config.as_deref(), a.data.as_str()), (Some("c.yaml"), "d"));
-        assert_eq!((a.method.as_deref(), a.iterations, a.components), (Some("all"), Some(7), None));
-        assert!(!a.exact);
+        let s = &a.settings;
+        assert_eq!(s.method, Some(crate::calib::Methods(crate::calib::Method::ALL.to_vec())));
+        assert_eq!((s.iterations, s.components, s.exact), (Some(7), None, None));
         let Ok(CommandArgs::Calibrate(a)) = parse(&args("calibrate --exact --data d")) else {
             panic!("expected calibrate");
         };
-        assert!(a.exact && a.data == "d", "--exact takes no value");
+        assert!(a.settings.exact == Some(true) && a.data == "d", "--exact takes no value");
     }
 
     #[test]

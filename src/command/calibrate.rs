@@ -5,7 +5,7 @@ use super::args::CalibrateArgs;
 use super::recording::{self, BagRequest};
 use super::{Host, dataset, parent, read_text};
 use crate::calib::{self, Level, Method, Progress, Rig, Settings, Stage};
-use crate::io::config::{Config, mesh_path};
+use crate::io::config::Config;
 use crate::jrmpc::Control;
 use crate::report::{self, Report};
 use crate::target::Target;
@@ -22,21 +22,22 @@ fn status(levels: impl IntoIterator<Item = Level>) -> u8 {
     if any && levels.all(|l| l == Level::Failed) { VERDICT_FAILED } else { 0 }
 }
 
-/// A target in its short form (`Target`'s), or `mesh:PATH` with PATH (relative to `dir`) read
-/// here: the library parses the bytes.
-fn target(host: &mut dyn Host, value: &str, dir: &str) -> Result<Target, String> {
-    match mesh_path(value) {
-        Some(path) => {
-            let path = super::join(dir, path);
-            let bytes = host.read(&path).map_err(|e| format!("{path}: {e}"))?;
-            Target::from_mesh_file(&bytes, &path).map_err(|e| e.to_string())
-        }
-        None => value.parse(),
-    }
+/// A `mesh:PATH` target's model, PATH relative to `dir`, read here: the library parses the
+/// bytes.
+fn target_mesh(host: &mut dyn Host, path: &str, dir: &str) -> Result<Target, String> {
+    let path = super::join(dir, path);
+    let bytes = host.read(&path).map_err(|e| format!("{path}: {e}"))?;
+    Target::from_mesh_file(&bytes, &path).map_err(|e| e.to_string())
+}
+
+/// JRMPC's settings with the host's threads (`--threads` overrides them).
+fn host_threads(host: &dyn Host) -> crate::jrmpc::EmSettings {
+    crate::jrmpc::EmSettings { threads: host.threads(), ..Default::default() }
 }
 
 pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
-    // 1. The config, if any, with the command line taking precedence.
+    // 1. The config, if any, with the command line taking precedence. A model file is read
+    // relative to where it was named: the config's folder, or here.
     let (config, label) = match &a.config {
         Some(path) => {
             let text = read_text(host, path)?;
@@ -44,41 +45,20 @@ pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
         }
         None => (None, String::new()),
     };
-    let mut settings = Settings::default();
+    let mut flags = a.settings.clone();
+    flags.resolve_mesh(|path| target_mesh(host, path, "")).map_err(|e| format!("--target: {e}"))?;
+    let mut input = flags;
     if let Some(config) = &config {
-        config.apply(&mut settings);
-    }
-    let methods = match (&a.method, &config) {
-        (Some(m), _) => Method::parse_list(m).map_err(|e| e.to_string())?,
-        (None, Some(c)) => {
-            c.methods(&label).map_err(|e| e.to_string())?.unwrap_or(vec![settings.method])
+        let mut from_file = config.settings.clone();
+        if input.target.is_none() {
+            from_file
+                .resolve_mesh(|path| target_mesh(host, path, parent(&label)))
+                .map_err(|e| format!("{label}: target: {e}"))?;
         }
-        (None, None) => vec![settings.method],
-    };
-    if let (Some(config), Some(path)) = (&config, a.config.as_deref()) {
-        if let Some(mesh) = &config.target_mesh {
-            let value = format!("mesh:{mesh}");
-            settings.target =
-                target(host, &value, parent(path)).map_err(|e| format!("{label}: {e}"))?;
-        }
+        input = input.or(from_file);
     }
-    if let Some(t) = &a.target {
-        settings.target = target(host, t, "").map_err(|e| format!("--target: {e}"))?;
-    }
-    if let Some(k) = a.components {
-        settings.components = k;
-    }
-    if let Some(n) = a.iterations {
-        settings.jrmpc.max_iterations = n;
-    }
-    settings.jrmpc.exact |= a.exact;
-    settings.align_globally = a.global.or(settings.align_globally);
-    settings.level_ground = a.level.or(settings.level_ground);
-    if a.bev == Some(false) {
-        settings.bev = None;
-    }
-    settings.refine_only |= a.refine;
-    settings.jrmpc.threads = a.threads.unwrap_or_else(|| host.threads());
+    let mut settings = Settings { jrmpc: host_threads(host), ..Settings::default() };
+    let methods = input.apply(&mut settings)?;
 
     // 2. Scans, and the rig they make with the config: nominals from the config, else the
     // layout's guess, else identity for every sensor. A recording gives scans, nominals and a

@@ -8,10 +8,9 @@
 //! min_bound:
 //!   - [8.5, -3, -1]                        # ROI in the vehicle frame (m)
 //! max_bound: [11, 4, 2]                    # the plain form, without the extra list, works too
-//! # ours, all optional: reference, method (a name or "all"), components, iterations,
-//! # target (cube:EDGE, box:W,D,H, sphere:DIAMETER, mesh:PATH (relative to the config) or
-//! # none), target_edge (a cube's edge, m),
-//! # initial_sigma (m, or "prior" / "bbox"), exact (true: JRMPC's exact E-step), refine (true: refine only, from the nominal)
+//! # ours, all optional: reference, and the settings every door shares (`SettingsInput`:
+//! # method, target (mesh:PATH relative to the config), target_edge, components, iterations,
+//! # tolerance, multiresolution, exact, initial_sigma, seed, global, level, bev, refine)
 //! ```
 //!
 //! Rules: `transform_<name>` gives sensor `<name>`'s nominal (the data folder of that name);
@@ -22,10 +21,9 @@
 use serde_norway::{Mapping, Value};
 
 use super::IoError;
-use crate::calib::{InitialSigma, Method, Settings};
+use crate::calib::{Settings, SettingsInput, TargetChoice};
 use crate::cloud::Aabb;
 use crate::se3::{Pose, pose_from_xyz_rpy};
-use crate::target::Target;
 
 /// A sensor's nominal `T_vehicle_sensor` as the file gives it.
 #[derive(Clone, Debug, PartialEq)]
@@ -51,20 +49,9 @@ pub struct Config {
     pub nominal: Vec<Nominal>,
     pub roi: Option<Aabb>,
     pub reference: Option<String>,
-    /// A method's name or `all`, checked when used ([`Config::methods`]): a command-line
-    /// flag may override a bad one.
-    pub method: Option<String>,
-    pub components: Option<usize>,
-    pub iterations: Option<usize>,
-    pub target: Option<Target>,
-    /// `target: mesh:PATH`: the CAD model's path as written (the caller reads the file, relative
-    /// to the config's folder, and sets the target).
-    pub target_mesh: Option<String>,
-    pub initial_sigma: Option<InitialSigma>,
-    /// JRMPC's exact E-step ([`crate::jrmpc::EmSettings::exact`]).
-    pub exact: Option<bool>,
-    /// Refine only, from the nominal ([`crate::calib::Settings::refine_only`]).
-    pub refine: Option<bool>,
+    /// The settings it sets, under the keys every door shares ([`SettingsInput`]). A
+    /// `target: mesh:PATH` is left for the caller to read, relative to the config's folder.
+    pub settings: SettingsInput,
 }
 
 impl Config {
@@ -108,66 +95,41 @@ impl Config {
                 )));
             }
         }
-        let edge = positive_number(&map, "target_edge").map_err(fail)?;
-        let named = string(&map, "target").map_err(fail)?;
-        let target_mesh = named.as_deref().and_then(mesh_path).map(str::to_string);
-        let target = match (named, edge) {
-            (Some(_), _) if target_mesh.is_some() => None,
-            (Some(t), _) => Some(t.parse::<Target>().map_err(|e| fail(format!("target: {e}")))?),
-            (None, Some(edge)) => Some(Target::Cube { edge }),
-            (None, None) => None,
-        };
-        Ok(Config {
-            nominal,
-            roi,
-            reference: string(&map, "reference").map_err(fail)?,
-            method: string(&map, "method").map_err(fail)?,
-            components: count(&map, "components").map_err(fail)?,
-            iterations: count(&map, "iterations").map_err(fail)?,
-            target,
-            target_mesh,
-            initial_sigma: initial_sigma(&map).map_err(fail)?,
-            exact: boolean(&map, "exact").map_err(fail)?,
-            refine: boolean(&map, "refine").map_err(fail)?,
-        })
+        let settings = settings(&map).map_err(fail)?;
+        Ok(Config { nominal, roi, reference: string(&map, "reference").map_err(fail)?, settings })
     }
 
     /// The nominals as poses, by sensor name.
     pub fn nominal_poses(&self) -> Vec<(String, Pose)> {
         self.nominal.iter().map(|n| (n.sensor.clone(), n.pose())).collect()
     }
+}
 
-    /// The methods the config names, if it names any; `file` names it in the error.
-    pub fn methods(&self, file: &str) -> Result<Option<Vec<Method>>, IoError> {
-        let Some(method) = &self.method else { return Ok(None) };
-        Method::parse_list(method).map(Some).map_err(|e| IoError {
-            file: file.to_string(),
-            offset: None,
-            problem: format!("method: {e}"),
-        })
+/// The settings keys of `map`, one at a time so that an error names its key, and checked as
+/// the run will apply them.
+fn settings(map: &Mapping) -> Result<SettingsInput, String> {
+    let mut known = Mapping::new();
+    for (key, value) in map {
+        let one = Mapping::from_iter([(key.clone(), value.clone())]);
+        serde_norway::from_value::<SettingsInput>(Value::Mapping(one)).map_err(|e| {
+            let (key, shown, problem) = (key.as_str().unwrap_or("?"), show(value), e.to_string());
+            // serde says "invalid type: string "x", expected a boolean": say what was expected.
+            match problem.split_once(", expected ") {
+                Some((_, expected)) => format!("{key}: expected {expected}, got {shown}"),
+                None if problem.contains(&shown) => format!("{key}: {problem}"),
+                None => format!("{key}: {problem}, got {shown}"),
+            }
+        })?;
+        known.insert(key.clone(), value.clone());
     }
-
-    /// `settings` with what this config sets, its method aside ([`Config::methods`]).
-    pub fn apply(&self, settings: &mut Settings) {
-        if let Some(k) = self.components {
-            settings.components = k;
-        }
-        if let Some(n) = self.iterations {
-            settings.jrmpc.max_iterations = n;
-        }
-        if let Some(target) = &self.target {
-            settings.target = target.clone();
-        }
-        if let Some(sigma) = self.initial_sigma {
-            settings.initial_sigma = sigma;
-        }
-        if let Some(exact) = self.exact {
-            settings.jrmpc.exact = exact;
-        }
-        if let Some(refine) = self.refine {
-            settings.refine_only = refine;
-        }
+    let settings: SettingsInput =
+        serde_norway::from_value(Value::Mapping(known)).map_err(|e| one_line(&e.to_string()))?;
+    let mut unread = settings.clone();
+    if matches!(unread.target, Some(TargetChoice::MeshFile(_))) {
+        unread.target = None;
     }
+    unread.apply(&mut Settings::default())?;
+    Ok(settings)
 }
 
 /// The path of a `mesh:PATH` target, if `target` is one.
@@ -250,14 +212,6 @@ fn count(map: &Mapping, key: &str) -> Result<Option<usize>, String> {
         .transpose()
 }
 
-fn boolean(map: &Mapping, key: &str) -> Result<Option<bool>, String> {
-    map.get(key)
-        .map(|v| {
-            v.as_bool().ok_or_else(|| format!("{key}: expected true or false, got {}", show(v)))
-        })
-        .transpose()
-}
-
 fn string(map: &Mapping, key: &str) -> Result<Option<String>, String> {
     map.get(key)
         .map(|v| {
@@ -266,27 +220,6 @@ fn string(map: &Mapping, key: &str) -> Result<Option<String>, String> {
                 .ok_or_else(|| format!("{key}: expected a string, got {}", show(v)))
         })
         .transpose()
-}
-
-fn positive_number(map: &Mapping, key: &str) -> Result<Option<f64>, String> {
-    map.get(key)
-        .map(|v| match v.as_f64() {
-            Some(x) if x > 0.0 && x.is_finite() => Ok(x),
-            _ => Err(format!("{key}: expected a positive number (m), got {}", show(v))),
-        })
-        .transpose()
-}
-
-fn initial_sigma(map: &Mapping) -> Result<Option<InitialSigma>, String> {
-    let Some(v) = map.get("initial_sigma") else {
-        return Ok(None);
-    };
-    match (v.as_str(), v.as_f64()) {
-        (Some(rule), _) => InitialSigma::from_rule(rule).map(Some),
-        (_, Some(x)) => InitialSigma::fixed(x).map(Some),
-        _ => Err(InitialSigma::EXPECTED.to_string()),
-    }
-    .map_err(|e| format!("initial_sigma: {e}, got {}", show(v)))
 }
 
 /// A YAML value on one line, for error messages.
@@ -301,6 +234,8 @@ fn one_line(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calib::{InitialSigma, Method, Methods};
+    use crate::target::Target;
 
     const GMMCALIB: &str = "\
 number_of_sensors: 2
@@ -328,7 +263,7 @@ max_bound:
         let n = &c.nominal[1];
         assert_eq!(n.sensor, "sensor_2");
         assert_eq!((n.xyz[1], n.rpy[0]), (-0.664888, 0.3551248), "the numbers as written");
-        assert!(c.method.is_none() && c.initial_sigma.is_none());
+        assert_eq!(c.settings, SettingsInput::default(), "GMMCalib's own keys set nothing");
     }
 
     #[test]
@@ -337,22 +272,20 @@ max_bound:
                     max_bound: [1, 1, 1]\nmethod: jrmpc\niterations: 5\ninitial_sigma: prior\n\
                     target_edge: 0.6\nexact: true\n";
         let c = parse(text).unwrap();
-        assert_eq!(c.exact, Some(true));
         let mut settings = crate::calib::Settings::default();
-        c.apply(&mut settings);
+        assert_eq!(c.settings.apply(&mut settings).unwrap(), vec![Method::Jrmpc]);
         assert!(settings.jrmpc.exact);
         assert_eq!(c.nominal[0].xyz, [1.0, 2.0, 3.0]);
-        assert_eq!(c.methods("c.yaml").unwrap(), Some(vec![Method::Jrmpc]));
-        assert_eq!(c.iterations, Some(5));
-        assert_eq!(c.initial_sigma, Some(InitialSigma::TargetSize));
-        assert_eq!(c.target, Some(Target::Cube { edge: 0.6 }));
+        assert_eq!(settings.jrmpc.max_iterations, 5);
+        assert_eq!(settings.initial_sigma, InitialSigma::TargetSize);
+        assert_eq!(settings.target, Target::Cube { edge: 0.6 });
         let all = parse("method: all\n").unwrap();
-        assert_eq!(all.methods("c.yaml").unwrap(), Some(Method::ALL.to_vec()));
+        assert_eq!(all.settings.method, Some(Methods(Method::ALL.to_vec())));
         assert_eq!(all.roi, None, "the ROI is optional");
         let none = parse("target: none\n").unwrap();
-        assert_eq!(none.target, Some(Target::None));
+        assert_eq!(none.settings.target, Some(TargetChoice::Shape(Target::None)));
         let mesh = parse("target: mesh:models/chair.obj\n").unwrap();
-        assert_eq!((mesh.target, mesh.target_mesh.as_deref()), (None, Some("models/chair.obj")));
+        assert_eq!(mesh.settings.target, Some(TargetChoice::MeshFile("models/chair.obj".into())));
     }
 
     #[test]
@@ -387,12 +320,11 @@ max_bound:
         assert!(err("- 1\n").contains("c.yaml: expected a mapping"));
         let bad_sigma = "min_bound: [0,0,0]\nmax_bound: [1,1,1]\ninitial_sigma: wide\n";
         assert!(err(bad_sigma).contains("initial_sigma"));
-        assert_eq!(
-            err("exact: yes please\n"),
-            "c.yaml: exact: expected true or false, got yes please"
-        );
-        let bad = parse("method: ndt\n").unwrap().methods("c.yaml").unwrap_err().to_string();
-        assert!(bad.contains("c.yaml: method: unknown method 'ndt'"), "{bad}");
+        assert_eq!(err("exact: yes please\n"), "c.yaml: exact: expected a boolean, got yes please");
+        let bad = err("method: ndt\n");
+        assert!(bad.starts_with("c.yaml: method: unknown method 'ndt'"), "{bad}");
+        assert!(err("components: 0\n").starts_with("c.yaml: components: expected a positive"));
+        assert!(err("target_edge: -1\n").contains("target: target size must be a positive"));
         assert!(!err("a: [1, 2\n").contains('\n'));
     }
 }

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
 use super::{Roi, XyzRpy, to_js};
-use crate::calib::{self, Calibration, InitialSigma, Method, MethodOutcome, Rig, Scan};
+use crate::calib::{self, Calibration, Method, MethodOutcome, Rig, Scan, SettingsInput};
 use crate::cloud::Aabb;
 use crate::jrmpc::Control;
 use crate::report::Report;
@@ -23,23 +23,6 @@ struct ScanInput {
     points: Float32Array,
     /// The file (or message) it came from, for messages.
     source: Option<String>,
-}
-
-#[derive(Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase")]
-enum TargetInput {
-    Cube {
-        edge: f64,
-    },
-    Box {
-        size: [f64; 3],
-    },
-    Sphere {
-        diameter: f64,
-    },
-    /// A CAD model: its file in `targetMesh` (bytes cannot travel inside a tagged enum).
-    Mesh,
-    None,
 }
 
 /// A CAD-model target's file: its name (the extension picks the reader) and bytes.
@@ -58,32 +41,11 @@ pub(super) struct CalibrateInput {
     /// Absent: around the targets found where the clouds overlap, else that overlap.
     roi: Option<Roi>,
     reference: Option<String>,
-    /// A method's name, or `all`.
-    method: Option<String>,
-    target: Option<TargetInput>,
     /// The file of a `mesh` target.
     target_mesh: Option<MeshInput>,
-    components: Option<usize>,
-    iterations: Option<usize>,
-    tolerance: Option<f64>,
-    /// Multi-resolution EM (off by default).
-    multiresolution: Option<bool>,
-    /// JRMPC's exact E-step (`jrmpc::EmSettings::exact`; off by default).
-    exact: Option<bool>,
-    /// Initial component width (m), or "prior" / "bbox".
-    initial_sigma: Option<InitialSigmaInput>,
-    seed: Option<u64>,
-    /// Global alignment before the local pipeline: absent, only for `gmm`.
-    align_globally: Option<bool>,
-    /// Refine only, from the nominal.
-    refine: Option<bool>,
-}
-
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum InitialSigmaInput {
-    Fixed(f64),
-    Rule(String),
+    /// The settings, under the keys every door shares.
+    #[serde(flatten)]
+    settings: SettingsInput,
 }
 
 #[derive(Serialize)]
@@ -218,47 +180,16 @@ pub(super) fn rig_and_settings(
         reference: input.reference,
     };
     let error = |e: String| JsError::new(&e);
-    let mut settings = calib::Settings::default();
-    let methods = match &input.method {
-        Some(name) => Method::parse_list(name).map_err(|e| error(e.to_string()))?,
-        None => vec![settings.method],
-    };
-    settings.method = methods[0];
-    if let Some(target) = input.target {
-        settings.target = match target {
-            TargetInput::Cube { edge } => Target::Cube { edge },
-            TargetInput::Box { size } => Target::Box { size },
-            TargetInput::Sphere { diameter } => Target::Sphere { diameter },
-            TargetInput::Mesh => {
-                let Some(MeshInput { name, bytes }) = &input.target_mesh else {
-                    return Err(error("a mesh target needs its file in targetMesh".into()));
-                };
-                Target::from_mesh_file(&bytes.to_vec(), name).map_err(|e| error(e.to_string()))?
-            }
-            TargetInput::None => Target::None,
-        }
-        .checked()
+    let mut input_settings = input.settings;
+    input_settings
+        .resolve_mesh(|_| {
+            let MeshInput { name, bytes } =
+                input.target_mesh.as_ref().ok_or("a mesh target needs its file in targetMesh")?;
+            Target::from_mesh_file(&bytes.to_vec(), name).map_err(|e| e.to_string())
+        })
         .map_err(error)?;
-    }
-    settings.components = input.components.unwrap_or(settings.components);
-    settings.jrmpc.max_iterations = input.iterations.unwrap_or(settings.jrmpc.max_iterations);
-    if let Some(tolerance) = input.tolerance {
-        (settings.jrmpc.tolerance, settings.gmm_em_tolerance) = (tolerance, tolerance);
-    }
-    if let Some(on) = input.multiresolution {
-        (settings.jrmpc.multiresolution, settings.gmm_multiresolution) = (on, on);
-    }
-    settings.jrmpc.exact = input.exact.unwrap_or(settings.jrmpc.exact);
-    settings.seed = input.seed.unwrap_or(settings.seed);
-    settings.align_globally = input.align_globally;
-    settings.refine_only = input.refine.unwrap_or(settings.refine_only);
-    if let Some(sigma) = input.initial_sigma {
-        settings.initial_sigma = match sigma {
-            InitialSigmaInput::Fixed(s) => InitialSigma::fixed(s),
-            InitialSigmaInput::Rule(r) => InitialSigma::from_rule(&r),
-        }
-        .map_err(|_| error("initialSigma must be a positive number, 'prior' or 'bbox'".into()))?;
-    }
+    let mut settings = calib::Settings::default();
+    let methods = input_settings.apply(&mut settings).map_err(error)?;
     Ok((rig, settings, methods))
 }
 

@@ -9,10 +9,9 @@ use serde::Serialize;
 use wasm_bindgen::prelude::*;
 
 use super::{Roi, XyzRpy, to_js};
-use crate::calib::InitialSigma;
+use crate::calib::SettingsInput;
 use crate::io::config::Config;
 use crate::io::opencalib;
-use crate::target::Target;
 
 #[derive(Serialize)]
 #[serde(rename_all = "camelCase")]
@@ -20,37 +19,17 @@ struct ConfigOutput {
     nominal: BTreeMap<String, XyzRpy>,
     roi: Option<Roi>,
     reference: Option<String>,
-    method: Option<String>,
-    components: Option<usize>,
-    iterations: Option<usize>,
-    /// The cube's edge (m), from `target_edge` or a cube `target`.
-    edge: Option<f64>,
-    /// The target in its short form (`cube:0.5`, `box:W,D,H`, `sphere:D`, `none`).
-    target: Option<String>,
-    initial_sigma: Option<SigmaOutput>,
-    /// JRMPC's exact E-step.
-    exact: Option<bool>,
-    /// Refine only, from the nominal.
-    refine: Option<bool>,
-}
-
-/// The initial width as the page's settings hold it: a width (m), `"prior"` or `"bbox"`.
-#[derive(Serialize)]
-#[serde(untagged)]
-enum SigmaOutput {
-    Fixed(f64),
-    Rule(&'static str),
+    /// The settings it sets, under the keys `calibrate` takes (a cube's `target_edge` as its
+    /// `target`).
+    #[serde(flatten)]
+    settings: SettingsInput,
 }
 
 /// Reads a GMMCalib config; throws an `Error` naming the file and the key.
 #[wasm_bindgen(js_name = parseConfig)]
 pub fn parse_config(text: &str, file_name: &str) -> Result<JsValue, JsError> {
     let c = Config::from_yaml(text, file_name).map_err(|e| JsError::new(&e.to_string()))?;
-    let initial_sigma = c.initial_sigma.map(|s| match s {
-        InitialSigma::Fixed(x) => SigmaOutput::Fixed(x),
-        InitialSigma::TargetSize => SigmaOutput::Rule("prior"),
-        InitialSigma::BoundingBox => SigmaOutput::Rule("bbox"),
-    });
+    let settings = SettingsInput { target: c.settings.target_choice(), ..c.settings };
     to_js(&ConfigOutput {
         nominal: c
             .nominal
@@ -59,33 +38,14 @@ pub fn parse_config(text: &str, file_name: &str) -> Result<JsValue, JsError> {
             .collect(),
         roi: c.roi.map(|r| Roi { min: r.min, max: r.max }),
         reference: c.reference,
-        method: c.method,
-        components: c.components,
-        iterations: c.iterations,
-        edge: c.target.as_ref().and_then(|t| match t {
-            Target::Cube { edge } => Some(*edge),
-            _ => None,
-        }),
-        target: c
-            .target
-            .as_ref()
-            .map(short_form)
-            .or_else(|| c.target_mesh.as_ref().map(|path| format!("mesh:{path}"))),
-        initial_sigma,
-        exact: c.exact,
-        refine: c.refine,
+        settings,
     })
 }
 
-/// The short form `Target` parses from.
-fn short_form(t: &Target) -> String {
-    match t {
-        Target::Cube { edge } => format!("cube:{edge}"),
-        Target::Box { size: [w, d, h] } => format!("box:{w},{d},{h}"),
-        Target::Sphere { diameter } => format!("sphere:{diameter}"),
-        Target::Mesh(m) => format!("mesh:{}", m.name),
-        Target::None => "none".into(),
-    }
+/// The settings every unset key means (`calibrate`'s defaults), for the page's controls.
+#[wasm_bindgen]
+pub fn defaults() -> Result<JsValue, JsError> {
+    to_js(&SettingsInput::defaults())
 }
 
 #[derive(Serialize)]

@@ -21,9 +21,9 @@ async function calibrateInput(state) {
     roi: state.rig.roi,
     reference: state.rig.reference,
     method: s.method,
-    target: targetInput(s.target),
+    target: s.target,
     targetMesh: s.target.startsWith('mesh:') ? meshInput(state.targetMesh) : undefined,
-    alignGlobally: { on: true, off: false }[s.global],
+    global: { on: true, off: false }[s.global],
     refine: s.global === 'refine',
     components: s.components,
     iterations: s.iterations,
@@ -31,18 +31,6 @@ async function calibrateInput(state) {
     exact: s.estep === 'exact',
   };
   return { input, transfer: scans.map((v) => v.points.buffer) };
-}
-
-// The target's short form (`cube:0.5`, `box:W,D,H`, `sphere:D`, `mesh:NAME`, `none`) as
-// `calibrate` takes it; a mesh's file goes beside it (meshInput).
-export function targetInput(short) {
-  const [kind, size = ''] = String(short).split(':');
-  if (kind === 'mesh') return { kind };
-  const numbers = size.split(',').map(Number);
-  if (kind === 'box') return { kind, size: numbers };
-  if (kind === 'sphere') return { kind, diameter: numbers[0] };
-  if (kind === 'none') return { kind };
-  return { kind: 'cube', edge: numbers[0] };
 }
 
 // The CAD model loaded ({name, bytes}) as `calibrate`'s targetMesh.

@@ -48,7 +48,9 @@ export function rebuildRig(state, config = {}) {
   if (config.reference) rig.reference = String(config.reference);
   if (config.parent) rig.parent = String(config.parent);
   if (!rig.sensors.includes(rig.reference)) rig.reference = mostPoints(state.scans) ?? '';
-  for (const [key, value] of Object.entries(config)) if (key in DEFAULTS && value != null) state.settings[key] = value;
+  for (const key of ['method', 'target', 'components', 'iterations', 'initialSigma']) if (config[key] != null) state.settings[key] = config[key];
+  // `global` is on or off in the config, one of four choices on the page.
+  if (config.global != null) state.settings.global = config.global ? 'on' : 'off';
   // `exact` is a choice of the E-step setting.
   if (config.exact === true) state.settings.estep = 'exact';
   if (config.exact === false && state.settings.estep === 'exact') state.settings.estep = DEFAULTS.estep;

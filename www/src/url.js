@@ -3,14 +3,18 @@
 // copied link opens the page with them (and the same demo). Only values that differ from the
 // defaults are written; a demo's own keys only while a demo is loaded (files dropped on a demo's
 // page leave no seed behind).
+//
+// The calibration's own settings start from the library's defaults (`defaults()`, written to
+// pkg/defaults.json when the wasm is built); the rest are the page's.
+import library from '../pkg/defaults.json' with { type: 'json' };
 
 export const DEFAULTS = Object.freeze({
-  method: 'gmm', // gmm | jrmpc | cad | p2p | p2l | gicp | all
-  components: 400,
-  iterations: 100,
-  target: 'cube:0.5', // the target: cube:EDGE | box:W,D,H | sphere:DIAMETER | none (m)
+  method: library.method, // gmm | jrmpc | cad | p2p | p2l | gicp | all
+  components: library.components,
+  iterations: library.iterations,
+  target: library.target, // the target: cube:EDGE | box:W,D,H | sphere:DIAMETER | none (m)
   global: 'auto', // global alignment first: auto (gmm only) | on | off | refine (refine only, from the nominal)
-  initialSigma: 'bbox', // bbox | prior
+  initialSigma: library.initialSigma, // bbox | prior
   workers: 'auto', // auto | 1 | 2 | 4 | 8: workers sharing JRMPC's E-step
   estep: 'auto', // auto | gpu | cpu | exact: where JRMPC's E-step runs (gpu-estep.js), or exact
   demo: '', // preset of a demo to load on open: '' | paper | os1-128
