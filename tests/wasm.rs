@@ -97,7 +97,7 @@ fn bad_input_throws_errors_that_name_the_problem() {
         ("rig.scans[0].points = [1, 2, 3]; return rig;", "invalid calibrate input"),
         ("rig.reference = 'nobody'; return rig;", "unknown reference sensor 'nobody'"),
         ("return 42;", "invalid calibrate input"),
-        ("rig.initialSigma = -1; return rig;", "initialSigma must be"),
+        ("rig.initialSigma = -1; return rig;", "initialSigma: expected a positive number"),
     ];
     for (mutation, expected) in cases {
         let input = js(mutation, &small_rig());
@@ -281,10 +281,10 @@ fn methods_and_the_config_reader_come_from_the_library() {
     .unwrap();
     let read = js(
         "return [rig.nominal.a.xyz.join(','), rig.nominal.a.rpy.join(','), rig.roi.max.join(','),
-                 rig.initialSigma, rig.edge, rig.method].join(';');",
+                 rig.initialSigma, rig.target, rig.method].join(';');",
         &config,
     );
-    assert_eq!(read.as_string().unwrap(), "1,2,3;0.1,0.2,0.3;1,2,3;prior;0.4;all");
+    assert_eq!(read.as_string().unwrap(), "1,2,3;0.1,0.2,0.3;1,2,3;prior;cube:0.4;all");
     let message = error_message(parse_config("min_bound: [1, 2, 3]\n", "c.yaml"));
     assert!(message.contains("c.yaml: missing key max_bound"), "{message}");
 }

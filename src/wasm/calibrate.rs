@@ -144,12 +144,31 @@ pub(super) fn outcomes(outcomes: Vec<MethodOutcome>, compared: bool) -> Result<J
     Ok(array.into())
 }
 
+/// The first settings key of `input` that does not read, as `key: problem`: serde's error of
+/// a flattened field names no key.
+fn settings_key_error(input: &JsValue) -> Option<String> {
+    let object = input.dyn_ref::<js_sys::Object>()?;
+    js_sys::Object::entries(object).iter().find_map(|entry| {
+        let entry = Array::from(&entry);
+        let (key, value) = (entry.get(0), entry.get(1));
+        let one = js_sys::Object::new();
+        Reflect::set(&one, &key, &value).ok()?;
+        let error = serde_wasm_bindgen::from_value::<SettingsInput>(one.into()).err()?;
+        // Its text is a JS error's: "Error: ...".
+        let problem = error.to_string();
+        let problem = problem.strip_prefix("Error: ").unwrap_or(&problem).to_string();
+        Some(format!("{}: {problem}", key.as_string().unwrap_or_default()))
+    })
+}
+
 /// The rig, the settings and the methods `input` describes.
 pub(super) fn rig_and_settings(
     input: JsValue,
 ) -> Result<(Rig, calib::Settings, Vec<Method>), JsError> {
-    let input: CalibrateInput = serde_wasm_bindgen::from_value(input)
-        .map_err(|e| JsError::new(&format!("invalid calibrate input: {e}")))?;
+    let input: CalibrateInput = serde_wasm_bindgen::from_value(input.clone()).map_err(|e| {
+        let problem = settings_key_error(&input).unwrap_or_else(|| e.to_string());
+        JsError::new(&format!("invalid calibrate input: {problem}"))
+    })?;
     let mut scans = Vec::with_capacity(input.scans.len());
     for v in &input.scans {
         let flat = v.points.to_vec();
