@@ -6,6 +6,7 @@ use nalgebra::Vector3;
 use super::CalibError;
 use super::average::{average, robust_average};
 use super::evidence::{ReferenceSurface, sensor_evidence};
+use super::loops;
 use super::notes::{Note, NoteKind};
 use super::pairs::{FramePairs, PairCorrections, PairFailure, PairStart};
 use super::planes;
@@ -282,6 +283,34 @@ pub(super) fn finish(
     let grounds: Vec<_> = (0..results.len())
         .map(|s| ground.filter(|_| s != r).and_then(|g| scenes.ground_agreement(s, &placed, &g)))
         .collect();
+    // Each pair of the other sensors registered to each other alone, from the result.
+    let loops = match &pairs {
+        Some(p) => {
+            let after: Vec<Pose> =
+                results.iter().zip(&levelled).map(|(x, l)| x.correction * l.inverse()).collect();
+            let origins: Vec<Vector3<f64>> =
+                (after.iter().zip(&pre_aligned)).map(|(a, p)| (a * p).translation.vector).collect();
+            let overlap = |a: usize, b: usize| scenes.overlap_with(a, b, &placed);
+            let better = |a: usize, b: usize, motion: &Pose| {
+                let mut moved = placed.clone();
+                moved[b] = motion * placed[b];
+                let z = settings.select.z;
+                scenes.score_with(b, a, &moved).beats(&scenes.score_with(b, a, &placed), z)
+            };
+            loops::gaps(
+                &clouds,
+                &frame_pairs,
+                r,
+                &after,
+                &origins,
+                p.icp(),
+                overlap,
+                verdict::MIN_OVERLAP,
+                better,
+            )
+        }
+        None => Vec::new(),
+    };
     let mut sensor_verdicts = Vec::with_capacity(results.len());
     for (s, result) in results.iter().enumerate() {
         let name = &result.name;
@@ -303,6 +332,13 @@ pub(super) fn finish(
                 }),
                 selection: selection.iter().find(|x| x.sensor == *name),
                 ground: grounds[s],
+                loops: (loops.iter())
+                    .filter(|g| g.a == s || g.b == s)
+                    .map(|g| {
+                        let other = if g.a == s { g.b } else { g.a };
+                        (results[other].name.clone(), g, results[other].precision.as_ref())
+                    })
+                    .collect(),
                 z: settings.select.z,
                 empty: count(&skipped, name, &|k| matches!(k, NoteKind::NoValidPoints)),
                 same_scans: same_scans.iter().find(|(a, _)| a == name).map(|(_, b)| b.clone()),

@@ -26,6 +26,7 @@ mod finish;
 pub mod global;
 mod input;
 mod level;
+mod loops;
 mod notes;
 mod pairs;
 mod placed;
@@ -51,6 +52,7 @@ pub use global::{
 };
 pub use input::{Methods, SettingsInput, TargetChoice};
 pub use level::GroundSettings;
+pub use loops::LoopGap;
 pub use notes::{BevWarning, LevellingSkipped, Note, NoteKind, SearchRange};
 pub use pairs::{
     FramePair, FramePairs, PairCorrections, PairFailure, PairIcp, PairSettings, PairStart, align,

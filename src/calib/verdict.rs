@@ -9,7 +9,9 @@
 
 use super::evidence::{Agreement, Observability, SensorEvidence};
 use super::global::{GlobalAlignment, GlobalSkip};
+use super::loops::{self, LoopGap};
 use super::notes::{BevWarning, LevellingSkipped};
+use super::planes::Precision;
 use super::result::SensorResult;
 use super::select::{GroundAgreement, SensorSelection, Source};
 use crate::target::{ShapeFit, Target};
@@ -64,7 +66,10 @@ pub const TARGET_SIZE_OFF: f64 = 0.2;
 const MESH_INLIERS: f64 = 0.7;
 pub const TARGET_RMS: f64 = 0.1;
 
-/// Two methods agree when every sensor's extrinsics are within this (rad, m).
+/// How many combined sigmas of the two sensors' precision a loop's gap must pass to be open.
+pub const LOOP_SIGMAS: f64 = 3.0;
+/// Two methods (two registrations) agree when every sensor's extrinsics are within this
+/// (rad, m).
 pub const METHODS_AGREE: (f64, f64) = (0.2 * std::f64::consts::PI / 180.0, 0.02);
 
 /// How far to trust a result.
@@ -141,6 +146,10 @@ pub enum ReasonKind {
     TargetFit { target: Target, fit: ShapeFit },
     /// No target stands out of the reconstruction.
     NoTarget,
+    /// Registered alone onto `other` (or it onto this one), from the result, the pair moved
+    /// `angle` (rad) / `distance` (m): beyond what two registrations agree within and beyond
+    /// both sensors' precision. The result does not hold together where the two overlap.
+    LoopOpen { other: String, angle: f64, distance: f64 },
     /// Compared with the other methods that ran: those within `METHODS_AGREE` on every
     /// sensor, and the largest difference to each of the others (rad, m).
     Methods { agree: Vec<&'static str>, differ: Vec<(&'static str, f64, f64)> },
@@ -177,6 +186,9 @@ pub(super) struct SensorInputs<'a> {
     pub selection: Option<&'a SensorSelection>,
     /// Its ground against the others', patch by patch.
     pub ground: Option<GroundAgreement>,
+    /// Each other sensor but the reference it overlaps, registered to it alone from the
+    /// result: the other's name, the gap and the other's precision.
+    pub loops: Vec<(String, &'a LoopGap, Option<&'a Precision>)>,
     pub z: f64,
     pub empty: usize,
     pub same_scans: Option<String>,
@@ -228,6 +240,13 @@ pub(super) fn judge_sensor(inputs: SensorInputs, others: &[&SensorResult]) -> Se
             Level::Good
         };
         say(level, ReasonKind::GroundApart { patches: g.patches, height: g.height, tilt: g.tilt });
+    }
+    for (other, gap, theirs) in &inputs.loops {
+        let own = result.precision.as_ref();
+        if loops::is_open(gap, [own, *theirs], METHODS_AGREE, LOOP_SIGMAS) {
+            let (angle, distance) = (gap.angle(), gap.distance());
+            say(Level::Check, ReasonKind::LoopOpen { other: other.clone(), angle, distance });
+        }
     }
     if let Some(w) = inputs.warning {
         say(Level::Check, ReasonKind::Search(w));

@@ -115,6 +115,7 @@ fn settings(map: &Mapping) -> Result<SettingsInput, String> {
             let (key, shown, problem) = (key.as_str().unwrap_or("?"), show(value), e.to_string());
             // serde says "invalid type: string "x", expected a boolean": say what was expected.
             match problem.split_once(", expected ") {
+                Some((_, "a boolean")) => format!("{key}: expected true or false, got {shown}"),
                 Some((_, expected)) => format!("{key}: expected {expected}, got {shown}"),
                 None if problem.contains(&shown) => format!("{key}: {problem}"),
                 None => format!("{key}: {problem}, got {shown}"),
@@ -320,7 +321,10 @@ max_bound:
         assert!(err("- 1\n").contains("c.yaml: expected a mapping"));
         let bad_sigma = "min_bound: [0,0,0]\nmax_bound: [1,1,1]\ninitial_sigma: wide\n";
         assert!(err(bad_sigma).contains("initial_sigma"));
-        assert_eq!(err("exact: yes please\n"), "c.yaml: exact: expected a boolean, got yes please");
+        assert_eq!(
+            err("exact: yes please\n"),
+            "c.yaml: exact: expected true or false, got yes please"
+        );
         let bad = err("method: ndt\n");
         assert!(bad.starts_with("c.yaml: method: unknown method 'ndt'"), "{bad}");
         assert!(err("components: 0\n").starts_with("c.yaml: components: expected a positive"));

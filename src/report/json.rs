@@ -486,6 +486,11 @@ impl From<&Reason> for ReasonReport {
                 ("height", Number(*height)),
                 ("tilt", Number(*tilt)),
             ],
+            ReasonKind::LoopOpen { other, angle, distance } => vec![
+                ("other", Text(other.clone())),
+                ("angle", Number(*angle)),
+                ("distance", Number(*distance)),
+            ],
             ReasonKind::SamePlace { other, angle, distance } => vec![
                 ("other", Text(other.clone())),
                 ("angle", Number(*angle)),

@@ -271,6 +271,14 @@ impl fmt::Display for ReasonKind {
                 1e3 * height,
                 deg(*tilt)
             ),
+            ReasonKind::LoopOpen { other, angle, distance } => write!(
+                f,
+                "registered alone against {other}, from this result, the pair moves {:.2} deg \
+                 / {:.1} cm: the two do not agree where they overlap (one of them, or both, is \
+                 placed wrongly)",
+                deg(*angle),
+                1e2 * distance
+            ),
             ReasonKind::SamePlace { other, angle, distance } => write!(
                 f,
                 "this sensor sits where {other} sits ({:.1} mm, {:.3} deg apart): the same \
@@ -354,6 +362,7 @@ impl ReasonKind {
             ReasonKind::FarFromNominal { .. } => "farFromNominal",
             ReasonKind::GlobalSkipped(_) => "globalSkipped",
             ReasonKind::GroundApart { .. } => "groundApart",
+            ReasonKind::LoopOpen { .. } => "loopOpen",
             ReasonKind::SamePlace { .. } => "samePlace",
             ReasonKind::SameScans { .. } => "sameScans",
             ReasonKind::EmptyScans { .. } => "emptyScans",

@@ -94,8 +94,8 @@ test('GMMCalib config: nested and plain lists, our keys, errors naming file and 
   assert.deepEqual(config.nominal.sensor_2.xyz, [4, 5, 6]);
   assert.deepEqual(config.roi, { min: [-1, -2, -3], max: [1, 2, 3] });
   assert.equal(config.initialSigma, 'prior');
-  assert.equal(config.edge, 0.4);
-  assert.equal(config.exact, null, 'not set');
+  assert.equal(config.target, 'cube:0.4', "GMMCalib's target_edge is the settings' target");
+  assert.equal(config.exact, undefined, 'not set');
   // The config's settings reach the page's: `exact: true` is the E-step setting's 'exact'.
   const state = { scans: [{ sensor: 'sensor_1', points: new Float32Array(3) }], rig: { sensors: [], nominal: {}, roi: null, reference: '' }, settings: { ...DEFAULTS } };
   rebuildRig(state, parseConfig('transform_sensor_1: [0, 0, 0, 1, 2, 3]\nmethod: jrmpc\ncomponents: 50\nexact: true\n', 'c.yaml'));

@@ -240,6 +240,23 @@ impl Scenes {
         score.overlap()
     }
 
+    /// Sensor `s` placed at `poses[s]` against sensor `o` alone at `poses[o]`: its points on
+    /// `o`'s surfaces and `o`'s on its, frame by frame.
+    pub fn score_with(&self, s: usize, o: usize, poses: &[Pose]) -> SensorScore {
+        let mut score = SensorScore::default();
+        let (Some(own), Some(theirs)) = (self.surfaces.get(s), self.surfaces.get(o)) else {
+            return score;
+        };
+        let t_o_s = poses[o].inverse() * poses[s];
+        for (frame, mine) in own {
+            if let Some((_, other)) = theirs.iter().find(|(f, _)| f == frame) {
+                self.compare(mine, other, &t_o_s, &mut score);
+                self.compare(other, mine, &t_o_s.inverse(), &mut score);
+            }
+        }
+        score
+    }
+
     /// Sensor `s`'s scored frames: (frame name, surface).
     pub(super) fn frames_of(&self, s: usize) -> impl Iterator<Item = (&str, &Surface)> {
         self.surfaces.get(s).into_iter().flatten().map(|(f, surface)| (f.as_str(), surface))
