@@ -91,8 +91,8 @@ mod native {
         let (both, gmm) =
             (&[calib::Method::Gmm, calib::Method::Cad][..], &[calib::Method::Gmm][..]);
         let cases = [
-            ("sample scale (cube)", sample.clone(), gmmcalib::target::Target::default(), both),
-            ("sample scale (target none)", sample, gmmcalib::target::Target::None, gmm),
+            ("sample scale (cube)", sample.clone(), gmmcalib::targets::Target::default(), both),
+            ("sample scale (target none)", sample, gmmcalib::targets::Target::None, gmm),
             ("chair twin, 3 frames (CAD model)", chair_twin.rig(), chairs.target(), both),
         ];
         for (name, rig, target, methods) in &cases {
@@ -111,7 +111,7 @@ mod native {
         let scene = super::global::scene();
         let rig = super::global::rig(&scene);
         let settings =
-            calib::Settings { target: gmmcalib::target::Target::None, ..Default::default() };
+            calib::Settings { target: gmmcalib::targets::Target::None, ..Default::default() };
         let (result, wall, cpu) =
             timed(|| calib::calibrate(&rig, &settings, |_| Control::Continue));
         let verdict = result.map_or("error".into(), |r| format!("{:?}", r.verdict.level));

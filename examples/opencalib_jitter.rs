@@ -6,7 +6,7 @@
 use gmmcalib::calib::{self, Rig, Settings};
 use gmmcalib::eval;
 use gmmcalib::jrmpc::Control;
-use gmmcalib::target::Target;
+use gmmcalib::targets::Target;
 
 // The integration tests' reader of a fixture scene, not a copy of it.
 #[path = "../tests/common/mod.rs"]

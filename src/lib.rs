@@ -17,7 +17,7 @@ pub mod layout;
 pub mod cad;
 pub mod icp;
 pub mod jrmpc;
-pub mod target;
+pub mod targets;
 // The pipeline.
 pub mod calib;
 // Has a sensor moved since a stored calibration?

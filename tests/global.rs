@@ -9,7 +9,7 @@ use std::f64::consts::PI;
 use gmmcalib::calib::{self, Rig, Scan, Stage, verdict::Level};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::{Pose, pose_from_xyz_rpy};
-use gmmcalib::target::Target;
+use gmmcalib::targets::Target;
 use gmmcalib::twin::{Lidar, Preset, SensorSpec, expected_correction};
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};

@@ -5,7 +5,7 @@ mod common;
 
 use gmmcalib::jrmpc::{self, Control, EmSettings, JrmpcError};
 use gmmcalib::se3::{Pose, pose_from_xyz_rpy};
-use gmmcalib::target::cube_surface;
+use gmmcalib::targets::cube_surface;
 use nalgebra::Point3;
 
 fn cube_points(n: usize, seed: u64, pose: &Pose) -> Vec<[f32; 3]> {

@@ -15,7 +15,7 @@ use gmmcalib::calib::{self, Rig, Scan, verdict::Level};
 use gmmcalib::io::parse_cloud;
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::Pose;
-use gmmcalib::target::Target;
+use gmmcalib::targets::Target;
 
 fn shared() -> Option<PathBuf> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data");

@@ -76,7 +76,7 @@ fn the_errors_a_user_meets_are_named() {
         })
         .collect();
     let target =
-        gmmcalib::target::Target::from_mesh_file(scaled.as_bytes(), "chair_mm.obj").unwrap();
+        gmmcalib::targets::Target::from_mesh_file(scaled.as_bytes(), "chair_mm.obj").unwrap();
     let settings = Settings { target, ..Settings::default() };
     let e = calibrate(&twin, &settings).unwrap_err();
     assert!(matches!(e, CalibError::TargetLargerThanRoi { .. }), "{e:?}");

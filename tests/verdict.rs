@@ -13,7 +13,7 @@ use gmmcalib::calib::{self, Calibration, Level, Rig, Scan, Settings};
 use gmmcalib::cloud::Aabb;
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::pose_from_xyz_rpy;
-use gmmcalib::target::Target;
+use gmmcalib::targets::Target;
 use gmmcalib::twin::{Miscalibration, Model, OrientedBox, Preset, Twin};
 
 use common::{for_seeds, opencalib_scene};

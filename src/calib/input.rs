@@ -9,7 +9,7 @@ use serde::de::{self, Deserializer};
 use serde::{Deserialize, Serialize, Serializer};
 
 use super::settings::{InitialSigma, Method, Settings};
-use crate::target::Target;
+use crate::targets::Target;
 
 /// What a user may set, each field optional: unset keeps the default. Keys are camelCase for
 /// JS; config.yaml's snake_case names (`initial_sigma`, `target_edge`) are accepted too, and

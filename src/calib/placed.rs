@@ -13,7 +13,7 @@ use crate::io::mesh::Mesh;
 use crate::jrmpc::{Control, IterationStats, Mixture, Registration};
 use crate::plane::Plane;
 use crate::se3::Pose;
-use crate::target::{ModelCloud, PlaceSettings, Placement, Target};
+use crate::targets::{ModelCloud, PlaceSettings, Placement, Target};
 
 /// Where the target's model stands in the reference's views (vehicle frame), on its ground
 /// (or, without one, on the vehicle's z = 0 plane): for a CAD-model target, and for `cad` with
@@ -50,7 +50,7 @@ fn find_targets(mesh: &Mesh, views: &[View], r: usize, ground: Option<&Plane>) -
         .flat_map(|v| v.cloud.points.iter().copied())
         .collect();
     let level = Plane { normal: Vector3::z(), offset: 0.0 };
-    crate::target::place(&model, &points, ground.unwrap_or(&level), &settings)
+    crate::targets::place(&model, &points, ground.unwrap_or(&level), &settings)
 }
 
 /// Without a ROI from the user, a target of known shape found standing in the reference's

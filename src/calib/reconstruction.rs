@@ -9,7 +9,7 @@ use super::result::Reconstruction;
 use crate::jrmpc::Registration;
 use crate::plane::Plane;
 use crate::se3::Pose;
-use crate::target::{Target, fit_targets};
+use crate::targets::{Target, fit_targets};
 
 pub(super) fn reconstruct(
     registration: &Registration,

@@ -10,7 +10,7 @@ use super::verdict::Verdict;
 use crate::jrmpc;
 use crate::plane::Plane;
 use crate::se3::Pose;
-use crate::target::{Placement, ShapeFit};
+use crate::targets::{Placement, ShapeFit};
 
 /// Per-axis standard deviation of the per-frame corrections around their mean.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -14,7 +14,7 @@ use super::select::SelectSettings;
 use crate::cad::CadSettings;
 use crate::icp::{self, IcpSettings};
 use crate::jrmpc;
-use crate::target::Target;
+use crate::targets::Target;
 
 /// How the per-frame corrections are found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -151,20 +151,14 @@ pub struct Settings {
     /// For `cad`'s registration onto the target's model.
     pub cad: CadSettings,
     /// JRMPC's convergence test inside `gmm` (rad or m per iteration; see
-    /// [`jrmpc::EmSettings::tolerance`]). There JRMPC finds the basin and the refinement and
-    /// plane adjustment set the accuracy: stopping at 1e-4 (65-73 iterations instead of 100
-    /// on the twin studies) moves no final calibration by more than 0.0002 deg / 0.024 mm per
-    /// trial, the page's recording rig not at all, and no trial between pass and fail
-    /// (docs/benchmarks.md). Plain `jrmpc` keeps `jrmpc.tolerance` (1e-8: the reference's
-    /// 100 iterations). 0 runs every iteration.
+    /// [`jrmpc::EmSettings::tolerance`]). There JRMPC only finds the basin; the refinement
+    /// and plane adjustment set the accuracy, so it stops early (figures in
+    /// docs/benchmarks.md). Plain `jrmpc` keeps `jrmpc.tolerance`. 0 runs every iteration.
     pub gmm_em_tolerance: f64,
     /// Multi-resolution EM inside `gmm` ([`jrmpc::EmSettings::multiresolution`]): the wide
     /// iterations take each view's points merged in cubes. Plain `jrmpc` keeps
-    /// `jrmpc.multiresolution`. Default off: against the exact path the paper rigs move by at
-    /// most 0.00025 deg / 0.03 mm, but a chair trial moves 0.005 deg, a board trial started
-    /// beyond the spec lands 0.25 deg off, and the verdict test's moving target (seed 2) reads
-    /// good. Each of those also moves with the scans jittered far below their noise
-    /// (docs/benchmarks.md), so whether that allows it is issue 22's to decide.
+    /// `jrmpc.multiresolution`. Off by default: on a board trial started beyond the spec it
+    /// lands 0.25 deg off where the exact path does not (docs/benchmarks.md).
     pub gmm_multiresolution: bool,
     /// The selection among every stage's hypotheses (docs/method.md, "Selection").
     pub select: SelectSettings,

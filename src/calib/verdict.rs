@@ -14,7 +14,7 @@ use super::notes::{BevWarning, LevellingSkipped};
 use super::planes::Precision;
 use super::result::SensorResult;
 use super::select::{GroundAgreement, SensorSelection, Source};
-use crate::target::{ShapeFit, Target};
+use crate::targets::{ShapeFit, Target};
 
 /// What `good` promises: within this (rad, m) of the truth. What `check` promises: within
 /// `USABLE`; beyond it a result must read `failed` (issue 37).

@@ -20,7 +20,7 @@ use crate::cloud::{Aabb, Cloud};
 use crate::jrmpc::{self, Em, Registration};
 use crate::plane::Plane;
 use crate::se3::Pose;
-use crate::target::{Placement, Target};
+use crate::targets::{Placement, Target};
 
 /// One cropped, pre-aligned view and whose it is.
 pub(super) struct View {

@@ -8,7 +8,7 @@ use crate::calib::{self, Level, Method, Progress, Rig, Settings, Stage};
 use crate::io::config::Config;
 use crate::jrmpc::Control;
 use crate::report::{self, Report};
-use crate::target::Target;
+use crate::targets::Target;
 
 /// The exit status when the calibration ran but its verdict is `failed`: do not use the
 /// extrinsic (1 is an error: nothing was calibrated).

@@ -236,7 +236,7 @@ fn one_line(s: &str) -> String {
 mod tests {
     use super::*;
     use crate::calib::{InitialSigma, Method, Methods};
-    use crate::target::Target;
+    use crate::targets::Target;
 
     const GMMCALIB: &str = "\
 number_of_sensors: 2

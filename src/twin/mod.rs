@@ -109,8 +109,8 @@ impl Model {
 
     /// The calibration target the scene holds: a 0.5 m cube, the mesh standing in the cubes'
     /// places (centred, as a file would give it), or none for a scene without one.
-    pub fn target(&self) -> crate::target::Target {
-        use crate::target::{MeshTarget, Target};
+    pub fn target(&self) -> crate::targets::Target {
+        use crate::targets::{MeshTarget, Target};
         match self {
             Model::RayCast(p) if p.targetless => Target::None,
             Model::RayCast(p) => match p.scene.meshes.first() {

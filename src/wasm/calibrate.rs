@@ -13,7 +13,7 @@ use crate::cloud::Aabb;
 use crate::jrmpc::Control;
 use crate::report::Report;
 use crate::se3::{Pose, pose_from_xyz_rpy, to_row_major};
-use crate::target::Target;
+use crate::targets::Target;
 
 #[derive(Deserialize)]
 struct ScanInput {

@@ -65,9 +65,9 @@ struct MeshOutput {
 /// faces, NaN vertices, a point cloud given as a mesh, ...).
 #[wasm_bindgen(js_name = parseMesh)]
 pub fn parse_mesh(bytes: &[u8], file_name: &str) -> Result<JsValue, JsError> {
-    let target = crate::target::Target::from_mesh_file(bytes, file_name)
+    let target = crate::targets::Target::from_mesh_file(bytes, file_name)
         .map_err(|e| JsError::new(&e.to_string()))?;
-    let crate::target::Target::Mesh(m) = &target else { unreachable!("a mesh file gives a mesh") };
+    let crate::targets::Target::Mesh(m) = &target else { unreachable!("a mesh file gives a mesh") };
     let b = m.mesh.bounds();
     let vertices: Vec<f32> = m.mesh.vertices.iter().flatten().map(|&c| c as f32).collect();
     let triangles: Vec<u32> = m.mesh.triangles.iter().flatten().copied().collect();

@@ -7,7 +7,7 @@ use js_sys::Float32Array;
 use serde::Deserialize;
 use wasm_bindgen::prelude::*;
 
-use crate::target::Target;
+use crate::targets::Target;
 
 use super::{RigOutput, RigScan, Roi, XyzRpy, options_or_default, to_js};
 use crate::twin::{self, Miscalibration, Model, Sampling, Twin};

@@ -58,9 +58,9 @@ const handlers = {
   // gpu-estep.js).
   calibrate: async ({ input, workers = 1, estep = 'cpu' }, id) => {
     // At most 10 progress messages a second, and always each stage's last: the page redraws on
-    // each, and on two cores that work competes with the calculation (sample scale on 2
-    // workers: 1.2 s with every iteration shown, 0.9 s with this). A stage that stops before
-    // its maximum (EM converged) has its last message posted when the next stage begins.
+    // each, and that work competes with the calculation (docs/benchmarks.md). A stage that
+    // stops before its maximum (EM converged) has its last message posted when the next
+    // stage begins.
     let postedAt = -Infinity;
     let held = null;
     const post = (progress) => {

@@ -329,13 +329,13 @@ fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
 
 /// A target in its short form (`Target`'s), or `mesh:PATH` with PATH (relative to `dir`) read
 /// here: the library parses the bytes.
-pub fn target(value: &str, dir: &std::path::Path) -> Result<gmmcalib::target::Target, String> {
+pub fn target(value: &str, dir: &std::path::Path) -> Result<gmmcalib::targets::Target, String> {
     match gmmcalib::io::config::mesh_path(value) {
         Some(path) => {
             let path = dir.join(path);
             let label = path.display().to_string();
             let bytes = std::fs::read(&path).map_err(|e| format!("{label}: {e}"))?;
-            gmmcalib::target::Target::from_mesh_file(&bytes, &label).map_err(|e| e.to_string())
+            gmmcalib::targets::Target::from_mesh_file(&bytes, &label).map_err(|e| e.to_string())
         }
         None => value.parse(),
     }

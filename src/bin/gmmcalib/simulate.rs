@@ -12,7 +12,7 @@ use std::path::Path;
 
 use gmmcalib::io::{write_obj, write_pcd_binary, write_pcd_binary_organized};
 use gmmcalib::se3::{Pose, to_row_major};
-use gmmcalib::target::Target;
+use gmmcalib::targets::Target;
 use serde::Serialize;
 
 use crate::args::{SimulateArgs, TwinArgs};

@@ -240,7 +240,7 @@ fn summary(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::target::{cube_surface, sphere_surface};
+    use crate::targets::{cube_surface, sphere_surface};
 
     #[test]
     fn recovers_a_rotated_cube_and_a_sphere() {
