@@ -27,6 +27,7 @@ lint: setup-rust
 	cargo fmt --check
 	cargo clippy --all-targets -- -D warnings
 	cargo clippy --lib --target $(WASM_TARGET) -- -D warnings
+	RUSTDOCFLAGS='-D warnings' cargo doc --no-deps --lib
 
 test-rust:
 	# --show-output: the accuracy tests print their error distributions.

@@ -40,7 +40,7 @@ impl Default for RigRequest<'_> {
 /// The rig a recording makes.
 #[derive(Clone, Debug)]
 pub struct RecordingRig {
-    /// Sensor = the topic's frame id ([`sensor_names`]), frame = instant ("1", "2", ...).
+    /// Sensor = the topic's frame id (`sensor_names`), frame = instant ("1", "2", ...).
     pub scans: Vec<Scan>,
     /// `T_base_frame` per sensor; identity for every sensor when there is no tree.
     pub nominal: Vec<(String, Pose)>,
