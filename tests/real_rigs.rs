@@ -1,6 +1,8 @@
 //! Real rigs no one here made, read from `../shared/data` at test time (their licences forbid
 //! copying them in); each test is skipped where that folder is absent.
 //!
+//! OpenCalib's Hesai rig: the loops among its four PandarQT, measured and reported.
+//!
 //! The Livox Mid-100 (issue 36): three solid-state units whose driver already gives them in one
 //! frame, so identity is within 0.4 deg / 1 cm of MLCC's estimate; adjacent units overlap in a
 //! strip a few degrees wide. Overlap alone rewards piling one unit's cone onto another's (the
@@ -89,4 +91,53 @@ fn the_livox_units_keep_their_right_start() {
             assert_ne!(level, Some(Level::Good), "{}: {:?}", sensor.name, result.verdict);
         }
     }
+}
+
+/// OpenCalib's Hesai rig (issue 36's loops): a Pandar64 and four PandarQT, guesses 39-72 deg
+/// off, no truth. The QTs overlap the Pandar64 and each other in narrow strips; registered to
+/// each other alone from the joint result, some pairs move 0.8 deg / 5-16 cm where the joint
+/// result claims about 0.1 deg / 1 cm: the verdict must say so, and no sensor of an open loop
+/// may read `good`.
+#[test]
+fn the_hesai_rig_reports_the_loops_it_cannot_close() {
+    use gmmcalib::calib::verdict::ReasonKind;
+    use gmmcalib::io::opencalib;
+    let Some(data) = shared() else {
+        eprintln!("skipped: no ../shared/data");
+        return;
+    };
+    let dir = data.join("hesai");
+    let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap();
+    let devices = opencalib::read_paths(&read("lidar_cloud_path.txt"), "paths").unwrap();
+    let guess = opencalib::read_guess(&read("initial_extrinsic.txt"), "guess").unwrap();
+    let nominal = opencalib::nominals(&guess, &devices, "guess").unwrap();
+    let scans = devices
+        .iter()
+        .map(|d| {
+            let file = dir.join(d.path.rsplit('/').next().unwrap());
+            let name = file.to_string_lossy();
+            let parsed = parse_cloud(&std::fs::read(&file).unwrap(), &name).unwrap();
+            let points = parsed.cloud.points;
+            Scan { sensor: d.name.clone(), frame: "1".into(), points, source: None }
+        })
+        .collect();
+    let rig = Rig { scans, nominal, roi: None, reference: Some("p64".into()) };
+    let settings = calib::Settings { target: Target::None, ..Default::default() };
+    let result = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
+    let mut open = 0;
+    for v in &result.verdict.sensors {
+        for r in &v.reasons {
+            if let ReasonKind::LoopOpen { other, angle, distance } = &r.kind {
+                println!(
+                    "{} - {other}: {:.2} deg / {:.1} cm",
+                    v.sensor,
+                    angle.to_degrees(),
+                    distance * 1e2
+                );
+                assert_ne!(v.level, Level::Good, "{}: {:?}", v.sensor, v.reasons);
+                open += 1;
+            }
+        }
+    }
+    assert!(open >= 2, "no loop reported open: {:?}", result.verdict);
 }
