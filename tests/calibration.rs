@@ -5,7 +5,7 @@ mod common;
 use std::borrow::Cow;
 
 use common::{RigSpec, for_seeds, generate, median, rig_of, run, worst_error};
-use gmmcalib::calib::{self, CalibError, Phase, Settings, Stages};
+use gmmcalib::calib::{self, CalibError, Settings, Stage, Stages};
 use gmmcalib::jrmpc::Control;
 
 /// Full views: every face of the cube in every view, 1 cm range noise, each non-reference
@@ -252,7 +252,7 @@ fn frame_pairs_recorded_in_any_order_calibrate_alike() {
     let direct = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibration");
 
     let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[settings.method]);
-    assert_eq!(run.phase(), Phase::FramePairs, "gicp registers frame pairs");
+    assert_eq!(run.stage(), Some(Stage::FramePairs), "gicp registers frame pairs");
     let clouds: Vec<Vec<[f32; 3]>> =
         run.views().expect("views").clouds().iter().map(|c| c.to_vec()).collect();
     let pairs = run.frame_pairs().expect("frame pairs");
@@ -269,7 +269,7 @@ fn frame_pairs_recorded_in_any_order_calibrate_alike() {
     pairs.record(99, Err("none".into()));
     assert_eq!(pairs.done(), jobs.len());
     run.advance();
-    assert_eq!(run.phase(), Phase::Done);
+    assert_eq!(run.stage(), None);
     let (_, recorded) = run.into_outcomes().pop().expect("one outcome");
     let recorded = recorded.expect("calibration");
     for (a, b) in direct.sensors.iter().zip(&recorded.sensors) {

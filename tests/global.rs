@@ -192,7 +192,7 @@ fn the_global_stage_gives_the_same_calibration_however_its_sensors_are_shared() 
     let expected = format!("{one_thread:?}");
 
     let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[settings.method]);
-    assert_eq!(run.phase(), calib::Phase::Global);
+    assert_eq!(run.stage(), Some(calib::Stage::Global));
     // The progress counts the sensors aligned; each one's correction is its alignment's motion.
     let progress = |run: &calib::Run| {
         run.global_progress(|p| (p.stage, p.iteration, p.max_iterations, p.corrections.to_vec()))
@@ -215,7 +215,7 @@ fn the_global_stage_gives_the_same_calibration_however_its_sensors_are_shared() 
     assert_eq!(progress(&run).map(|(_, done, _, _)| done), Some(2));
     run.advance();
     assert!(progress(&run).is_none(), "no global progress after the stage");
-    assert_ne!(run.phase(), calib::Phase::Global);
+    assert_ne!(run.stage(), Some(calib::Stage::Global));
     run.drive(1, &mut |_, _| Control::Continue);
     let (_, shared) = run.into_outcomes().pop().expect("an outcome");
     assert_eq!(format!("{:?}", shared.expect("shared")), expected);
@@ -264,7 +264,7 @@ fn a_run_cancelled_in_its_global_stage_stops_its_next_phase_at_once() {
     let settings = calib::Settings::default();
     let methods = [calib::Method::Gmm, calib::Method::Jrmpc];
     let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &methods);
-    assert_eq!(run.phase(), calib::Phase::Global);
+    assert_eq!(run.stage(), Some(calib::Stage::Global));
     let mut seen = Vec::new();
     run.drive(1, &mut |_, p| {
         seen.push((p.stage, p.iteration));

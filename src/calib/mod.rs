@@ -62,7 +62,7 @@ pub use planes::{PlaneSettings, Precision};
 pub use progress::{Progress, Stage};
 pub use result::{Calibration, Levelling, Reconstruction, SensorResult, Spread};
 pub use rig::{Rig, Scan};
-pub use run::{MethodOutcome, Phase, Run};
+pub use run::{MethodOutcome, Run};
 pub use select::{Hypothesis, SelectSettings, SensorScore, SensorSelection, Source};
 pub use settings::{InitialSigma, Method, Settings, Stages};
 pub use verdict::{Axis, Level, Reason, ReasonKind, SensorVerdict, Verdict};

@@ -3,7 +3,8 @@
 
 use crate::se3::Pose;
 
-/// Which step a [`Progress`] reports.
+/// A step of a method's run: what [`Progress`] reports, and what [`super::Run::stage`] says
+/// comes next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stage {
     /// The global alignment before the registration: `iteration` sensors aligned of

@@ -1,5 +1,5 @@
 //! A calibration run as a state machine over its methods and each method's stages. A driver
-//! asks for the current [`Phase`], does that phase's work where it likes — native threads
+//! asks for the current [`Stage`] ([`Run::stage`]), does its work where it likes — native threads
 //! ([`Run::drive`]) or the page's Web Workers (`wasm::CalibrationSession`) — and calls
 //! [`Run::advance`]. With several methods (`compare all`) the run moves on to the next method
 //! once one is done; a method that fails leaves its error as its outcome and the others still
@@ -17,22 +17,6 @@ use super::views::Views;
 use super::{CalibError, Rig};
 use crate::jrmpc::{CentredViews, Control, Em, Registration, Shards};
 use crate::se3::Pose;
-
-/// What the current method needs next.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Phase {
-    /// The global stage: align each pending sensor of [`Run::global_stage`], here or
-    /// elsewhere.
-    Global,
-    /// JRMPC's EM: E-steps of every view, then [`Em::m_step`], until [`Em::finished`].
-    Em,
-    /// The frame pairs' ICP: register every pair of [`Run::frame_pairs`].
-    FramePairs,
-    /// `cad`'s registration onto the target's model: [`Run::register_cad`], in one call.
-    Cad,
-    /// Every method has its outcome.
-    Done,
-}
 
 /// One method's calibration, or why it failed.
 pub type MethodOutcome = (Method, Result<Calibration, CalibError>);
@@ -79,15 +63,16 @@ impl<'r> Run<'r> {
         run
     }
 
-    pub fn phase(&self) -> Phase {
+    /// The stage the current method needs next; `None` once every method has its outcome.
+    pub fn stage(&self) -> Option<Stage> {
         if self.aligning.is_some() {
-            return Phase::Global;
+            return Some(Stage::Global);
         }
         match &self.current {
-            Some((_, _, State::Em(..))) => Phase::Em,
-            Some((_, _, State::Pairs(..))) => Phase::FramePairs,
-            Some((_, _, State::Cad(..))) => Phase::Cad,
-            None => Phase::Done,
+            Some((_, _, State::Em(..))) => Some(Stage::Jrmpc),
+            Some((_, _, State::Pairs(..))) => Some(Stage::FramePairs),
+            Some((_, _, State::Cad(..))) => Some(Stage::Cad),
+            None => None,
         }
     }
 
@@ -97,7 +82,7 @@ impl<'r> Run<'r> {
         index.or(self.current.as_ref().map(|(i, _, _)| *i)).map(|i| (i, self.methods[i]))
     }
 
-    /// The global stage, in [`Phase::Global`].
+    /// The global stage, in [`Stage::Global`].
     pub fn global_stage(&mut self) -> Option<&mut GlobalStage> {
         self.aligning.as_mut().map(|(_, stage)| stage)
     }
@@ -111,7 +96,7 @@ impl<'r> Run<'r> {
         self.current.as_ref().map(|(_, views, _)| views)
     }
 
-    /// EM, in [`Phase::Em`].
+    /// EM, in [`Stage::Jrmpc`].
     pub fn em(&mut self) -> Option<&mut Em> {
         match &mut self.current {
             Some((_, _, State::Em(em, _))) => Some(em),
@@ -119,7 +104,7 @@ impl<'r> Run<'r> {
         }
     }
 
-    /// The views' centred points for EM's shards, in [`Phase::Em`] (until taken).
+    /// The views' centred points for EM's shards, in [`Stage::Jrmpc`] (until taken).
     pub fn em_points(&self) -> Option<&CentredViews> {
         match &self.current {
             Some((_, _, State::Em(_, points))) => points.as_ref(),
@@ -127,7 +112,7 @@ impl<'r> Run<'r> {
         }
     }
 
-    /// The frame pairs, in [`Phase::FramePairs`].
+    /// The frame pairs, in [`Stage::FramePairs`].
     pub fn frame_pairs(&mut self) -> Option<&mut FramePairs> {
         match &mut self.current {
             Some((_, _, State::Pairs(_, pairs))) => Some(pairs),
@@ -164,7 +149,7 @@ impl<'r> Run<'r> {
         Some(then(&pairs.progress(&corrections)))
     }
 
-    /// Runs `cad`'s registration here, in [`Phase::Cad`]; `progress` sees each iteration (the
+    /// Runs `cad`'s registration here, in [`Stage::Cad`]; `progress` sees each iteration (the
     /// corrections as the caller sees them) and may stop it.
     pub fn register_cad(&mut self, progress: &mut impl FnMut(&Progress) -> Control) {
         let Some((_, views, State::Cad(outcome))) = &mut self.current else { return };
@@ -213,7 +198,7 @@ impl<'r> Run<'r> {
         }))
     }
 
-    /// Ends the current phase (EM even if unfinished; the frame pairs as far as registered)
+    /// Ends the current stage (EM even if unfinished; the frame pairs as far as registered)
     /// and moves on: to the frame pairs, to the method's result, to the next method.
     pub fn advance(&mut self) {
         if let Some((index, stage)) = self.aligning.take() {
@@ -243,7 +228,7 @@ impl<'r> Run<'r> {
         }
     }
 
-    /// Stops the current phase after its current step; no later method starts.
+    /// Stops the current stage after its current step; no later method starts.
     pub fn cancel(&mut self) {
         self.cancelled = true;
         match &mut self.current {
@@ -262,7 +247,7 @@ impl<'r> Run<'r> {
         }
     }
 
-    /// Every method's outcome, in the run's order (after [`Phase::Done`]; methods never
+    /// Every method's outcome, in the run's order (once [`Run::stage`] is `None`; methods never
     /// started, after a cancel, are left out).
     pub fn into_outcomes(mut self) -> Vec<MethodOutcome> {
         if self.outcomes.len() > 1 {
@@ -273,7 +258,7 @@ impl<'r> Run<'r> {
         self.outcomes
     }
 
-    /// Runs every phase of every method here: EM's shards and the frame pairs on `threads`
+    /// Runs every stage of every method here: EM's shards and the frame pairs on `threads`
     /// threads (native; one in wasm32). `progress` sees the method and its progress, and may
     /// stop the run.
     pub fn drive(
@@ -283,14 +268,14 @@ impl<'r> Run<'r> {
     ) {
         while let Some((_, method)) = self.method() {
             let progress = &mut |p: &Progress| progress(method, p);
-            match self.phase() {
-                Phase::Global => self.drive_global(threads, progress),
-                Phase::Em => self.drive_em(threads, progress),
-                Phase::FramePairs => {
+            match self.stage() {
+                Some(Stage::Global) => self.drive_global(threads, progress),
+                Some(Stage::Jrmpc) => self.drive_em(threads, progress),
+                Some(Stage::FramePairs) => {
                     let count = self.frame_pairs().map_or(0, |p| p.pairs().len());
                     self.register_pairs(0..count, threads, progress);
                 }
-                Phase::Cad => {
+                Some(Stage::Cad) => {
                     let mut cancel = false;
                     self.register_cad(&mut |p: &Progress| {
                         let control = progress(p);
@@ -301,7 +286,7 @@ impl<'r> Run<'r> {
                         self.cancel();
                     }
                 }
-                Phase::Done => return,
+                None => return,
             }
             self.advance();
         }
@@ -321,7 +306,7 @@ impl<'r> Run<'r> {
             stage.align(&pending[..batch.min(pending.len())], threads);
             control = self.global_progress(|p| progress(p));
         }
-        // The rest are aligned as the stage ends, and the method stops at its first phase.
+        // The rest are aligned as the stage ends, and the method stops at its first stage.
         self.cancel();
     }
 
@@ -356,7 +341,7 @@ impl<'r> Run<'r> {
                 alignments.clone()
             }
             (Some(_), _) => match Views::global_stage(&self.rig, &settings) {
-                // Nothing to align (the reference shows no ground): no phase to drive.
+                // Nothing to align (the reference shows no ground): no stage to drive.
                 Ok(Some(stage)) if stage.pending().is_empty() => self.keep_alignments(stage),
                 Ok(Some(stage)) => return self.aligning = Some((index, stage)),
                 Ok(None) => Vec::new(),
@@ -375,7 +360,7 @@ impl<'r> Run<'r> {
     }
 
     /// Prepares method `index`'s views, its global stage's `alignments` found (empty when it
-    /// has none), and its first phase.
+    /// has none), and its first stage.
     fn begin(&mut self, index: usize, alignments: Vec<GlobalAlignment>) {
         let method = self.methods[index];
         let settings = Settings { method, ..self.settings.clone() };
@@ -393,7 +378,7 @@ impl<'r> Run<'r> {
         match started {
             Ok((views, Some(state))) => {
                 self.current = Some((index, views, state));
-                // Cancelled during the global stage: its first phase stops at once.
+                // Cancelled during the global stage: its first stage stops at once.
                 if self.cancelled {
                     self.cancel();
                 }

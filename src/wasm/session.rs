@@ -1,7 +1,7 @@
 //! `CalibrationSession`, `JrmpcShard`, `alignGlobal` and `alignPairs`: the library's [`Run`]
 //! driven step by step from JS, so a pool of workers can share the global stage's sensors,
 //! JRMPC's E-step and the frame pairs' ICP (docs/api.md). The session forwards to the run,
-//! which owns the control flow (phases, methods, failures); the flat formats are
+//! which owns the control flow (stages, methods, failures); the flat formats are
 //! `jrmpc::wire`'s and `se3::to_quaternion_xyz`'s.
 //! The M-step takes every view's statistics in view order, and the global alignments and the
 //! frame pairs' outcomes are kept by sensor and pair, so the result is `calibrate`'s, bit for
@@ -17,8 +17,8 @@ use wasm_bindgen::prelude::*;
 use super::calibrate::{ProgressSink, outcomes, rig_and_settings};
 use super::to_js;
 use crate::calib::{
-    self, CalibError, GlobalAlignment, GlobalJob, GlobalReference, GlobalSettings, PairIcp, Phase,
-    Run,
+    self, CalibError, GlobalAlignment, GlobalJob, GlobalReference, GlobalSettings, PairIcp, Run,
+    Stage,
 };
 use crate::cloud::Cloud;
 use crate::jrmpc::{Shard, ViewStats, wire};
@@ -45,18 +45,10 @@ impl CalibrationSession {
         Ok(Self { run: Some(run), sensors, compared: methods.len() > 1 })
     }
 
-    /// `"global"`, `"em"`, `"framePairs"`, `"cad"` or `"done"`: what the current method
-    /// needs next.
-    pub fn phase(&self) -> String {
-        let phase = self.run.as_ref().map_or(Phase::Done, Run::phase);
-        match phase {
-            Phase::Global => "global",
-            Phase::Em => "em",
-            Phase::FramePairs => "framePairs",
-            Phase::Cad => "cad",
-            Phase::Done => "done",
-        }
-        .into()
+    /// `"global"`, `"jrmpc"`, `"framePairs"`, `"cad"` (the names progress reports them by) or
+    /// `"done"`: the stage the current method needs next.
+    pub fn stage(&self) -> String {
+        self.run.as_ref().and_then(Run::stage).map_or("done", |s| s.name()).into()
     }
 
     /// The current method's name (`undefined` when done).
@@ -178,7 +170,7 @@ impl CalibrationSession {
         run.em_progress(|p| ProgressSink::value(method, sensors, p)).ok_or_else(no_em)?
     }
 
-    /// Stops the current phase after its current step; no later method starts.
+    /// Stops the current stage after its current step; no later method starts.
     pub fn cancel(&mut self) {
         if let Some(run) = &mut self.run {
             run.cancel();
@@ -237,13 +229,13 @@ impl CalibrationSession {
         sink.error()
     }
 
-    /// Runs `cad`'s registration onto the target's model here (phase `"cad"`); `onProgress`
+    /// Runs `cad`'s registration onto the target's model here (stage `"cad"`); `onProgress`
     /// sees each iteration, as with `calibrate`, and may stop it by returning `false`.
     #[wasm_bindgen(js_name = registerCad)]
     pub fn register_cad(&mut self, on_progress: Option<Function>) -> Result<(), JsError> {
         let run = self.run.as_mut().ok_or_else(finished)?;
-        if run.phase() != Phase::Cad {
-            return Err(JsError::new("the current method is not in its cad phase"));
+        if run.stage() != Some(Stage::Cad) {
+            return Err(JsError::new("the current method is not in its cad stage"));
         }
         let method = run.method().map(|(_, m)| m).ok_or_else(finished)?;
         let mut sink = ProgressSink::new(on_progress, self.sensors.clone());
@@ -269,7 +261,7 @@ impl CalibrationSession {
             .ok_or_else(no_pairs)?
     }
 
-    /// Ends the current phase (EM even if unfinished; the frame pairs as far as registered)
+    /// Ends the current stage (EM even if unfinished; the frame pairs as far as registered)
     /// and moves on: to the frame pairs, to the method's result, to the next method.
     pub fn advance(&mut self) -> Result<(), JsError> {
         self.run_mut()?.advance();
@@ -286,7 +278,7 @@ impl CalibrationSession {
     /// Once `"done"`: `calibrate`'s result (one report, or with `method: 'all'` an array of
     /// every method's report or `{method, error}`).
     pub fn result(&mut self) -> Result<JsValue, JsError> {
-        if self.run.as_ref().is_some_and(|r| r.phase() != Phase::Done) {
+        if self.run.as_ref().is_some_and(|r| r.stage().is_some()) {
             return Err(JsError::new("the session has not finished"));
         }
         let run = self.run.take().ok_or_else(finished)?;
@@ -468,7 +460,7 @@ fn no_global() -> JsError {
 }
 
 fn no_em() -> JsError {
-    JsError::new("the current method is not in its EM phase")
+    JsError::new("the current method is not in its jrmpc stage")
 }
 
 fn no_pairs() -> JsError {

@@ -1,11 +1,11 @@
 // A calibration over a pool of workers: the calibration worker drives a wasm
-// CalibrationSession (the library's state machine over methods and their phases) and shares
-// each phase's work with pool workers (shard-worker.js). The global stage: a sensor at a
+// CalibrationSession (the library's state machine over methods and their stages) and shares
+// each stage's work with pool workers (shard-worker.js). The global stage: a sensor at a
 // time, each aligned onto the reference on its own. JRMPC's E-step: it keeps the first
 // slice of the views and each pool worker holds another; every iteration each returns its
 // views' statistics (O(views x K) numbers, transferred, not copied) and the session's M-step
 // takes them in view order. The frame pairs' ICP: a reference view's pairs at a time. Which
-// phase comes next, and the loop over methods when comparing, are the session's. The result is
+// stage comes next, and the loop over methods when comparing, are the session's. The result is
 // `calibrate`'s, bit for bit, for any number of workers. JRMPC's E-step may run on the GPU
 // instead (gpu-estep.js): within the fidelity rule of the CPU's result, not bit for bit.
 import { nextTask } from './tasks.js';
@@ -226,9 +226,9 @@ async function shareFramePairs(session, pool, onProgress, workers, begin = () =>
 }
 
 // `calibrate(input, onProgress)` with the work shared by `workers` workers (this one included,
-// the others started when a phase first has work for them: each loads its own wasm, which on a
+// the others started when a stage first has work for them: each loads its own wasm, which on a
 // targetless scene of one frame would only take cores from the work):
-// each method's phases as the session asks for them; with `method: 'all'`, a method whose
+// each method's stages as the session asks for them; with `method: 'all'`, a method whose
 // workers fail is noted as failed and the next one runs. `wasm` is the initialised module;
 // `spawn()` makes a remote worker (tests pass an in-process one). `eStep` ('cpu' | 'auto' |
 // 'gpu', gpu-estep.js) says where JRMPC's E-step runs; each EM result tells where it ran.
@@ -272,14 +272,14 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
       await Promise.all(started);
       return remotes;
     };
-    for (let phase = session.phase(); phase !== 'done'; phase = session.phase()) {
+    for (let stage = session.stage(); stage !== 'done'; stage = session.stage()) {
       try {
-        if (phase === 'global') await shareGlobal(session, pool, heed);
-        else if (phase === 'em') {
+        if (stage === 'global') await shareGlobal(session, pool, heed);
+        else if (stage === 'jrmpc') {
           const method = session.method();
           const timing = await shareEm(wasm, session, gpu ? [] : await pool(), heed, gpu);
           emRan.set(method, timing ? { estep: 'gpu', gpu: gpu.name, gpuEStepSeconds: timing.seconds, gpuIterations: timing.iterations } : { estep: 'cpu' });
-        } else if (phase === 'cad') session.registerCad(heed); // one call: fast, not shared
+        } else if (stage === 'cad') session.registerCad(heed); // one call: fast, not shared
         else await shareFramePairs(session, pool, heed, workers, pairsBegin);
         session.advance();
       } catch (error) {

@@ -168,7 +168,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.equal(trioWorkers, 2);
   // The global stage's calls, out of turn or with bad data, are errors, not crashes.
   const aligning = new wasm.CalibrationSession(trioInput());
-  assert.equal(aligning.phase(), 'global');
+  assert.equal(aligning.stage(), 'global');
   assert.deepEqual(Array.from(aligning.globalJobs()), [1, 2]);
   assert.equal(aligning.globalProgress().iteration, 0);
   assert.throws(() => aligning.globalJob(0), /sensor 0 is not waiting for its global alignment/);
@@ -188,7 +188,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.equal(aligning.alignGlobally(Uint32Array.of(1)).iteration, 2);
   assert.deepEqual(Array.from(aligning.globalJobs()), []);
   aligning.advance();
-  assert.notEqual(aligning.phase(), 'global');
+  assert.notEqual(aligning.stage(), 'global');
   assert.throws(() => aligning.globalJobs(), /not in its global stage/);
   assert.throws(() => aligning.globalProgress(), /not in its global stage/);
   aligning.free();
@@ -216,11 +216,11 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
 
   // Frame pairs: a bad plan, cloud, start or outcome is an error, not a crash.
   const pairsOf = new wasm.CalibrationSession(input());
-  assert.equal(pairsOf.phase(), 'em');
+  assert.equal(pairsOf.stage(), 'jrmpc');
   assert.throws(() => pairsOf.framePairs(), /not registering frame pairs/);
   while (!pairsOf.finished()) pairsOf.mStep([shardOf(pairsOf).eStep(pairsOf.eStepInput(), 0)]);
   pairsOf.advance();
-  assert.equal(pairsOf.phase(), 'framePairs');
+  assert.equal(pairsOf.stage(), 'framePairs');
   const work = pairsOf.framePairs();
   const [reference, view] = work.pairs;
   const target = pairsOf.viewPoints(reference);
@@ -244,7 +244,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.equal(pairsOf.recordPair(1, 'gicp could not converge').iteration, 2);
   assert.throws(() => pairsOf.result(), /has not finished/);
   pairsOf.advance();
-  assert.equal(pairsOf.phase(), 'done');
+  assert.equal(pairsOf.stage(), 'done');
   const finished = pairsOf.result();
   assert.ok(finished.skipped.some((note) => /could not converge/.test(note.reason)), JSON.stringify(finished.skipped));
   pairsOf.free();

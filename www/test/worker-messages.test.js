@@ -55,7 +55,7 @@ test('mutated global jobs and frame pairs are errors or results, never a trap', 
   const road = wasm.parseOpenCalib(await text('lidar_cloud_path.txt'), 'lidar_cloud_path.txt', await text('initial_extrinsic.txt'), 'initial_extrinsic.txt');
   const scans = await Promise.all(road.devices.map(async (d) => ({ sensor: d.name, frame: '1', points: wasm.parseCloud(await readFile(new URL(d.file, fixture)), d.file).points })));
   const session = new wasm.CalibrationSession({ scans, nominal: road.nominal, reference: road.reference, target: { kind: 'none' } });
-  assert.equal(session.phase(), 'global');
+  assert.equal(session.stage(), 'global');
   const job = session.globalJob(2);
   session.free();
   const outcomes = { result: 0, error: 0 };
@@ -100,7 +100,7 @@ test('mutated global jobs and frame pairs are errors or results, never a trap', 
   // Frame pairs: a sampled twin's first pair, its target, source and start mutated.
   const rig = wasm.simulateRig({ preset: 'sampled', sensors: 2, frames: 2, pointsPerView: 600, seed: 5 });
   const pairs = new wasm.CalibrationSession({ scans: rig.scans, nominal: rig.nominal, roi: rig.roi, method: 'gicp' });
-  assert.equal(pairs.phase(), 'framePairs');
+  assert.equal(pairs.stage(), 'framePairs');
   const work = pairs.framePairs();
   const [reference, view] = work.pairs;
   const target = pairs.viewPoints(reference);
