@@ -60,11 +60,11 @@ fn a_turned_sensor_fails_against_every_stored_form() {
 
     for form in ["a.json", "a.tf.yaml", "a.urdf"] {
         // Against itself: nothing moved.
-        let (code, out, err) = gmmcalib(&dir, &["compare", form, "a.json"]);
+        let (code, out, err) = gmmcalib(&dir, &["drift", form, "a.json"]);
         assert_eq!(code, 0, "{form}: {out}{err}");
         assert!(out.contains("passed: no sensor moved"), "{out}");
         // The same scans with sensor_2's mount turned 0.5 deg about its own z.
-        let (code, out, err) = gmmcalib(&dir, &["compare", form, "c.json", "--json", "drift.json"]);
+        let (code, out, err) = gmmcalib(&dir, &["drift", form, "c.json", "--json", "drift.json"]);
         assert_eq!(code, 3, "{form}: {out}{err}");
         assert!(err.starts_with("gmmcalib: drift: sensor_2 moved "), "{err}");
         let report: serde_json::Value =
@@ -81,7 +81,7 @@ fn a_turned_sensor_fails_against_every_stored_form() {
     assert!(err.contains("3 sigma"), "{err}");
     // A mount moved 2 cm sideways, by the default limit and by 3 sigma.
     for extra in [&[][..], &["--sigmas", "3"][..]] {
-        let mut args = vec!["compare", "a.json", "d.json"];
+        let mut args = vec!["drift", "a.json", "d.json"];
         args.extend(extra);
         let (code, out, err) = gmmcalib(&dir, &args);
         println!("sensor_2 moved 2 cm ({extra:?}):\n{out}");
@@ -92,10 +92,10 @@ fn a_turned_sensor_fails_against_every_stored_form() {
     // Errors: one line naming the file and the place; status 1.
     std::fs::write(dir.join("bad.json"), "{\"reference\": \"sensor_1\",\n \"sensors\": 5}")
         .unwrap();
-    let (code, _, err) = gmmcalib(&dir, &["compare", "bad.json", "c.json"]);
+    let (code, _, err) = gmmcalib(&dir, &["drift", "bad.json", "c.json"]);
     assert_eq!(code, 1);
     assert!(err.starts_with("gmmcalib: bad.json: line 2 column"), "{err}");
-    let (code, _, err) = gmmcalib(&dir, &["compare", "gone.json", "c.json"]);
+    let (code, _, err) = gmmcalib(&dir, &["drift", "gone.json", "c.json"]);
     assert_eq!(
         (code, err.trim_end()),
         (1, "gmmcalib: gone.json: No such file or directory (os error 2)")
@@ -119,7 +119,7 @@ fn an_unchanged_real_rig_is_not_called_moved() {
         assert!(code == 0, "{scene}: {out}{err}");
     }
     for extra in [&[][..], &["--sigmas", "3"][..]] {
-        let mut args = vec!["compare", "0001.json", "0002.json"];
+        let mut args = vec!["drift", "0001.json", "0002.json"];
         args.extend(extra);
         let (code, out, err) = gmmcalib(&dir, &args);
         println!("OpenCalib 0001 against 0002 ({extra:?}):\n{out}{err}");

@@ -1,4 +1,4 @@
-//! The arguments of `calibrate` and `compare`, `--flag VALUE` or `--flag=VALUE`, and the
+//! The arguments of `calibrate` and `drift`, `--flag VALUE` or `--flag=VALUE`, and the
 //! checks every command's flags share.
 
 use crate::calib::SettingsInput;
@@ -15,10 +15,10 @@ usage: gmmcalib calibrate --data DIR [--config CONFIG.yaml]
        gmmcalib calibrate --bag FILE [--topics /a,/b] [--reference /a] [--base-frame base_link]
                           [--frames N] [--urdf FILE] [--export ros1|ros2|tf-yaml|urdf|autoware|kitti]
                           (and the options above)
-       gmmcalib compare STORED NEW [--rotation-deg 0.1] [--translation 0.01] [--sigmas K]
+       gmmcalib drift STORED NEW [--rotation-deg 0.1] [--translation 0.01] [--sigmas K]
                           [--json OUT.json]";
 
-/// What `compare` and `calibrate` do, said once for both command lines.
+/// What `drift` and `calibrate` do, said once for both command lines.
 pub const HELP: &str = "\
   calibrate: prints the verdict first (good, check or failed, with the reasons); exit status
   0 when it calibrated, 2 when it calibrated but the verdict is failed (every method's, with
@@ -44,8 +44,9 @@ pub const HELP: &str = "\
   topic's frame_id to --base-frame (default base_link, else the tree's root). --export prints
   the corrected extrinsics (parent the base frame, child each frame id) in that form; urdf
   edits the --urdf file's joint origins in place when one was given.
-  compare: has a sensor moved? STORED is a calibration kept from before (calibrate's --json,
-  or a URDF or /tf_static YAML it exported), NEW calibrate's --json of a new recording. Each
+  drift (compare, its first name, still works): has a sensor moved? STORED is a calibration
+  kept from before (calibrate's --json, or a URDF or /tf_static YAML it exported), NEW
+  calibrate's --json of a new recording. Each
   sensor's pose relative to the reference is compared; it has moved when the rotation
   changed by more than --rotation-deg (default 0.1) or the position by more than
   --translation (m, default 0.01), or with --sigmas K when a change on any axis is beyond K
@@ -59,7 +60,7 @@ pub const HELP: &str = "\
 pub enum CommandArgs {
     Help,
     Calibrate(CalibrateArgs),
-    Compare(CompareArgs),
+    Drift(DriftArgs),
 }
 
 #[derive(Debug, Default, PartialEq)]
@@ -82,14 +83,14 @@ pub struct CalibrateArgs {
 }
 
 #[derive(Debug, PartialEq)]
-pub struct CompareArgs {
+pub struct DriftArgs {
     pub stored: String,
     pub new: String,
     pub tolerance: Tolerance,
     pub json: Option<String>,
 }
 
-/// Parses `calibrate ...`, `compare ...` or help.
+/// Parses `calibrate ...`, `drift ...` (or `compare ...`, its first name) or help.
 pub fn parse(argv: &[String]) -> Result<CommandArgs, String> {
     let mut args = argv.iter().cloned();
     match args.next().as_deref() {
@@ -98,11 +99,11 @@ pub fn parse(argv: &[String]) -> Result<CommandArgs, String> {
             Some(f) => CommandArgs::Calibrate(calibrate(f)?),
             None => CommandArgs::Help,
         }),
-        Some("compare") => Ok(match compare(args)? {
-            Some(c) => CommandArgs::Compare(c),
+        Some("drift" | "compare") => Ok(match drift(args)? {
+            Some(c) => CommandArgs::Drift(c),
             None => CommandArgs::Help,
         }),
-        Some(other) => Err(format!("unknown command '{other}' (expected calibrate or compare)")),
+        Some(other) => Err(format!("unknown command '{other}' (expected calibrate or drift)")),
     }
 }
 
@@ -176,8 +177,8 @@ pub fn calibrate(flags: Vec<(String, String)>) -> Result<CalibrateArgs, String> 
     }
 }
 
-/// `compare STORED NEW [flags]`; `None` when help was asked for.
-fn compare(args: impl Iterator<Item = String>) -> Result<Option<CompareArgs>, String> {
+/// `drift STORED NEW [flags]`; `None` when help was asked for.
+fn drift(args: impl Iterator<Item = String>) -> Result<Option<DriftArgs>, String> {
     let (mut files, mut rest) = (Vec::new(), Vec::new());
     let mut args = args.peekable();
     while let Some(arg) = args.next() {
@@ -194,7 +195,7 @@ fn compare(args: impl Iterator<Item = String>) -> Result<Option<CompareArgs>, St
     }
     let Some(flags) = flags(rest.into_iter())? else { return Ok(None) };
     let [stored, new]: [String; 2] = files.try_into().map_err(|f: Vec<String>| {
-        format!("compare takes two files, STORED and NEW, got {}", f.len())
+        format!("drift takes two files, STORED and NEW, got {}", f.len())
     })?;
     let (mut rotation, mut translation) =
         (DEFAULT_ROTATION_TOLERANCE, DEFAULT_TRANSLATION_TOLERANCE);
@@ -212,7 +213,7 @@ fn compare(args: impl Iterator<Item = String>) -> Result<Option<CompareArgs>, St
         Some(sigmas) => Tolerance::Precision { sigmas, rotation, translation },
         None => Tolerance::Fixed { rotation, translation },
     };
-    Ok(Some(CompareArgs { stored, new, tolerance, json }))
+    Ok(Some(DriftArgs { stored, new, tolerance, json }))
 }
 
 /// Six comma-separated finite numbers.
@@ -279,17 +280,17 @@ mod tests {
     }
 
     #[test]
-    fn parses_compare() {
-        let Ok(CommandArgs::Compare(c)) =
-            parse(&args("compare old.json --sigmas 3 new.json --rotation-deg=0.2"))
+    fn parses_drift_and_its_first_name() {
+        let Ok(CommandArgs::Drift(c)) =
+            parse(&args("drift old.json --sigmas 3 new.json --rotation-deg=0.2"))
         else {
-            panic!("expected compare");
+            panic!("expected drift");
         };
         assert_eq!((c.stored.as_str(), c.new.as_str()), ("old.json", "new.json"));
         let Tolerance::Precision { sigmas, rotation, translation } = c.tolerance else { panic!() };
         assert_eq!((sigmas, translation), (3.0, 0.01));
         assert!((rotation.to_degrees() - 0.2).abs() < 1e-12);
-        let Ok(CommandArgs::Compare(c)) = parse(&args("compare a b")) else { panic!() };
+        let Ok(CommandArgs::Drift(c)) = parse(&args("compare a b")) else { panic!() };
         assert_eq!(c.tolerance, Tolerance::default());
     }
 
@@ -302,11 +303,11 @@ mod tests {
         assert!(err("calibrate --config c --data d --bogus x").contains("bogus"));
         assert!(err("calibrate --config").contains("needs a value"));
         assert!(err("frobnicate").contains("unknown command"));
-        assert!(err("compare a").contains("two files"));
-        assert!(err("compare a b c").contains("got 3"));
-        assert!(err("compare a b --sigmas -1").contains("--sigmas"));
-        assert!(err("compare a b --tolerance 1").contains("unknown argument '--tolerance'"));
+        assert!(err("drift a").contains("two files"));
+        assert!(err("drift a b c").contains("got 3"));
+        assert!(err("drift a b --sigmas -1").contains("--sigmas"));
+        assert!(err("drift a b --tolerance 1").contains("unknown argument '--tolerance'"));
         assert!(matches!(parse(&args("")), Ok(CommandArgs::Help)));
-        assert!(matches!(parse(&args("compare --help")), Ok(CommandArgs::Help)));
+        assert!(matches!(parse(&args("drift --help")), Ok(CommandArgs::Help)));
     }
 }

@@ -1,19 +1,19 @@
 //! The command line that the native CLI (`src/bin/gmmcalib`) and the Node command (`npx
-//! gmmcalib`, through `wasm::command`) share: `gmmcalib calibrate` and `gmmcalib compare`, from
+//! gmmcalib`, through `wasm::command`) share: `gmmcalib calibrate` and `gmmcalib drift`, from
 //! the arguments to the exit status. Files and output go through a [`Host`], so the same code
 //! reads a folder through `std::fs` natively and through Node's `fs` in wasm, and both give
 //! the same results, the same JSON and the same errors. An edge module: it makes prose.
 
 pub mod args;
 mod calibrate;
-mod compare;
 mod dataset;
+mod drift;
 mod recording;
 
 pub use crate::layout::natural;
-pub use args::{CalibrateArgs, CommandArgs, CompareArgs};
+pub use args::{CalibrateArgs, CommandArgs, DriftArgs};
 pub use calibrate::{VERDICT_FAILED, calibrate};
-pub use compare::{DRIFT, compare};
+pub use drift::{DRIFT, drift};
 pub use recording::resolve as recording_file;
 
 use crate::io::recording::ReadAt;
@@ -74,7 +74,7 @@ pub(crate) fn parent(path: &str) -> &str {
     }
 }
 
-/// Runs the command in `argv` (without the program's name): `calibrate`, `compare` or help.
+/// Runs the command in `argv` (without the program's name): `calibrate`, `drift` or help.
 /// Returns the exit status; an error is one line on standard error, status 1.
 pub fn run(argv: &[String], host: &mut dyn Host) -> u8 {
     let outcome = match args::parse(argv) {
@@ -83,7 +83,7 @@ pub fn run(argv: &[String], host: &mut dyn Host) -> u8 {
             Ok(0)
         }
         Ok(CommandArgs::Calibrate(a)) => calibrate(&a, host),
-        Ok(CommandArgs::Compare(a)) => compare(&a, host),
+        Ok(CommandArgs::Drift(a)) => drift(&a, host),
         Err(e) => Err(e),
     };
     outcome.unwrap_or_else(|e| {

@@ -6,8 +6,8 @@
 
 mod calibrate;
 mod command;
-mod compare;
 mod config;
+mod drift;
 mod exports;
 mod files;
 mod recording;
@@ -24,8 +24,8 @@ use crate::se3::{Pose, xyz_rpy};
 
 pub use calibrate::{calibrate, methods};
 pub use command::run_command;
-pub use compare::compare_calibrations;
 pub use config::{parse_config, parse_open_calib};
+pub use drift::compare_calibrations;
 pub use exports::ros_exports;
 pub use files::{parse_cloud, parse_mesh};
 pub use recording::RecordingFile;

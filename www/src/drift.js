@@ -1,6 +1,6 @@
 // The drift check in the results (issue 24): a stored calibration (our JSON, its tf YAML
 // export, or the exported URDF), picked or dropped on the control, compared with the current result
-// by the library (`compareCalibrations`, the same check as `gmmcalib compare`), against fixed
+// by the library (`compareCalibrations`, the same check as `gmmcalib drift`), against fixed
 // limits or K sigma of the combined precision. Per sensor the rotation and translation change,
 // the precision, the limit and moved / within; the outcome in the library's words. A comparison
 // outlives the result it was made with, marked out of date, so Compare again is one click.

@@ -1,5 +1,5 @@
 #!/usr/bin/env node
-// `npx gmmcalib calibrate ...` / `compare ...`: the native CLI's shared commands, run by the
+// `npx gmmcalib calibrate ...` / `drift ...`: the native CLI's shared commands, run by the
 // library in wasm (`runCommand`) over Node's file system. Errors are the CLI's: one line, no
 // stack trace.
 import fs from 'node:fs';

@@ -130,14 +130,14 @@ test('recordings under Node: MCAP and ROS 1 bag calibrate to the native JSON, wi
 
 test('drift check: the same rig passes, a sensor turned 0.5 deg fails and is named', () => {
   for (const rig of ['b', 'c']) assert.equal(run(node, calibrateArgs(rig, `${rig}.json`)).status, 0);
-  const still = run(node, ['compare', 'a.node.json', 'b.json', '--json', 'still.json']);
+  const still = run(node, ['drift', 'a.node.json', 'b.json', '--json', 'still.json']);
   assert.equal(still.status, 0, still.stdout + still.stderr);
   assert.match(still.stdout, /passed: no sensor moved/);
   const report = JSON.parse(fs.readFileSync(path.join(dir, 'still.json'), 'utf8'));
   assert.equal(report.passed, true);
   assert.ok(report.sensors[0].angle < (0.1 * Math.PI) / 180, JSON.stringify(report.sensors[0]));
 
-  const moved = run(node, ['compare', 'a.node.json', 'c.json']);
+  const moved = run(node, ['drift', 'a.node.json', 'c.json']);
   assert.equal(moved.status, 3, moved.stdout + moved.stderr);
   const line = moved.stderr.match(/gmmcalib: drift: sensor_2 moved ([\d.]+) deg/);
   assert.ok(line, moved.stderr);
@@ -156,7 +156,7 @@ test('bad input: the same one-line named errors as the native CLI, no stack trac
     ['calibrate', '--data', 'a/data', '--config', 'bad.yaml'],
     ['calibrate', '--data', 'a/data', '--iterations', '0'],
     ['calibrate', '--data', 'a/data', '--bogus', '1'],
-    ['compare', 'broken.json', 'b.json'],
+    ['drift', 'broken.json', 'b.json'],
     ['compare', 'a.node.json'],
     ['frobnicate'],
   ];
@@ -164,12 +164,12 @@ test('bad input: the same one-line named errors as the native CLI, no stack trac
     const n = run(node, args);
     const r = run(native, args);
     assert.equal(n.status, 1, `${args.join(' ')}: ${n.stderr}`);
-    assert.equal(n.stderr, r.stderr.replace(/, compare, inspect, simulate, experiment or study/, ' or compare'), args.join(' '));
+    assert.equal(n.stderr, r.stderr.replace(/, drift, inspect, simulate, experiment or study/, ' or drift'), args.join(' '));
     assert.match(n.stderr, /^gmmcalib: [^\n]+\n$/);
     assert.doesNotMatch(n.stderr, /\n\s+at /);
   }
   assert.match(run(node, ['calibrate', '--data', 'nowhere']).stderr, /nowhere: No such file or directory/);
-  assert.match(run(node, ['compare', 'broken.json', 'b.json']).stderr, /broken\.json: line 1 column \d+/);
+  assert.match(run(node, ['drift', 'broken.json', 'b.json']).stderr, /broken\.json: line 1 column \d+/);
 });
 
 test('the API: import { calibrate } from "gmmcalib" just works, and the types check strictly', () => {

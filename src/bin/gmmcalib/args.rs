@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use gmmcalib::command::args::{
-    self as shared, CalibrateArgs, CompareArgs, flags, non_negative, on_off, positive, unknown,
+    self as shared, CalibrateArgs, DriftArgs, flags, non_negative, on_off, positive, unknown,
 };
 
 /// The native CLI's usage: the shared commands' (`gmmcalib::command::args`), then its own.
@@ -59,7 +59,7 @@ pub enum Command {
     Help,
     Inspect(PathBuf),
     Calibrate(CalibrateArgs),
-    Compare(CompareArgs),
+    Drift(DriftArgs),
     Simulate(SimulateArgs),
     Experiment(ExperimentArgs),
     Study(StudyArgs),
@@ -198,19 +198,19 @@ pub fn parse(args: impl IntoIterator<Item = String>) -> Result<Command, String> 
                 _ => Err("usage: gmmcalib inspect FILE|BAG_FOLDER".into()),
             };
         }
-        Some(c @ ("calibrate" | "compare")) => {
+        Some(c @ ("calibrate" | "drift" | "compare")) => {
             // The commands the Node command shares: parsed by the library.
             let argv: Vec<String> = std::iter::once(c.to_string()).chain(args).collect();
             return Ok(match shared::parse(&argv)? {
                 shared::CommandArgs::Calibrate(a) => Command::Calibrate(a),
-                shared::CommandArgs::Compare(a) => Command::Compare(a),
+                shared::CommandArgs::Drift(a) => Command::Drift(a),
                 shared::CommandArgs::Help => Command::Help,
             });
         }
         Some(c @ ("simulate" | "experiment" | "study")) => c.to_string(),
         Some(other) => {
             return Err(format!(
-                "unknown command '{other}' (expected calibrate, compare, inspect, simulate, experiment or study)"
+                "unknown command '{other}' (expected calibrate, drift, inspect, simulate, experiment or study)"
             ));
         }
     };
@@ -355,7 +355,7 @@ mod tests {
             panic!("expected calibrate");
         };
         assert_eq!((a.data.as_str(), a.settings.iterations), ("d", Some(7)));
-        assert!(matches!(parse(args("compare a.json b.json")), Ok(Command::Compare(_))));
+        assert!(matches!(parse(args("compare a.json b.json")), Ok(Command::Drift(_))));
     }
 
     #[test]

@@ -1,5 +1,5 @@
 //! `gmmcalib calibrate`: GMMCalib's data folder and YAML config in, calibration out (text on
-//! stdout, JSON with `--json`); `gmmcalib compare`: the drift check. Both live in the library
+//! stdout, JSON with `--json`); `gmmcalib drift`: the drift check. Both live in the library
 //! (`gmmcalib::command`), shared with the Node command. `gmmcalib simulate`: the digital twin
 //! written in that layout. `gmmcalib experiment`: the paper's experiment on the twin.
 //! `gmmcalib study`: accuracy on the twin over many seeds and starts. Thin adapters: the library does all the work. Native
@@ -56,7 +56,7 @@ mod cli {
             Command::Inspect(file) => done(crate::recording::inspect(&file)),
             // The commands the Node command shares, in the library.
             Command::Calibrate(a) => command::calibrate(&a, &mut Native::new()).map(ExitCode::from),
-            Command::Compare(a) => command::compare(&a, &mut Native::new()).map(ExitCode::from),
+            Command::Drift(a) => command::drift(&a, &mut Native::new()).map(ExitCode::from),
             Command::Simulate(a) => done(crate::simulate::run(&a)),
             Command::Experiment(a) => done(crate::experiment::run(&a)),
             Command::Study(a) => done(crate::study::run(&a)),

@@ -1,7 +1,7 @@
-//! `gmmcalib compare STORED NEW`: the drift check over two files, its table on stdout, the
+//! `gmmcalib drift STORED NEW` (`compare`, its first name, still works): the drift check over two files, its table on stdout, the
 //! sensors that moved on stderr, and the exit status CI acts on.
 
-use super::args::CompareArgs;
+use super::args::DriftArgs;
 use super::calibrate::write_json;
 use super::{Host, read_text};
 use crate::drift;
@@ -10,7 +10,7 @@ use crate::report;
 /// The exit status when a sensor moved beyond its limit or went missing.
 pub const DRIFT: u8 = 3;
 
-pub fn compare(a: &CompareArgs, host: &mut dyn Host) -> Result<u8, String> {
+pub fn drift(a: &DriftArgs, host: &mut dyn Host) -> Result<u8, String> {
     let stored = drift::read(&read_text(host, &a.stored)?, &a.stored).map_err(|e| e.to_string())?;
     let new = drift::read(&read_text(host, &a.new)?, &a.new).map_err(|e| e.to_string())?;
     let result = drift::compare(&stored, &new, &a.tolerance)
