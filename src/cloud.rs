@@ -117,15 +117,7 @@ impl Cloud {
 
     /// Every point mapped through `pose` (`p' = pose * p`).
     pub fn transformed(&self, pose: &Pose) -> Cloud {
-        let points = self
-            .points
-            .iter()
-            .map(|p| {
-                let q = pose * nalgebra::Point3::new(p[0] as f64, p[1] as f64, p[2] as f64);
-                [q.x as f32, q.y as f32, q.z as f32]
-            })
-            .collect();
-        Cloud { points, intensity: self.intensity.clone() }
+        Cloud { points: transformed(&self.points, pose), intensity: self.intensity.clone() }
     }
 
     /// Mean of the points in f64, `None` when empty.
@@ -167,6 +159,17 @@ impl Cloud {
 /// False for a point with a NaN or infinite coordinate, or an exact-zero return.
 pub fn is_valid_point(p: &[f32; 3]) -> bool {
     p.iter().all(|c| c.is_finite()) && p.iter().any(|&c| c != 0.0)
+}
+
+/// Every point of `points` mapped through `pose` (`p' = pose * p`), in f64 and back.
+pub fn transformed(points: &[[f32; 3]], pose: &Pose) -> Vec<[f32; 3]> {
+    points
+        .iter()
+        .map(|p| {
+            let q = pose * nalgebra::Point3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            [q.x as f32, q.y as f32, q.z as f32]
+        })
+        .collect()
 }
 
 #[cfg(test)]

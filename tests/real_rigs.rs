@@ -24,6 +24,12 @@ fn shared() -> Option<PathBuf> {
     dir.is_dir().then_some(dir)
 }
 
+/// The one scan in `file`, as `sensor`'s frame "1".
+fn scan(file: &std::path::Path, sensor: &str) -> Scan {
+    let parsed = parse_cloud(&std::fs::read(file).unwrap(), &file.to_string_lossy()).unwrap();
+    Scan { sensor: sensor.into(), frame: "1".into(), points: parsed.cloud.points, source: None }
+}
+
 /// MLCC's `T_L1_Lk` (row-major 4x4) as a pose.
 fn pose(rows: &serde_json::Value) -> Pose {
     let m: Vec<f64> = (0..4)
@@ -45,13 +51,7 @@ fn the_livox_units_keep_their_right_start() {
     let dir = data.join("livox_mid100");
     let scans = ["L0", "L1", "L2"]
         .iter()
-        .map(|unit| {
-            let file = dir.join(format!("scene1_pose10_{unit}.pcd"));
-            let name = file.to_string_lossy();
-            let parsed = parse_cloud(&std::fs::read(&file).unwrap(), &name).unwrap();
-            let points = parsed.cloud.points;
-            Scan { sensor: unit.to_string(), frame: "1".into(), points, source: None }
-        })
+        .map(|unit| scan(&dir.join(format!("scene1_pose10_{unit}.pcd")), unit))
         .collect();
     // As the CLI reads loose files without a config: identity for every unit, the first the
     // reference.
@@ -113,13 +113,7 @@ fn the_hesai_rig_reports_the_loops_it_cannot_close() {
     let nominal = opencalib::nominals(&guess, &devices, "guess").unwrap();
     let scans = devices
         .iter()
-        .map(|d| {
-            let file = dir.join(d.path.rsplit('/').next().unwrap());
-            let name = file.to_string_lossy();
-            let parsed = parse_cloud(&std::fs::read(&file).unwrap(), &name).unwrap();
-            let points = parsed.cloud.points;
-            Scan { sensor: d.name.clone(), frame: "1".into(), points, source: None }
-        })
+        .map(|d| scan(&dir.join(d.path.rsplit('/').next().unwrap()), &d.name))
         .collect();
     let rig = Rig { scans, nominal, roi: None, reference: Some("p64".into()) };
     let settings = calib::Settings { target: Target::None, ..Default::default() };

@@ -8,6 +8,8 @@ use nalgebra::{Point3, Vector3};
 
 use super::average::average;
 use super::pairs::{PairIcp, align, target};
+use crate::cloud::transformed;
+use crate::icp;
 use crate::se3::Pose;
 
 /// Two sensors registered to each other alone, from the result: how far that moved the second.
@@ -59,6 +61,9 @@ pub(super) fn gaps(
 ) -> Vec<LoopGap> {
     let sensors = placed.len();
     let mut gaps = Vec::new();
+    // Each view's ICP target, built when a pair first needs it: a sensor with several
+    // neighbours is the target of each.
+    let mut targets: Vec<Option<Option<icp::TargetCloud>>> = clouds.iter().map(|_| None).collect();
     for a in (0..sensors).filter(|&a| a != r) {
         for b in (a + 1..sensors).filter(|&b| b != r) {
             if overlap(a, b).max(overlap(b, a)) < min_overlap {
@@ -69,11 +74,12 @@ pub(super) fn gaps(
                 let Some(&(_, view_b)) = pairs[b].iter().find(|(f, _)| *f == frame) else {
                     continue;
                 };
-                let moved = |view: usize, s: usize| -> Vec<[f32; 3]> {
-                    clouds[view].iter().map(|p| map(&placed[s], p)).collect()
-                };
-                let Ok(onto) = target(&moved(view_a, a), icp, false) else { continue };
-                if let Ok(m) = align(&onto, &moved(view_b, b), &Pose::identity(), icp) {
+                let onto = targets[view_a].get_or_insert_with(|| {
+                    target(&transformed(clouds[view_a], &placed[a]), icp, false).ok()
+                });
+                let Some(onto) = onto else { continue };
+                let source = transformed(clouds[view_b], &placed[b]);
+                if let Ok(m) = align(onto, &source, &Pose::identity(), icp) {
                     moves.push(m);
                 }
             }
@@ -91,11 +97,6 @@ pub(super) fn gaps(
         }
     }
     gaps
-}
-
-fn map(pose: &Pose, p: &[f32; 3]) -> [f32; 3] {
-    let q = pose * Point3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
-    [q.x as f32, q.y as f32, q.z as f32]
 }
 
 /// Whether `gap` lands the pair better and is beyond both what two independent registrations
@@ -138,7 +139,8 @@ mod tests {
         let clouds: Vec<Vec<[f32; 3]>> = (scans.iter().zip(&mounts))
             .map(|(scan, (_, mount))| {
                 let hits = scan.cloud.points.iter().filter(|p| **p != [0.0; 3]);
-                hits.map(|p| map(mount, p)).collect()
+                let hits: Vec<[f32; 3]> = hits.copied().collect();
+                transformed(&hits, mount)
             })
             .collect();
         let clouds: Vec<&[[f32; 3]]> = clouds.iter().map(Vec::as_slice).collect();

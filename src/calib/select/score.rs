@@ -228,14 +228,9 @@ impl Scenes {
     /// frames beside them, each placed by `poses` (`T_vehicle_sensor`).
     pub fn overlap_with(&self, s: usize, o: usize, poses: &[Pose]) -> f64 {
         let mut score = SensorScore::default();
-        let (Some(own), Some(theirs)) = (self.surfaces.get(s), self.surfaces.get(o)) else {
-            return 0.0;
-        };
         let t_o_s = poses[o].inverse() * poses[s];
-        for (frame, mine) in own {
-            if let Some((_, other)) = theirs.iter().find(|(f, _)| f == frame) {
-                self.compare(mine, other, &t_o_s, &mut score);
-            }
+        for (mine, other) in self.shared_frames(s, o) {
+            self.compare(mine, other, &t_o_s, &mut score);
         }
         score.overlap()
     }
@@ -244,17 +239,20 @@ impl Scenes {
     /// `o`'s surfaces and `o`'s on its, frame by frame.
     pub fn score_with(&self, s: usize, o: usize, poses: &[Pose]) -> SensorScore {
         let mut score = SensorScore::default();
-        let (Some(own), Some(theirs)) = (self.surfaces.get(s), self.surfaces.get(o)) else {
-            return score;
-        };
         let t_o_s = poses[o].inverse() * poses[s];
-        for (frame, mine) in own {
-            if let Some((_, other)) = theirs.iter().find(|(f, _)| f == frame) {
-                self.compare(mine, other, &t_o_s, &mut score);
-                self.compare(other, mine, &t_o_s.inverse(), &mut score);
-            }
+        for (mine, other) in self.shared_frames(s, o) {
+            self.compare(mine, other, &t_o_s, &mut score);
+            self.compare(other, mine, &t_o_s.inverse(), &mut score);
         }
         score
+    }
+
+    /// Sensor `s`'s and sensor `o`'s surfaces of each frame both scored, in `s`'s order.
+    fn shared_frames(&self, s: usize, o: usize) -> impl Iterator<Item = (&Surface, &Surface)> {
+        let theirs = self.surfaces.get(o).map_or(&[][..], Vec::as_slice);
+        self.surfaces.get(s).into_iter().flatten().filter_map(move |(frame, mine)| {
+            theirs.iter().find(|(f, _)| f == frame).map(|(_, other)| (mine, other))
+        })
     }
 
     /// Sensor `s`'s scored frames: (frame name, surface).
@@ -299,14 +297,9 @@ impl Scenes {
         poses: &[Pose],
         mut f: impl FnMut(&Surface, &Surface, &Pose, bool, &Pose),
     ) {
-        let Some(own) = self.surfaces.get(s) else { return };
-        for (o, theirs) in self.surfaces.iter().enumerate() {
-            if o == s {
-                continue;
-            }
+        for o in (0..self.surfaces.len()).filter(|&o| o != s) {
             let t_o_s = poses[o].inverse() * poses[s];
-            for (frame, mine) in own {
-                let Some((_, other)) = theirs.iter().find(|(f, _)| f == frame) else { continue };
+            for (mine, other) in self.shared_frames(s, o) {
                 f(mine, other, &t_o_s, true, &poses[s]);
                 f(other, mine, &t_o_s.inverse(), false, &poses[o]);
             }
