@@ -244,9 +244,7 @@ pub(super) fn finish(
         .collect();
     for (result, floor) in results.iter_mut().zip(floors) {
         let Some((rotation, position)) = floor else { continue };
-        let mut p = result
-            .precision
-            .unwrap_or(planes::Precision { rotation: [0.0; 3], position: [0.0; 3] });
+        let mut p = result.precision.unwrap_or_default();
         for i in 0..3 {
             p.rotation[i] = p.rotation[i].max(rotation[i]);
             p.position[i] = p.position[i].max(position[i]);
@@ -294,8 +292,8 @@ pub(super) fn finish(
             let better = |a: usize, b: usize, motion: &Pose| {
                 let mut moved = placed.clone();
                 moved[b] = motion * placed[b];
-                let z = settings.select.z;
-                scenes.score_with(b, a, &moved).beats(&scenes.score_with(b, a, &placed), z)
+                let [at, moved] = scenes.score_with(b, a, &placed, &moved);
+                moved.beats(&at, settings.select.z)
             };
             loops::gaps(
                 &clouds,
@@ -359,6 +357,12 @@ pub(super) fn finish(
         );
         verdict::judge_frames(&mut v, (result.spread.rpy, result.spread.xyz), result.spread.frames);
         sensor_verdicts.push(v);
+    }
+    // Judged open against the precision the scans gave, the loops then widen it.
+    let mut precision: Vec<_> = results.iter().map(|x| x.precision).collect();
+    loops::widen(&mut precision, &loops);
+    for (result, p) in results.iter_mut().zip(precision) {
+        result.precision = p;
     }
     let reasons = verdict::judge_reconstruction(
         &settings.target,

@@ -4,6 +4,8 @@
 //! another, so the pair is evidence the calibration did not fit: on a rig of five LiDARs around
 //! a car, a sensor placed wrongly against the reference shows as a gap against its neighbours.
 
+use std::f64::consts::SQRT_2;
+
 use nalgebra::{Point3, Vector3};
 
 use super::average::average;
@@ -121,6 +123,24 @@ pub fn is_open(
             || (gap.distance() > agree.1 && beyond(gap.position, |p| p.position)))
 }
 
+/// Widens each sensor's precision to cover the loops it is in: a pair's gap, where its placement
+/// lands the scans better than the result's, is one draw of the difference between two
+/// sensors' errors, so per axis the two one-sigmas together must reach it. Each is raised to at
+/// least the gap over root two; loops that close or slide (landing no better) change nothing,
+/// so a rig whose loops close keeps the precision its scans give (issue 37: Hesai's QTs claimed
+/// 0.07 deg / 1 cm where their loops open by 0.8 deg / 5-16 cm).
+pub(super) fn widen(precision: &mut [Option<super::Precision>], gaps: &[LoopGap]) {
+    for gap in gaps.iter().filter(|g| g.better) {
+        for s in [gap.a, gap.b] {
+            let p = precision[s].get_or_insert(super::Precision::default());
+            for i in 0..3 {
+                p.rotation[i] = p.rotation[i].max(gap.rotation[i].abs() / SQRT_2);
+                p.position[i] = p.position[i].max(gap.position[i].abs() / SQRT_2);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -201,6 +221,26 @@ mod tests {
 
     fn gap(rotation: [f64; 3], position: [f64; 3]) -> LoopGap {
         LoopGap { a: 1, b: 2, frames: 1, rotation, position, better: true }
+    }
+
+    /// A gap that lands better widens both sensors' precision to it over root two, axis by
+    /// axis, keeping what is wider already; a slide (landing no better) widens nothing.
+    #[test]
+    fn a_gap_that_lands_better_widens_both_precisions() {
+        let p = Precision { rotation: [1e-3; 3], position: [0.01; 3] };
+        let mut precision = vec![None, Some(p), Some(p)];
+        let slide = LoopGap { better: false, ..gap([0.0; 3], [0.5, 0.0, 0.0]) };
+        widen(&mut precision, &[slide]);
+        assert_eq!(precision, vec![None, Some(p), Some(p)]);
+        widen(&mut precision, &[gap([0.0, 0.0, -0.01], [0.0, 0.05, 0.001])]);
+        for s in [1, 2] {
+            let w = precision[s].unwrap();
+            assert_eq!(w.rotation[..2], [1e-3; 2]);
+            assert!((w.rotation[2] - 0.01 / SQRT_2).abs() < 1e-12);
+            assert_eq!([w.position[0], w.position[2]], [0.01; 2]);
+            assert!((w.position[1] - 0.05 / SQRT_2).abs() < 1e-12);
+        }
+        assert_eq!(precision[0], None, "the reference is in no loop");
     }
 
     #[test]

@@ -101,12 +101,13 @@ pub struct SensorAdjustment {
     pub precision: Option<Precision>,
 }
 
-/// One-sigma uncertainty of a sensor's calibration as the plane adjustment measures it: the
+/// One-sigma uncertainty of a sensor's calibration. The plane adjustment measures it as the
 /// covariance of its motion at the solution, from the point-to-plane residuals (see
-/// `covariance`). That is the spread the point noise leaves (the twin's errors follow it;
-/// docs/accuracy.md, "How precise"), not a bound on errors the plane model cannot see (a target that
-/// moved, a wrong nominal beyond reach).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// `covariance`): the spread the point noise leaves (the twin's errors follow it;
+/// docs/accuracy.md, "How precise"). The calibration then floors it by what the scans tell
+/// apart and widens it by the loops that do not close (`calib::finish`); it is no bound on
+/// errors no evidence sees (a target that moved, a wrong nominal beyond reach).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Precision {
     /// Rotation about the vehicle's x, y, z axes (rad).
     pub rotation: [f64; 3],

@@ -69,6 +69,25 @@ impl SensorScore {
         if present.is_empty() { 0.0 } else { sum / present.len() as f64 }
     }
 
+    /// One point of weight `weight` and class `class` in block `block`.
+    fn add(
+        &mut self,
+        block: usize,
+        class: usize,
+        weight: f64,
+        overlapping: bool,
+        landed: f64,
+        against: f64,
+    ) {
+        self.total[class] += weight;
+        if overlapping {
+            self.overlapping[class] += weight;
+        }
+        self.agreeing[class] += landed;
+        self.contradicting[class] += against;
+        self.blocks[block][class] += landed - against;
+    }
+
     /// Each block's part of [`SensorScore::value`].
     fn block_values(&self) -> Vec<f64> {
         let present = (0..2).filter(|&c| self.total[c] > 0.0).count().max(1) as f64;
@@ -235,16 +254,40 @@ impl Scenes {
         score.overlap()
     }
 
-    /// Sensor `s` placed at `poses[s]` against sensor `o` alone at `poses[o]`: its points on
-    /// `o`'s surfaces and `o`'s on its, frame by frame.
-    pub fn score_with(&self, s: usize, o: usize, poses: &[Pose]) -> SensorScore {
-        let mut score = SensorScore::default();
-        let t_o_s = poses[o].inverse() * poses[s];
+    /// Sensor `s` against sensor `o` alone at two placements of every sensor (`at`, `moved`):
+    /// its points on `o`'s surfaces and `o`'s on its, frame by frame, counting only the points
+    /// with a surface of the other beside them at both. Whether `moved` then beats `at` is a
+    /// question of how well the shared structure fits, not of how much of the scans a placement
+    /// brings into overlap (a slide along the ground brings more: the `sideways` twin's two
+    /// flank sensors 2.5 m along it).
+    pub fn score_with(&self, s: usize, o: usize, at: &[Pose], moved: &[Pose]) -> [SensorScore; 2] {
+        let mut scores = [SensorScore::default(), SensorScore::default()];
+        let t = |poses: &[Pose]| poses[o].inverse() * poses[s];
+        let (t_at, t_moved) = (t(at), t(moved));
         for (mine, other) in self.shared_frames(s, o) {
-            self.compare(mine, other, &t_o_s, &mut score);
-            self.compare(other, mine, &t_o_s.inverse(), &mut score);
+            let both = [
+                (mine, other, [t_at, t_moved]),
+                (other, mine, [t_at.inverse(), t_moved.inverse()]),
+            ];
+            for (source, target, ts) in both {
+                let block = scores[0].blocks.len();
+                for score in &mut scores {
+                    score.blocks.resize(block + source.block_count, [0.0; 2]);
+                }
+                for k in 0..source.samples.len() {
+                    let seen = ts.map(|t| self.point(source, target, k, &t));
+                    if !(seen[0].0 && seen[1].0) {
+                        continue;
+                    }
+                    let (weight, class) = (source.weights[k], source.classes[k] as usize);
+                    for (score, (_, landed, against)) in scores.iter_mut().zip(seen) {
+                        let b = block + source.blocks[k] as usize;
+                        score.add(b, class, weight, true, landed, against);
+                    }
+                }
+            }
         }
-        score
+        scores
     }
 
     /// Sensor `s`'s and sensor `o`'s surfaces of each frame both scored, in `s`'s order.
@@ -317,37 +360,43 @@ impl Scenes {
     ) {
         let at = score.blocks.len();
         score.blocks.resize(at + source.block_count, [0.0; 2]);
-        for (k, &i) in source.samples.iter().enumerate() {
+        for k in 0..source.samples.len() {
             let (weight, class) = (source.weights[k], source.classes[k] as usize);
-            score.total[class] += weight;
-            let p = source.points[i].map(f64::from);
-            let q = (t_target_source * Point3::new(p[0], p[1], p[2])).coords;
-            let landed = match target.landing([q.x, q.y, q.z]) {
-                Some((j, normal)) => {
-                    score.overlapping[class] += weight;
-                    let x = target.points[j].map(f64::from);
-                    let e =
-                        normal.x * (q.x - x[0]) + normal.y * (q.y - x[1]) + normal.z * (q.z - x[2]);
-                    let sigma2 =
-                        (source.noise[i] as f64).powi(2) + (target.noise[j] as f64).powi(2);
-                    weight * (-0.5 * e * e / sigma2).exp()
-                }
-                None => 0.0,
-            };
-            // In front of the other sensor's rays by three noise widths of both scans (taken
-            // alike), and by what a neighbouring ray's range differs on a surface inclined
-            // 45 deg: nothing a right placement's noise or sampling explains.
-            let margin = 3.0 * std::f64::consts::SQRT_2 * source.noise[i] as f64
-                + q.norm() * target.sight.cell();
-            let against = if target.sight.sees_through([q.x, q.y, q.z], margin) {
-                weight - landed
-            } else {
-                0.0
-            };
-            score.agreeing[class] += landed;
-            score.contradicting[class] += against;
-            score.blocks[at + source.blocks[k] as usize][class] += landed - against;
+            let (overlapping, landed, against) = self.point(source, target, k, t_target_source);
+            score.add(at + source.blocks[k] as usize, class, weight, overlapping, landed, against);
         }
+    }
+
+    /// Sample `k` of `source` placed by `t_target_source` against `target`: whether a surface
+    /// of it lies beside the point, how well the point lands on it and how much of its weight
+    /// stands where `target` saw through.
+    fn point(
+        &self,
+        source: &Surface,
+        target: &Surface,
+        k: usize,
+        t_target_source: &Pose,
+    ) -> (bool, f64, f64) {
+        let (i, weight) = (source.samples[k], source.weights[k]);
+        let p = source.points[i].map(f64::from);
+        let q = (t_target_source * Point3::new(p[0], p[1], p[2])).coords;
+        let (overlapping, landed) = match target.landing([q.x, q.y, q.z]) {
+            Some((j, normal)) => {
+                let x = target.points[j].map(f64::from);
+                let e = normal.x * (q.x - x[0]) + normal.y * (q.y - x[1]) + normal.z * (q.z - x[2]);
+                let sigma2 = (source.noise[i] as f64).powi(2) + (target.noise[j] as f64).powi(2);
+                (true, weight * (-0.5 * e * e / sigma2).exp())
+            }
+            None => (false, 0.0),
+        };
+        // In front of the other sensor's rays by three noise widths of both scans (taken
+        // alike), and by what a neighbouring ray's range differs on a surface inclined
+        // 45 deg: nothing a right placement's noise or sampling explains.
+        let margin = 3.0 * std::f64::consts::SQRT_2 * source.noise[i] as f64
+            + q.norm() * target.sight.cell();
+        let against =
+            if target.sight.sees_through([q.x, q.y, q.z], margin) { weight - landed } else { 0.0 };
+        (overlapping, landed, against)
     }
 }
 
