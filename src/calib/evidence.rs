@@ -43,7 +43,7 @@ const STRUCTURE_HEIGHT: f64 = 0.1;
 const GROUND_BAND: f64 = 0.03;
 
 /// How much of a sensor's structure lands on the reference's surfaces.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Agreement {
     /// Sensor points compared (sampled).
     pub points: usize,
@@ -96,7 +96,7 @@ fn ratio(a: usize, b: usize) -> f64 {
 /// about their centroid, from the point-to-surface information (the Cramér-Rao bound of these
 /// data for the noise measured). A direction nothing constrains has a spread in the metres or
 /// radians.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Observability {
     /// Rotation about the vehicle's x, y, z axes (rad).
     pub rotation: [f64; 3],
@@ -105,8 +105,11 @@ pub struct Observability {
 }
 
 /// The evidence on one non-reference sensor.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "camelCase")]
 pub struct SensorEvidence {
+    /// The JSON keys the evidence by its sensor already.
+    #[serde(skip)]
     pub sensor: String,
     /// Under the nominal (levelling and search undone) and under the calibration.
     pub before: Agreement,

@@ -24,6 +24,7 @@ mod error;
 mod evidence;
 mod finish;
 pub mod global;
+mod grounds;
 mod input;
 mod level;
 mod loops;

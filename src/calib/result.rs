@@ -13,7 +13,7 @@ use crate::se3::Pose;
 use crate::targets::{Placement, ShapeFit};
 
 /// Per-axis standard deviation of the per-frame corrections around their mean.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Spread {
     /// Translation, m.
     pub xyz: [f64; 3],

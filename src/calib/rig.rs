@@ -83,3 +83,9 @@ impl Rig {
         Ok((sensors, r))
     }
 }
+
+/// Sensor `s`'s seed: `seed` plus the rank of its name among the sensors', so that the same
+/// scans give the same result whatever order the files came in.
+pub(super) fn sensor_seed(seed: u64, sensors: &[String], s: usize) -> u64 {
+    seed.wrapping_add(sensors.iter().filter(|n| **n < sensors[s]).count() as u64)
+}

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use super::PrecisionReport;
+use crate::calib::Precision;
 use crate::drift::{Drift, Limit, SensorDrift};
 
 /// The comparison for programs: m and rad, vectors about the vehicle's x, y, z axes.
@@ -35,7 +35,7 @@ pub struct SensorDriftReport {
     pub translation: [f64; 3],
     pub distance: f64,
     /// The new calibration's one sigma.
-    pub precision: Option<PrecisionReport>,
+    pub precision: Option<Precision>,
     pub limit: LimitReport,
 }
 
@@ -71,9 +71,7 @@ impl From<&SensorDrift> for SensorDriftReport {
             angle: s.angle,
             translation: s.translation,
             distance: s.distance,
-            precision: s
-                .precision
-                .map(|p| PrecisionReport { rotation: p.rotation, position: p.position }),
+            precision: s.precision,
             limit: match s.limit {
                 Limit::Fixed { rotation, translation } => {
                     LimitReport::Fixed { rotation, translation }

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::calib::{
-    Agreement, Calibration, Note, Observability, Reason, ReasonKind, SensorResult, Verdict,
+    Calibration, Note, Precision, Reason, ReasonKind, SensorEvidence, SensorResult, Spread, Verdict,
 };
 use crate::se3::{to_row_major, xyz_rpy};
 
@@ -100,24 +100,11 @@ pub struct SensorReport {
     pub xyz: [f64; 3],
     /// Roll, pitch, yaw (rad) of the corrected extrinsic.
     pub rpy: [f64; 3],
-    pub spread: SpreadReport,
-    /// `gmm`: one-sigma uncertainty from the plane adjustment; null otherwise.
-    pub precision: Option<PrecisionReport>,
-}
-
-/// One sigma: rotation about the vehicle's x, y, z axes (rad), and the sensor's position (m).
-#[derive(Clone, Debug, Serialize)]
-pub struct PrecisionReport {
-    pub rotation: [f64; 3],
-    pub position: [f64; 3],
-}
-
-/// Per-axis spread of the per-frame corrections (m, rad) over `frames` frames.
-#[derive(Clone, Debug, Serialize)]
-pub struct SpreadReport {
-    pub xyz: [f64; 3],
-    pub rpy: [f64; 3],
-    pub frames: usize,
+    /// Per-axis spread of the per-frame corrections (m, rad) over `frames` frames.
+    pub spread: Spread,
+    /// One sigma: rotation about the vehicle's x, y, z axes (rad), and the sensor's position
+    /// (m); null where no plane adjustment or selection measured it.
+    pub precision: Option<Precision>,
 }
 
 /// The reconstructed target: the mixture in the vehicle frame (where the reference sensor sees
@@ -294,10 +281,8 @@ impl From<&SensorResult> for SensorReport {
             relative: to_row_major(&s.relative),
             xyz,
             rpy,
-            spread: SpreadReport { xyz: s.spread.xyz, rpy: s.spread.rpy, frames: s.spread.frames },
-            precision: s
-                .precision
-                .map(|p| PrecisionReport { rotation: p.rotation, position: p.position }),
+            spread: s.spread,
+            precision: s.precision,
         }
     }
 }
@@ -328,7 +313,7 @@ pub struct SensorVerdictReport {
     pub level: &'static str,
     pub reasons: Vec<ReasonReport>,
     /// The measurements (none for the reference sensor).
-    pub evidence: Option<EvidenceReport>,
+    pub evidence: Option<SensorEvidence>,
 }
 
 /// One reason: its kind, the level it sets, the sentence, and its numbers (rad, m, shares).
@@ -349,38 +334,6 @@ pub enum Value {
     Names(Vec<&'static str>),
 }
 
-#[derive(Clone, Debug, Serialize)]
-#[serde(rename_all = "camelCase")]
-pub struct EvidenceReport {
-    /// Under the nominal, and under the calibration.
-    pub before: AgreementReport,
-    pub after: AgreementReport,
-    /// One-sigma spread per axis, all frames: rotation (rad), translation (m).
-    pub observability: ObservabilityReport,
-    /// The same for one frame, on average.
-    pub frame_observability: ObservabilityReport,
-    /// Residual noise on the agreeing points (m).
-    pub noise: f64,
-}
-
-#[derive(Clone, Debug, Serialize)]
-#[serde(rename_all = "camelCase")]
-pub struct AgreementReport {
-    pub points: usize,
-    pub overlapping: usize,
-    pub agreeing: usize,
-    /// Structure (off the ground): compared, overlapping, agreeing.
-    pub structure: [usize; 3],
-    pub radius: f64,
-    pub tolerance: f64,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct ObservabilityReport {
-    pub rotation: [f64; 3],
-    pub translation: [f64; 3],
-}
-
 impl From<&Verdict> for VerdictReport {
     fn from(v: &Verdict) -> Self {
         VerdictReport {
@@ -393,34 +346,13 @@ impl From<&Verdict> for VerdictReport {
                     let report = SensorVerdictReport {
                         level: s.level.name(),
                         reasons: s.reasons.iter().map(ReasonReport::from).collect(),
-                        evidence: s.evidence.as_ref().map(|e| EvidenceReport {
-                            before: agreement(&e.before),
-                            after: agreement(&e.after),
-                            observability: observability(&e.observability),
-                            frame_observability: observability(&e.frame_observability),
-                            noise: e.noise,
-                        }),
+                        evidence: s.evidence.clone(),
                     };
                     (s.sensor.clone(), report)
                 })
                 .collect(),
         }
     }
-}
-
-fn agreement(a: &Agreement) -> AgreementReport {
-    AgreementReport {
-        points: a.points,
-        overlapping: a.overlapping,
-        agreeing: a.agreeing,
-        structure: a.structure,
-        radius: a.radius,
-        tolerance: a.tolerance,
-    }
-}
-
-fn observability(o: &Observability) -> ObservabilityReport {
-    ObservabilityReport { rotation: o.rotation, translation: o.translation }
 }
 
 impl From<&Reason> for ReasonReport {

@@ -10,9 +10,8 @@ mod text;
 
 pub use drift::{DriftReport, LimitReport, SensorDriftReport, drift_findings, drift_table};
 pub use json::{
-    AgreementReport, BevReport, CandidateReport, EvidenceReport, FitReport, GlobalReport,
-    HistoryReport, LevellingReport, NoteReport, ObservabilityReport, OverlayReport,
-    PrecisionReport, ReasonReport, ReconstructionReport, Report, SensorReport, SensorVerdictReport,
-    SpreadReport, Value, VerdictReport,
+    BevReport, CandidateReport, FitReport, GlobalReport, HistoryReport, LevellingReport,
+    NoteReport, OverlayReport, ReasonReport, ReconstructionReport, Report, SensorReport,
+    SensorVerdictReport, Value, VerdictReport,
 };
 pub use text::{comparison, summary, verdict};

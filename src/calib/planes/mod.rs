@@ -107,7 +107,7 @@ pub struct SensorAdjustment {
 /// docs/accuracy.md, "How precise"). The calibration then floors it by what the scans tell
 /// apart and widens it by the loops that do not close (`calib::finish`); it is no bound on
 /// errors no evidence sees (a target that moved, a wrong nominal beyond reach).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Precision {
     /// Rotation about the vehicle's x, y, z axes (rad).
     pub rotation: [f64; 3],
