@@ -129,7 +129,7 @@ pub enum ReasonKind {
     GlobalSkipped(GlobalSkip),
     /// Where this sensor and another see the same patches of ground, their grounds lie `height`
     /// (m) and `tilt` (rad) apart (medians over `patches` patches).
-    GroundApart { patches: usize, height: f64, tilt: f64 },
+    GroundApart(GroundAgreement),
     /// The sensor sits where `other` sits: one sensor twice, or one sensor's frames as sensors.
     SamePlace { other: String, angle: f64, distance: f64 },
     /// A scan of this sensor is a scan of `other`.
@@ -231,15 +231,20 @@ pub(super) fn judge_sensor(inputs: SensorInputs, others: &[&SensorResult]) -> Se
         judge_selection(selection, inputs.z, &mut say);
     }
     if let Some(g) = inputs.ground.filter(|g| g.patches >= MIN_GROUND_PATCHES) {
-        let beyond = |(angle, distance): (f64, f64)| g.tilt > angle || g.height > distance;
-        let level = if beyond(USABLE_WITHIN) {
+        // `good` needs the grounds within its promise as measured; `failed` needs them beyond
+        // `check`'s by more than the selection's test allows for chance, so that a right result
+        // whose few patches scatter is not thrown away.
+        let beyond = |(angle, distance): (f64, f64), z: f64| {
+            g.tilt - z * g.tilt_sigma > angle || g.height - z * g.height_sigma > distance
+        };
+        let level = if beyond(USABLE_WITHIN, inputs.z) {
             Level::Failed
-        } else if beyond(GOOD_WITHIN) {
+        } else if beyond(GOOD_WITHIN, 0.0) {
             Level::Check
         } else {
             Level::Good
         };
-        say(level, ReasonKind::GroundApart { patches: g.patches, height: g.height, tilt: g.tilt });
+        say(level, ReasonKind::GroundApart(g));
     }
     for (other, gap, theirs) in &inputs.loops {
         let own = result.precision.as_ref();

@@ -413,10 +413,12 @@ impl From<&Reason> for ReasonReport {
                 ("supported", Number(f64::from(u8::from(*supported)))),
             ],
             ReasonKind::GlobalSkipped(_) => vec![],
-            ReasonKind::GroundApart { patches, height, tilt } => vec![
-                ("patches", Number(*patches as f64)),
-                ("height", Number(*height)),
-                ("tilt", Number(*tilt)),
+            ReasonKind::GroundApart(g) => vec![
+                ("patches", Number(g.patches as f64)),
+                ("height", Number(g.height)),
+                ("tilt", Number(g.tilt)),
+                ("heightSigma", Number(g.height_sigma)),
+                ("tiltSigma", Number(g.tilt_sigma)),
             ],
             ReasonKind::LoopOpen { other, angle, distance } => vec![
                 ("other", Text(other.clone())),

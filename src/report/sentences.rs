@@ -264,12 +264,15 @@ impl fmt::Display for ReasonKind {
                 deg(*angle)
             ),
             ReasonKind::GlobalSkipped(why) => write!(f, "not aligned globally: {why}"),
-            ReasonKind::GroundApart { patches, height, tilt } => write!(
+            ReasonKind::GroundApart(g) => write!(
                 f,
-                "where it and another sensor see the same ground ({patches} patches of 2 m), \
-                 the grounds lie {:.1} mm and {:.3} deg apart (medians)",
-                1e3 * height,
-                deg(*tilt)
+                "where it and another sensor see the same ground ({} patches of 2 m), the \
+                 grounds lie {:.1} ± {:.1} mm and {:.3} ± {:.3} deg apart (one sigma)",
+                g.patches,
+                1e3 * g.height,
+                1e3 * g.height_sigma,
+                deg(g.tilt),
+                deg(g.tilt_sigma)
             ),
             ReasonKind::LoopOpen { other, angle, distance } => write!(
                 f,
