@@ -280,3 +280,26 @@ fn frame_pairs_recorded_in_any_order_calibrate_alike() {
     // here: the same evidence, bit for bit.
     assert_eq!(direct.verdict, recorded.verdict);
 }
+
+/// Without a ROI, a sensor whose start overlaps no other's scans (its nominal 300 m off, the
+/// global stage off) is an error that says so and what to do, not "no points in the ROI" the
+/// user never gave.
+#[test]
+fn a_sensor_outside_the_overlap_found_is_named_with_what_to_do() {
+    use gmmcalib::twin::{Miscalibration, Model, Preset, Twin};
+    let twin = Twin::new(&Model::RayCast(Preset::paper_roof()), 1, 1, &Miscalibration::default());
+    let mut rig = twin.rig();
+    rig.roi = None;
+    let far = rig.nominal[2].0.clone();
+    rig.nominal[2].1.translation.vector.x += 300.0;
+    let settings = Settings {
+        align_globally: Some(false),
+        target: gmmcalib::targets::Target::None,
+        ..Settings::default()
+    };
+    let error = calib::calibrate(&rig, &settings, |_| Control::Continue).err();
+    assert_eq!(error, Some(CalibError::OutsideOverlap(far.clone())));
+    let said = error.unwrap().to_string();
+    assert!(said.contains(&format!("sensor '{far}' has no usable points in the ROI")), "{said}");
+    assert!(said.contains("closer nominal"), "{said}");
+}

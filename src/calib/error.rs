@@ -21,6 +21,9 @@ pub enum CalibError {
     /// No usable view of this sensor shares a frame with the reference.
     NoCommonFrames(String),
     NoPointsInRoi(String),
+    /// No region of interest was given, and the region found where the scans overlap at the
+    /// sensors' starts holds none of this sensor's points, though it has points.
+    OutsideOverlap(String),
     InvalidSetting(&'static str),
     UnknownMethod(String),
     Registration(JrmpcError),
@@ -68,6 +71,13 @@ impl fmt::Display for CalibError {
                 write!(f, "sensor '{s}' has no usable frame in common with the reference")
             }
             Self::NoPointsInRoi(s) => write!(f, "sensor '{s}' has no usable points in the ROI"),
+            Self::OutsideOverlap(s) => write!(
+                f,
+                "sensor '{s}' has no usable points in the ROI found where the scans overlap: at \
+                 its start (its nominal, or the global alignment's placement of it) it overlaps \
+                 no other sensor's scans; give a closer nominal, or a ROI around what it and \
+                 the reference both see"
+            ),
             Self::InvalidSetting(what) => write!(f, "invalid setting: {what}"),
             Self::UnknownMethod(m) => {
                 write!(f, "unknown method '{m}' (expected gmm, jrmpc, cad, p2p, p2l or gicp)")

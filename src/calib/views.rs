@@ -14,7 +14,7 @@ use super::rig::sensor_seed;
 use super::select::{self, FrameScans, Hypothesis, Scenes, Source};
 use super::settings::{InitialSigma, Settings, Stages};
 use super::{CalibError, Rig};
-use crate::cloud::{Aabb, Cloud};
+use crate::cloud::{Aabb, Cloud, is_valid_point};
 use crate::jrmpc::{self, Em, Registration};
 use crate::plane::Plane;
 use crate::se3::Pose;
@@ -190,7 +190,14 @@ impl Views {
         }
         for (s, name) in sensors.iter().enumerate() {
             if !views.iter().any(|v| v.sensor == s) {
-                return Err(CalibError::NoPointsInRoi(name.clone()));
+                // Points it has, but none in the region its start gave: say where to look.
+                let own = rig.scans.iter().filter(|v| v.sensor == *name);
+                let seen = own.flat_map(|v| &v.points).any(is_valid_point);
+                return Err(if rig.roi.is_none() && seen {
+                    CalibError::OutsideOverlap(name.clone())
+                } else {
+                    CalibError::NoPointsInRoi(name.clone())
+                });
             }
         }
         let pairs = frame_pairs(&views, sensors.len(), r);
