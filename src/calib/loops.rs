@@ -132,7 +132,7 @@ pub fn is_open(
 pub(super) fn widen(precision: &mut [Option<super::Precision>], gaps: &[LoopGap]) {
     for gap in gaps.iter().filter(|g| g.better) {
         for s in [gap.a, gap.b] {
-            let p = precision[s].get_or_insert(super::Precision::default());
+            let p = precision[s].get_or_insert_with(Default::default);
             for i in 0..3 {
                 p.rotation[i] = p.rotation[i].max(gap.rotation[i].abs() / SQRT_2);
                 p.position[i] = p.position[i].max(gap.position[i].abs() / SQRT_2);

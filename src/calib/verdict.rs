@@ -128,7 +128,7 @@ pub enum ReasonKind {
     /// The global alignment was not applied to this sensor: why.
     GlobalSkipped(GlobalSkip),
     /// Where this sensor and another see the same patches of ground, their grounds lie `height`
-    /// (m) and `tilt` (rad) apart (medians over `patches` patches).
+    /// (m) and `tilt` (rad) apart, each with its one sigma, over `patches` patches.
     GroundApart(GroundAgreement),
     /// The sensor sits where `other` sits: one sensor twice, or one sensor's frames as sensors.
     SamePlace { other: String, angle: f64, distance: f64 },

@@ -180,11 +180,14 @@ impl Views {
         let pre_aligned: Vec<Pose> = levelled.iter().zip(&nominals).map(|(l, n)| l * n).collect();
         let (mut views, mut skipped) = crop(rig, &roi, &sensors, &pre_aligned, settings);
         let mut roi = roi;
+        // Whether the region is the clouds' overlap at the starts, found here.
+        let mut overlap = rig.roi.is_none();
         if rig.roi.is_none() {
             if let Some(around) =
                 roi_around_targets(&settings.target, &views, r, ground.as_ref(), &roi)
             {
                 roi = around;
+                overlap = false;
                 (views, skipped) = crop(rig, &roi, &sensors, &pre_aligned, settings);
             }
         }
@@ -193,7 +196,7 @@ impl Views {
                 // Points it has, but none in the region its start gave: say where to look.
                 let own = rig.scans.iter().filter(|v| v.sensor == *name);
                 let seen = own.flat_map(|v| &v.points).any(is_valid_point);
-                return Err(if rig.roi.is_none() && seen {
+                return Err(if overlap && seen {
                     CalibError::OutsideOverlap(name.clone())
                 } else {
                     CalibError::NoPointsInRoi(name.clone())

@@ -1,8 +1,9 @@
 //! Evidence the registrations did not optimise: where two sensors see the same patch of ground,
 //! do their grounds meet? Per square patch of the reference's ground, each sensor's ground points
 //! there and the other's are fitted by one plane, the terrain, with one sensor's raised by an
-//! offset: a height difference per patch. Patches, not one plane per sensor: a road is crowned by 1-2 %, so two
-//! sensors seeing different stretches of it see different planes even when they agree. The
+//! offset: a height difference per patch. Patches, not one plane per sensor: a road is crowned
+//! by 1-2 %, so two sensors seeing different stretches of it see different planes even when
+//! they agree. The
 //! differences over the patches, fitted by a plane of their own, give the two grounds' offset
 //! and relative tilt: one patch's tilt rests on a ring or two and says little.
 
@@ -92,7 +93,9 @@ impl Scenes {
 /// weights scaled by their scatter about the plane (terrain and quantisation the patches'
 /// own fits do not see). A single patch gives its difference and no tilt.
 fn offset_and_tilt(differences: &[(Vector3<f64>, f64)]) -> Option<[f64; 4]> {
-    // The plane's coefficients, its normal matrix's inverse (when it has one) and its centre.
+    // The plane's centre, coefficients and normal matrix's inverse. Fewer than three patches,
+    // or patches in one row (which leave the slope across it free), claim no tilt: the
+    // weighted mean alone.
     let fit =
         |points: &[&(Vector3<f64>, f64)]| -> Option<(Vector3<f64>, Vector3<f64>, Matrix3<f64>)> {
             let total: f64 = points.iter().map(|(_, w)| w).sum();
@@ -100,12 +103,12 @@ fn offset_and_tilt(differences: &[(Vector3<f64>, f64)]) -> Option<[f64; 4]> {
                 return None;
             }
             let centre = points.iter().fold(Vector3::zeros(), |c, (p, w)| c + p * *w) / total;
-            let only_offset =
-                |c| (centre, Vector3::new(c, 0.0, 0.0), Matrix3::from_diagonal_element(0.0));
+            let mean = || {
+                let inverse = Matrix3::from_diagonal(&Vector3::new(1.0 / total, 0.0, 0.0));
+                (centre, Vector3::new(centre.z, 0.0, 0.0), inverse)
+            };
             if points.len() < 3 {
-                let mut f = only_offset(centre.z);
-                f.2[(0, 0)] = 1.0 / total;
-                return Some(f);
+                return Some(mean());
             }
             let (mut a, mut b) = (Matrix3::zeros(), Vector3::zeros());
             for (p, w) in points {
@@ -113,15 +116,7 @@ fn offset_and_tilt(differences: &[(Vector3<f64>, f64)]) -> Option<[f64; 4]> {
                 a += *w * row * row.transpose();
                 b += *w * row * p.z;
             }
-            // Patches in one row leave the slope across it free: no tilt is claimed there.
-            Some(match a.try_inverse() {
-                Some(inverse) => (centre, inverse * b, inverse),
-                None => {
-                    let mut f = only_offset(centre.z);
-                    f.2[(0, 0)] = 1.0 / total;
-                    f
-                }
-            })
+            Some(a.try_inverse().map_or_else(mean, |inverse| (centre, inverse * b, inverse)))
         };
     let all: Vec<&(Vector3<f64>, f64)> = differences.iter().collect();
     let (centre, c, _) = fit(&all)?;
@@ -178,24 +173,24 @@ fn offset(
     if spread(0) < MIN_SPREAD || spread(1) < MIN_SPREAD {
         return None;
     }
+    // Each point's row of the design (raised, 1, u, v) and its height.
+    let rows: Vec<(Vector4<f64>, f64)> = [(mine, 1.0), (theirs, 0.0)]
+        .into_iter()
+        .flat_map(|(points, raised)| {
+            points
+                .iter()
+                .map(move |p| (Vector4::new(raised, 1.0, p.x - centre.x, p.y - centre.y), p.z))
+        })
+        .collect();
     let (mut a, mut b) = (Matrix4::zeros(), Vector4::zeros());
-    for (points, raised) in [(mine, 1.0), (theirs, 0.0)] {
-        for p in points {
-            let row = Vector4::new(raised, 1.0, p.x - centre.x, p.y - centre.y);
-            a += row * row.transpose();
-            b += row * p.z;
-        }
+    for (row, h) in &rows {
+        a += row * row.transpose();
+        b += row * *h;
     }
     let inverse = a.try_inverse()?;
     let c = inverse * b;
-    let mut squares = 0.0;
-    for (points, raised) in [(mine, 1.0), (theirs, 0.0)] {
-        for p in points {
-            let row = Vector4::new(raised, 1.0, p.x - centre.x, p.y - centre.y);
-            squares += (p.z - row.dot(&c)).powi(2);
-        }
-    }
-    let n = (mine.len() + theirs.len()) as f64;
+    let squares: f64 = rows.iter().map(|(row, h)| (h - row.dot(&c)).powi(2)).sum();
+    let n = rows.len() as f64;
     // A floor of a tenth of a millimetre: points exactly on a plane would weigh infinitely.
     let variance = (squares / (n - 4.0)).max(1e-8) * inverse[(0, 0)];
     Some((c[0], variance))
