@@ -271,9 +271,13 @@ fn a_run_cancelled_in_its_global_stage_stops_its_next_phase_at_once() {
         if p.stage == Stage::Global { Control::Stop } else { Control::Continue }
     });
     // The stop ends the stage (the other sensor is aligned as it ends) and EM, before its first
-    // iteration; the frame pairs of the stopped method run, as after a stop in EM.
+    // iteration; the frame pairs of the stopped method run, as after a stop in EM, between the
+    // run's own steps (the views prepared, the result made).
     assert_eq!(seen[0], (Stage::Global, 0));
-    assert!(seen[1..].iter().all(|(s, _)| *s == Stage::FramePairs), "{seen:?}");
+    assert_eq!(seen[1], (Stage::Views, 0));
+    assert_eq!(seen.last(), Some(&(Stage::Finish, 0)));
+    let between = &seen[2..seen.len() - 1];
+    assert!(between.iter().all(|(s, _)| *s == Stage::FramePairs), "{seen:?}");
     let outcomes = run.into_outcomes();
     assert_eq!(outcomes.len(), 1, "no later method starts");
     if let (_, Ok(calibration)) = &outcomes[0] {

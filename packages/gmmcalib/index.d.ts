@@ -74,10 +74,15 @@ export interface CalibrationInput extends SettingsInput {
 /** The library's defaults, as a user would write them (the EM tolerance differs by method and is left out). */
 export function defaults(): SettingsInput;
 
+export type Stage = 'global' | 'views' | 'jrmpc' | 'cad' | 'framePairs' | 'finish';
+
 export interface Progress {
   method: MethodName;
-  /** 'global': the sensors aligned globally so far, of `maxIterations`. */
-  stage: 'global' | 'jrmpc' | 'cad' | 'framePairs';
+  /** 'global': the sensors aligned globally so far, of `maxIterations`; 'views' and 'finish':
+   * one step each (the views prepared; the result made), said as it begins (0 of 1). */
+  stage: Stage;
+  /** The stages the method goes through, in order: what a progress bar shares out. */
+  stages: Stage[];
   iteration: number;
   maxIterations: number;
   /** m; 0 for frame pairs. */
@@ -190,7 +195,8 @@ export interface CalibrationResult {
   planeAdjustment: Note[];
   levelling: Levelling[];
   global: Record<string, unknown>[];
-  roi: { min: Vec3; max: Vec3 };
+  /** The region cropped to; `source`: the given ROI, around the targets found, or the clouds' overlap. */
+  roi: { min: Vec3; max: Vec3; source: 'given' | 'targets' | 'overlap' };
   history: { meanSigma: number[]; maxChange: number[]; terms: number[] };
 }
 

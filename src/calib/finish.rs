@@ -52,6 +52,7 @@ pub(super) fn finish(
         placements,
         same_scans,
         roi,
+        roi_source,
         scenes,
         mut hypotheses,
         start,
@@ -392,6 +393,7 @@ pub(super) fn finish(
         levelling,
         global,
         roi,
+        roi_source,
         history,
         verdict,
     })

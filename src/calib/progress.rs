@@ -10,6 +10,10 @@ pub enum Stage {
     /// The global alignment before the registration: `iteration` sensors aligned of
     /// `max_iterations`; `mean_sigma` and `max_change` are 0.
     Global,
+    /// The views prepared (each sensor's ground levelled, the bird's-eye search, the crop to
+    /// the ROI, the targets found), done by the run itself as it advances: one step,
+    /// reported as it begins (`iteration` 0 of 1).
+    Views,
     /// JRMPC's EM: `iteration` of `max_iterations`, with `mean_sigma` and `max_change`.
     Jrmpc,
     /// The frame pairs' ICP (`gmm`'s refinement, the ICP methods): `iteration` pairs done of
@@ -17,13 +21,18 @@ pub enum Stage {
     FramePairs,
     /// `cad`'s EM onto the target's model: as [`Stage::Jrmpc`].
     Cad,
+    /// The method's result made (the plane adjustment, the selection, the verdict's
+    /// evidence): as [`Stage::Views`].
+    Finish,
 }
 
 impl Stage {
-    /// `"global"`, `"jrmpc"`, `"framePairs"` or `"cad"`, as JS sees it.
+    /// `"global"`, `"views"`, `"jrmpc"`, `"framePairs"`, `"cad"` or `"finish"`, as JS sees it.
     pub fn name(&self) -> &'static str {
         match self {
             Stage::Global => "global",
+            Stage::Views => "views",
+            Stage::Finish => "finish",
             Stage::Jrmpc => "jrmpc",
             Stage::FramePairs => "framePairs",
             Stage::Cad => "cad",
@@ -31,8 +40,8 @@ impl Stage {
     }
 }
 
-/// What the progress callback sees as the global stage begins, after each sensor it aligns,
-/// and after each EM iteration and each frame pair.
+/// What the progress callback sees as each stage begins, after each sensor the global stage
+/// aligns, and after each EM iteration and each frame pair.
 pub struct Progress<'a> {
     pub stage: Stage,
     pub iteration: usize,

@@ -9,6 +9,18 @@ use nalgebra::Point3;
 use crate::cloud::{Aabb, is_valid_point};
 use crate::se3::Pose;
 
+/// Where the region the scans were cropped to came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+pub enum RoiSource {
+    /// The user's.
+    Given,
+    /// Around the targets found in the reference's points, within the clouds' overlap.
+    Targets,
+    /// The clouds' overlap at the starts ([`overlap_region`]): no ROI given and no target found.
+    Overlap,
+}
+
 /// Columns (m) of the bird's-eye grid the overlap is measured on.
 const COLUMN: f64 = 1.0;
 /// Farther than this from the vehicle (m) a scan is too sparse to register.

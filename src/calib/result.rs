@@ -99,6 +99,7 @@ pub struct Calibration {
     /// The region cropped to (m, vehicle frame): the rig's, or where the sensors' clouds
     /// overlap.
     pub roi: crate::cloud::Aabb,
+    pub roi_source: super::region::RoiSource,
     pub history: Vec<jrmpc::IterationStats>,
     /// How far to trust the result, and why.
     pub verdict: Verdict,

@@ -29,11 +29,32 @@ pub struct Run<'r> {
     current: Option<(usize, Views, State)>,
     /// The method whose views wait for the global stage under way, and the stage.
     aligning: Option<(usize, GlobalStage)>,
+    /// A step the run takes itself when the driver next advances.
+    pending: Option<Pending>,
+    /// The methods that asked for a global stage and found nothing to align.
+    nothing_to_align: Vec<usize>,
     /// The last global stage's settings and alignments: a later method asking for the same
     /// stage (`gmm`, then `cad`) takes them instead of aligning again.
     aligned: Option<(GlobalSettings, Vec<GlobalAlignment>)>,
     outcomes: Vec<MethodOutcome>,
     cancelled: bool,
+}
+
+/// The run's own steps between the drivers' stages: one each, reported as it begins.
+enum Pending {
+    /// Method `index`'s views, to prepare from the global stage's alignments (none when it ran
+    /// none), in [`Stage::Views`].
+    Views(usize, Vec<GlobalAlignment>),
+    /// Method `index`'s result, to make from its views and stages, in [`Stage::Finish`]; with
+    /// the corrections its last stage left, for progress.
+    Finish(usize, Box<Finishing>),
+}
+
+struct Finishing {
+    views: Views,
+    registration: Option<Registration>,
+    pairs: Option<FramePairs>,
+    corrections: Vec<Pose>,
 }
 
 enum State {
@@ -55,6 +76,8 @@ impl<'r> Run<'r> {
             methods: methods.to_vec(),
             current: None,
             aligning: None,
+            pending: None,
+            nothing_to_align: Vec::new(),
             aligned: None,
             outcomes: Vec::with_capacity(methods.len()),
             cancelled: false,
@@ -68,6 +91,11 @@ impl<'r> Run<'r> {
         if self.aligning.is_some() {
             return Some(Stage::Global);
         }
+        match &self.pending {
+            Some(Pending::Views(..)) => return Some(Stage::Views),
+            Some(Pending::Finish(..)) => return Some(Stage::Finish),
+            None => {}
+        }
         match &self.current {
             Some((_, _, State::Em(..))) => Some(Stage::Jrmpc),
             Some((_, _, State::Pairs(..))) => Some(Stage::FramePairs),
@@ -78,8 +106,31 @@ impl<'r> Run<'r> {
 
     /// The method under way and its index among the run's methods.
     pub fn method(&self) -> Option<(usize, Method)> {
-        let index = self.aligning.as_ref().map(|(i, _)| *i);
-        index.or(self.current.as_ref().map(|(i, _, _)| *i)).map(|i| (i, self.methods[i]))
+        self.index().map(|i| (i, self.methods[i]))
+    }
+
+    /// The stages method `index` goes through ([`Stages::plan`]), less a global stage it will
+    /// not run: one an earlier method runs with the same settings (taken from it), or one
+    /// that found nothing to align (known once the method started).
+    pub fn plan(&self, index: usize) -> Vec<Stage> {
+        let stages =
+            |i: usize| Stages::of(&Settings { method: self.methods[i], ..self.settings.clone() });
+        let of = stages(index);
+        let mut plan = of.plan();
+        let taken = (0..index).any(|j| stages(j).global == of.global);
+        if taken || self.nothing_to_align.contains(&index) {
+            plan.retain(|s| *s != Stage::Global);
+        }
+        plan
+    }
+
+    /// The index of the method under way.
+    fn index(&self) -> Option<usize> {
+        let pending = self.pending.as_ref().map(|p| match p {
+            Pending::Views(i, _) | Pending::Finish(i, _) => *i,
+        });
+        let aligning = self.aligning.as_ref().map(|(i, _)| *i);
+        pending.or(aligning).or(self.current.as_ref().map(|(i, _, _)| *i))
     }
 
     /// The global stage, in [`Stage::Global`].
@@ -183,6 +234,56 @@ impl<'r> Run<'r> {
         }))
     }
 
+    /// What the progress callback sees of the current stage as it stands: the sensors
+    /// aligned, EM's latest iteration, the frame pairs recorded, or the run's own step begun.
+    pub fn progress<R>(&self, then: impl FnOnce(&Progress) -> R) -> Option<R> {
+        match self.stage()? {
+            Stage::Global => self.global_progress(then),
+            Stage::Views | Stage::Finish => self.step_progress(then),
+            Stage::Jrmpc => self.em_progress(then),
+            Stage::FramePairs => {
+                let Some((_, views, State::Pairs(_, pairs))) = &self.current else { return None };
+                Some(then(&pairs.progress(&views.levelled(&pairs.running()))))
+            }
+            Stage::Cad => {
+                let Some((_, views, _)) = &self.current else { return None };
+                let max_iterations = views.stages().cad.as_ref().map_or(0, |c| c.max_iterations);
+                let corrections = vec![Pose::identity(); views.sensors().len()];
+                Some(then(&Progress {
+                    stage: Stage::Cad,
+                    iteration: 0,
+                    max_iterations,
+                    mean_sigma: 0.0,
+                    max_change: 0.0,
+                    corrections: &corrections,
+                }))
+            }
+        }
+    }
+
+    /// What the progress callback sees as the run's own step begins, in [`Stage::Views`] and
+    /// [`Stage::Finish`]: none of one done, with the corrections as they stand.
+    pub fn step_progress<R>(&self, then: impl FnOnce(&Progress) -> R) -> Option<R> {
+        let (stage, identity, corrections) = match self.pending.as_ref()? {
+            Pending::Views(_, alignments) => (
+                Stage::Views,
+                // The global stage's motions; identity for a method without one.
+                vec![Pose::identity(); self.rig.sensors().len()],
+                alignments.iter().map(|a| a.applied).collect::<Vec<_>>(),
+            ),
+            Pending::Finish(_, f) => (Stage::Finish, Vec::new(), f.corrections.clone()),
+        };
+        let corrections = if corrections.is_empty() { identity } else { corrections };
+        Some(then(&Progress {
+            stage,
+            iteration: 0,
+            max_iterations: 1,
+            mean_sigma: 0.0,
+            max_change: 0.0,
+            corrections: &corrections,
+        }))
+    }
+
     /// What the progress callback sees after EM's latest iteration.
     pub fn em_progress<R>(&self, then: impl FnOnce(&Progress) -> R) -> Option<R> {
         let Some((_, views, State::Em(em, _))) = &self.current else { return None };
@@ -201,31 +302,57 @@ impl<'r> Run<'r> {
     /// Ends the current stage (EM even if unfinished; the frame pairs as far as registered)
     /// and moves on: to the frame pairs, to the method's result, to the next method.
     pub fn advance(&mut self) {
+        match self.pending.take() {
+            Some(Pending::Views(index, alignments)) => return self.begin(index, alignments),
+            Some(Pending::Finish(index, f)) => {
+                return self.done(index, finish(f.views, f.registration, f.pairs));
+            }
+            None => {}
+        }
         if let Some((index, stage)) = self.aligning.take() {
             let alignments = self.keep_alignments(stage);
-            return self.begin(index, alignments);
+            self.pending = Some(Pending::Views(index, alignments));
+            return;
         }
         let Some((index, views, state)) = self.current.take() else { return };
         match state {
             State::Em(em, _) => {
+                let corrections = views.jrmpc_corrections(&em.latest().poses);
                 let registration = em.into_registration();
                 match views.frame_pairs(Some(&registration)) {
                     Some(pairs) => {
                         self.current =
                             Some((index, views, State::Pairs(Some(registration), Box::new(pairs))))
                     }
-                    None => self.done(index, finish(views, Some(registration), None)),
+                    None => self.finishing(index, views, Some(registration), None, corrections),
                 }
             }
             State::Pairs(registration, pairs) => {
-                self.done(index, finish(views, registration, Some(*pairs)))
+                let corrections = views.levelled(&pairs.running());
+                self.finishing(index, views, registration, Some(*pairs), corrections)
             }
             State::Cad(outcome) => {
-                let outcome = outcome
-                    .unwrap_or_else(|| Err(CalibError::StageFailed("cad did not run".into())));
-                self.done(index, outcome.and_then(|reg| finish(views, Some(reg), None)))
+                match outcome
+                    .unwrap_or_else(|| Err(CalibError::StageFailed("cad did not run".into())))
+                {
+                    Ok(reg) => self.finishing(index, views, Some(reg), None, Vec::new()),
+                    Err(e) => self.done(index, Err(e)),
+                }
             }
         }
+    }
+
+    /// Method `index`'s result is made at the next advance.
+    fn finishing(
+        &mut self,
+        index: usize,
+        views: Views,
+        registration: Option<Registration>,
+        pairs: Option<FramePairs>,
+        corrections: Vec<Pose>,
+    ) {
+        let f = Finishing { views, registration, pairs, corrections };
+        self.pending = Some(Pending::Finish(index, Box::new(f)));
     }
 
     /// Stops the current stage after its current step; no later method starts.
@@ -241,8 +368,8 @@ impl<'r> Run<'r> {
     /// Ends the current method with `error` (its work failed elsewhere, say a worker crashed)
     /// and moves on to the next.
     pub fn fail(&mut self, error: CalibError) {
-        let index = self.aligning.take().map(|(i, _)| i);
-        if let Some(index) = index.or(self.current.take().map(|(i, _, _)| i)) {
+        if let Some(index) = self.index() {
+            (self.pending, self.aligning, self.current) = (None, None, None);
             self.done(index, Err(error));
         }
     }
@@ -274,6 +401,11 @@ impl<'r> Run<'r> {
                 Some(Stage::FramePairs) => {
                     let count = self.frame_pairs().map_or(0, |p| p.pairs().len());
                     self.register_pairs(0..count, threads, progress);
+                }
+                Some(Stage::Views | Stage::Finish) => {
+                    if self.progress(|p| progress(p)) == Some(Control::Stop) {
+                        self.cancel();
+                    }
                 }
                 Some(Stage::Cad) => {
                     let mut cancel = false;
@@ -330,7 +462,7 @@ impl<'r> Run<'r> {
     }
 
     /// Prepares method `index` (and, if it fails at once, the ones after it): its global
-    /// stage, when it asks for one that has not run yet, else its views.
+    /// stage, when it asks for one that has not run yet, else its views' step.
     fn start(&mut self, index: usize) {
         let Some(&method) = self.methods.get(index) else { return };
         let settings = Settings { method, ..self.settings.clone() };
@@ -342,13 +474,19 @@ impl<'r> Run<'r> {
             }
             (Some(_), _) => match Views::global_stage(&self.rig, &settings) {
                 // Nothing to align (the reference shows no ground): no stage to drive.
-                Ok(Some(stage)) if stage.pending().is_empty() => self.keep_alignments(stage),
+                Ok(Some(stage)) if stage.pending().is_empty() => {
+                    self.nothing_to_align.push(index);
+                    self.keep_alignments(stage)
+                }
                 Ok(Some(stage)) => return self.aligning = Some((index, stage)),
-                Ok(None) => Vec::new(),
+                Ok(None) => {
+                    self.nothing_to_align.push(index);
+                    Vec::new()
+                }
                 Err(e) => return self.done(index, Err(e)),
             },
         };
-        self.begin(index, alignments);
+        self.pending = Some(Pending::Views(index, alignments));
     }
 
     /// The global stage's alignments, kept for later methods too.
@@ -384,7 +522,7 @@ impl<'r> Run<'r> {
                 }
             }
             // No stage to run (a method without registrations cannot be configured today).
-            Ok((views, None)) => self.done(index, finish(views, None, None)),
+            Ok((views, None)) => self.finishing(index, views, None, None, Vec::new()),
             Err(e) => self.done(index, Err(e)),
         }
     }

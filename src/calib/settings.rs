@@ -10,6 +10,7 @@ use super::global::GlobalSettings;
 use super::level::GroundSettings;
 use super::pairs::{PairSettings, PairStart};
 use super::planes::PlaneSettings;
+use super::progress::Stage;
 use super::select::SelectSettings;
 use crate::cad::CadSettings;
 use crate::icp::{self, IcpSettings};
@@ -294,5 +295,22 @@ impl Stages {
             planes: settings.planes.clone().filter(|_| matches!(method, Method::Gmm | Method::Cad)),
             select: matches!(method, Method::Gmm | Method::Cad),
         }
+    }
+
+    /// The stages a run of these goes through, in order, as progress reports them: what a
+    /// progress bar shares out. A stage may still end up not running (a global stage with
+    /// nothing to align, frame pairs a scene does not have).
+    pub fn plan(&self) -> Vec<Stage> {
+        let registration =
+            if self.cad.is_some() { Some(Stage::Cad) } else { self.jrmpc.then_some(Stage::Jrmpc) };
+        self.global
+            .as_ref()
+            .map(|_| Stage::Global)
+            .into_iter()
+            .chain([Stage::Views])
+            .chain(registration)
+            .chain(self.pairs.as_ref().map(|_| Stage::FramePairs))
+            .chain([Stage::Finish])
+            .collect()
     }
 }

@@ -8,7 +8,7 @@ use super::grounds::{level_grounds, sensor_ground};
 use super::notes::{LevellingSkipped, Note, NoteKind};
 use super::pairs::{FramePairs, PairCorrections, PairIcp, PairStart};
 use super::placed::{self, place_targets, roi_around_targets};
-use super::region;
+use super::region::{self, RoiSource};
 use super::result::Levelling;
 use super::rig::sensor_seed;
 use super::select::{self, FrameScans, Hypothesis, Scenes, Source};
@@ -57,8 +57,9 @@ pub struct Views {
     pub(super) placements: Vec<Placement>,
     /// Per sensor, another sensor one of whose scans is one of its own, if any.
     pub(super) same_scans: Vec<(String, String)>,
-    /// The region of interest the scans were cropped to.
+    /// The region of interest the scans were cropped to, and where it came from.
     pub(super) roi: Aabb,
+    pub(super) roi_source: RoiSource,
     /// Every sensor's whole scans, prepared for the selection score.
     pub(super) scenes: Scenes,
     /// Per sensor, its hypotheses so far: the nominal (first), the global stage's candidates,
@@ -180,14 +181,13 @@ impl Views {
         let pre_aligned: Vec<Pose> = levelled.iter().zip(&nominals).map(|(l, n)| l * n).collect();
         let (mut views, mut skipped) = crop(rig, &roi, &sensors, &pre_aligned, settings);
         let mut roi = roi;
-        // Whether the region is the clouds' overlap at the starts, found here.
-        let mut overlap = rig.roi.is_none();
+        let mut roi_source = if rig.roi.is_some() { RoiSource::Given } else { RoiSource::Overlap };
         if rig.roi.is_none() {
             if let Some(around) =
                 roi_around_targets(&settings.target, &views, r, ground.as_ref(), &roi)
             {
                 roi = around;
-                overlap = false;
+                roi_source = RoiSource::Targets;
                 (views, skipped) = crop(rig, &roi, &sensors, &pre_aligned, settings);
             }
         }
@@ -196,7 +196,7 @@ impl Views {
                 // Points it has, but none in the region its start gave: say where to look.
                 let own = rig.scans.iter().filter(|v| v.sensor == *name);
                 let seen = own.flat_map(|v| &v.points).any(is_valid_point);
-                return Err(if overlap && seen {
+                return Err(if roi_source == RoiSource::Overlap && seen {
                     CalibError::OutsideOverlap(name.clone())
                 } else {
                     CalibError::NoPointsInRoi(name.clone())
@@ -229,6 +229,7 @@ impl Views {
             placements,
             same_scans,
             roi,
+            roi_source,
             scenes,
             hypotheses,
             start,

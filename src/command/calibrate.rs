@@ -167,14 +167,16 @@ pub(super) fn write_json(
     host.write(path, (json + "\n").as_bytes()).map_err(|e| format!("{path}: {e}"))
 }
 
-/// The progress line: the sensors aligned globally, EM's iterations, then the frame pairs
-/// registered.
+/// The progress line: the sensors aligned globally, the views prepared, EM's iterations, the
+/// frame pairs registered, then the result made.
 fn progress_line(method: Method, p: &Progress) -> String {
     let what = match p.stage {
         Stage::Global => "sensors aligned globally",
+        Stage::Views => return format!("{}: levelling, bird's-eye search, crop", method.name()),
         Stage::Jrmpc => "JRMPC iteration",
         Stage::FramePairs => "frame pair",
         Stage::Cad => "CAD iteration",
+        Stage::Finish => return format!("{}: plane adjustment, selection, verdict", method.name()),
     };
     format!("{}: {what} {}/{}", method.name(), p.iteration, p.max_iterations)
 }

@@ -48,6 +48,8 @@ pub struct Report {
 pub struct RoiReport {
     pub min: [f64; 3],
     pub max: [f64; 3],
+    /// `"given"`, `"targets"` (around the targets found) or `"overlap"` (the clouds' overlap).
+    pub source: crate::calib::region::RoiSource,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -261,7 +263,7 @@ impl From<&Calibration> for Report {
                     skipped: g.skipped.map(|why| why.to_string()),
                 })
                 .collect(),
-            roi: RoiReport { min: c.roi.min, max: c.roi.max },
+            roi: RoiReport { min: c.roi.min, max: c.roi.max, source: c.roi_source },
             history: HistoryReport {
                 mean_sigma: c.history.iter().map(|h| h.mean_sigma).collect(),
                 max_change: c.history.iter().map(|h| h.max_change).collect(),

@@ -2,6 +2,7 @@
 
 use std::fmt::Write;
 
+use crate::calib::region::RoiSource;
 use crate::calib::{Calibration, Level, Note, Reason, Verdict};
 use crate::se3::xyz_rpy;
 
@@ -36,19 +37,38 @@ pub fn summary(c: &Calibration) -> String {
         c.reference,
         c.iterations
     );
+    let (lo, hi) = (c.roi.min, c.roi.max);
+    let _ = writeln!(
+        out,
+        "region x {:.1}..{:.1}, y {:.1}..{:.1}, z {:.1}..{:.1} m: {}",
+        lo[0],
+        hi[0],
+        lo[1],
+        hi[1],
+        lo[2],
+        hi[2],
+        match c.roi_source {
+            RoiSource::Given => "as given",
+            RoiSource::Targets => "around the targets found",
+            RoiSource::Overlap => "where the clouds overlap (no ROI given, no target found)",
+        }
+    );
     for s in &c.sensors {
         let (cx, cr) = xyz_rpy(&s.correction);
         let (ex, er) = xyz_rpy(&s.extrinsic);
         let _ = writeln!(out, "\n{}", s.name);
         let _ = writeln!(out, "  correction  xyz {} m   rpy {} deg", m3(cx), deg3(cr));
         let _ = writeln!(out, "  extrinsic   xyz {} m   rpy {} deg", m3(ex), deg3(er));
-        let _ = writeln!(
-            out,
-            "  spread      xyz {} m   rpy {} deg   ({} frames)",
-            m3(s.spread.xyz),
-            deg3(s.spread.rpy),
-            s.spread.frames
-        );
+        // One frame has no spread to show.
+        if s.spread.frames > 1 {
+            let _ = writeln!(
+                out,
+                "  spread      xyz {} m   rpy {} deg   ({} frames)",
+                m3(s.spread.xyz),
+                deg3(s.spread.rpy),
+                s.spread.frames
+            );
+        }
         if let Some(p) = &s.precision {
             let _ = writeln!(
                 out,

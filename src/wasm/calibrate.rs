@@ -53,9 +53,11 @@ pub(super) struct CalibrateInput {
 struct ProgressOutput<'a> {
     /// The method this progress is of.
     method: &'static str,
-    /// "global" (sensors aligned), "jrmpc" or "cad" (EM's iterations) or "framePairs" (pairs
-    /// registered).
+    /// "global" (sensors aligned), "views" (the views prepared), "jrmpc" or "cad" (EM's
+    /// iterations), "framePairs" (pairs registered) or "finish" (the result made).
     stage: &'static str,
+    /// The stages the method goes through, in order (`Stages::plan`).
+    stages: Vec<&'static str>,
     iteration: usize,
     max_iterations: usize,
     mean_sigma: f64,
@@ -112,8 +114,9 @@ fn pose_of(name: &str, p: &XyzRpy) -> Result<Pose, JsError> {
 #[wasm_bindgen]
 pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValue, JsError> {
     let (rig, settings, methods) = rig_and_settings(input)?;
-    let mut sink = ProgressSink::new(on_progress, rig.sensors());
+    let sensors = rig.sensors();
     let mut run = calib::Run::new(std::borrow::Cow::Owned(rig), &settings, &methods);
+    let mut sink = ProgressSink::new(on_progress, ProgressShape::new(sensors, &run));
     run.drive(1, &mut |method, p| sink.send(method, p));
     sink.error()?;
     outcomes(run.into_outcomes(), methods.len() > 1)
@@ -212,23 +215,55 @@ pub(super) fn rig_and_settings(
     Ok((rig, settings, methods))
 }
 
+/// What JS sees of the library's progress: the sensors' names and each method's plan.
+#[derive(Clone)]
+pub(super) struct ProgressShape {
+    sensors: Vec<String>,
+    /// Each method's plan, by its stages' names.
+    plans: Vec<(Method, Vec<&'static str>)>,
+}
+
+impl ProgressShape {
+    pub(super) fn new(sensors: Vec<String>, run: &calib::Run) -> Self {
+        let plans = (run.methods().iter().enumerate())
+            .map(|(i, &m)| (m, run.plan(i).iter().map(calib::Stage::name).collect()))
+            .collect();
+        Self { sensors, plans }
+    }
+
+    /// `p` of `method` as JS sees it.
+    pub(super) fn value(&self, method: Method, p: &calib::Progress) -> Result<JsValue, JsError> {
+        let plan = self.plans.iter().find(|(m, _)| *m == method).map(|(_, plan)| plan);
+        to_js(&ProgressOutput {
+            method: method.name(),
+            stage: p.stage.name(),
+            stages: plan.cloned().unwrap_or_default(),
+            iteration: p.iteration,
+            max_iterations: p.max_iterations,
+            mean_sigma: p.mean_sigma,
+            max_change: p.max_change,
+            corrections: p.corrections.iter().map(to_row_major).collect(),
+            sensors: &self.sensors,
+        })
+    }
+}
+
 /// Passes the library's progress to the JS callback, if any: `false` from it cancels; an
 /// exception cancels too, and is reported by [`ProgressSink::error`].
 pub(super) struct ProgressSink {
     callback: Option<Function>,
-    sensors: Vec<String>,
+    shape: ProgressShape,
     error: Option<JsValue>,
 }
 
 impl ProgressSink {
-    pub(super) fn new(callback: Option<Function>, sensors: Vec<String>) -> Self {
-        Self { callback, sensors, error: None }
+    pub(super) fn new(callback: Option<Function>, shape: ProgressShape) -> Self {
+        Self { callback, shape, error: None }
     }
 
     pub(super) fn send(&mut self, method: Method, p: &calib::Progress) -> Control {
         let Some(f) = &self.callback else { return Control::Continue };
-        let answer = Self::value(method, &self.sensors, p)
-            .map_err(JsValue::from)
+        let answer = (self.shape.value(method, p).map_err(JsValue::from))
             .and_then(|v| f.call1(&JsValue::NULL, &v));
         match answer {
             Ok(v) if v == JsValue::FALSE => Control::Stop,
@@ -238,24 +273,6 @@ impl ProgressSink {
                 Control::Stop
             }
         }
-    }
-
-    /// `p` of `method` as JS sees it.
-    pub(super) fn value(
-        method: Method,
-        sensors: &[String],
-        p: &calib::Progress,
-    ) -> Result<JsValue, JsError> {
-        to_js(&ProgressOutput {
-            method: method.name(),
-            stage: p.stage.name(),
-            iteration: p.iteration,
-            max_iterations: p.max_iterations,
-            mean_sigma: p.mean_sigma,
-            max_change: p.max_change,
-            corrections: p.corrections.iter().map(to_row_major).collect(),
-            sensors,
-        })
     }
 
     /// What the callback threw, if it did.

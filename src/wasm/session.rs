@@ -14,7 +14,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
-use super::calibrate::{ProgressSink, outcomes, rig_and_settings};
+use super::calibrate::{ProgressShape, ProgressSink, outcomes, rig_and_settings};
 use super::to_js;
 use crate::calib::{
     self, CalibError, GlobalAlignment, GlobalJob, GlobalReference, GlobalSettings, PairIcp, Run,
@@ -29,24 +29,27 @@ use crate::se3::{from_quaternion_xyz, to_quaternion_xyz};
 pub struct CalibrationSession {
     /// `None` once the result was taken.
     run: Option<Run<'static>>,
-    sensors: Vec<String>,
+    /// What JS sees of the run's progress.
+    shape: ProgressShape,
     compared: bool,
 }
 
 #[wasm_bindgen]
 impl CalibrationSession {
-    /// Checks, levels and crops the rig `input` (as `calibrate` takes it, `method: 'all'`
-    /// included) for its first method.
+    /// Checks the rig `input` (as `calibrate` takes it, `method: 'all'` included) and plans
+    /// its first method.
     #[wasm_bindgen(constructor)]
     pub fn new(input: JsValue) -> Result<CalibrationSession, JsError> {
         let (rig, settings, methods) = rig_and_settings(input)?;
         let sensors = rig.sensors();
         let run = Run::new(Cow::Owned(rig), &settings, &methods);
-        Ok(Self { run: Some(run), sensors, compared: methods.len() > 1 })
+        let shape = ProgressShape::new(sensors, &run);
+        Ok(Self { run: Some(run), shape, compared: methods.len() > 1 })
     }
 
-    /// `"global"`, `"jrmpc"`, `"framePairs"`, `"cad"` (the names progress reports them by) or
-    /// `"done"`: the stage the current method needs next.
+    /// `"global"`, `"views"`, `"jrmpc"`, `"framePairs"`, `"cad"`, `"finish"` (the names progress
+    /// reports them by) or `"done"`: the stage the current method needs next. The run takes
+    /// `"views"` and `"finish"` itself at `advance`.
     pub fn stage(&self) -> String {
         self.run.as_ref().and_then(Run::stage).map_or("done", |s| s.name()).into()
     }
@@ -67,13 +70,20 @@ impl CalibrationSession {
         Ok(Uint32Array::from(pending.as_slice()))
     }
 
+    /// The current stage's progress as it stands (`calibrate`'s shape): what a driver reports
+    /// as a stage begins, the run's own `"views"` and `"finish"` among them.
+    pub fn progress(&self) -> Result<JsValue, JsError> {
+        let run = self.run.as_ref().ok_or_else(finished)?;
+        let method = run.method().map(|(_, m)| m).ok_or_else(finished)?;
+        run.progress(|p| self.shape.value(method, p)).ok_or_else(finished)?
+    }
+
     /// The global stage's progress (`calibrate`'s shape): the sensors aligned so far.
     #[wasm_bindgen(js_name = globalProgress)]
     pub fn global_progress(&self) -> Result<JsValue, JsError> {
         let run = self.run.as_ref().ok_or_else(finished)?;
         let method = run.method().map(|(_, m)| m).ok_or_else(finished)?;
-        run.global_progress(|p| ProgressSink::value(method, &self.sensors, p))
-            .ok_or_else(no_global)?
+        run.global_progress(|p| self.shape.value(method, p)).ok_or_else(no_global)?
     }
 
     /// Aligns the pending sensors `sensors` here; returns the progress (`calibrate`'s shape).
@@ -166,8 +176,8 @@ impl CalibrationSession {
         let (terms, stats) = wire::read_e_step_outputs(flats.iter().map(Vec::as_slice), k, views)
             .map_err(|e| JsError::new(&e.to_string()))?;
         em.m_step(&stats, terms);
-        let sensors = &self.sensors;
-        run.em_progress(|p| ProgressSink::value(method, sensors, p)).ok_or_else(no_em)?
+        let shape = &self.shape;
+        run.em_progress(|p| shape.value(method, p)).ok_or_else(no_em)?
     }
 
     /// Stops the current stage after its current step; no later method starts.
@@ -224,7 +234,7 @@ impl CalibrationSession {
         let count = run.frame_pairs().ok_or_else(no_pairs)?.pairs().len();
         pairs.iter().try_for_each(|&p| check_pair(count, p as usize))?;
         let method = run.method().map(|(_, m)| m).ok_or_else(finished)?;
-        let mut sink = ProgressSink::new(on_progress, self.sensors.clone());
+        let mut sink = ProgressSink::new(on_progress, self.shape.clone());
         run.register_pairs(pairs.iter().map(|&p| p as usize), 1, &mut |p| sink.send(method, p));
         sink.error()
     }
@@ -238,7 +248,7 @@ impl CalibrationSession {
             return Err(JsError::new("the current method is not in its cad stage"));
         }
         let method = run.method().map(|(_, m)| m).ok_or_else(finished)?;
-        let mut sink = ProgressSink::new(on_progress, self.sensors.clone());
+        let mut sink = ProgressSink::new(on_progress, self.shape.clone());
         run.register_cad(&mut |p| sink.send(method, p));
         sink.error()
     }
@@ -256,9 +266,8 @@ impl CalibrationSession {
         let count = run.frame_pairs().ok_or_else(no_pairs)?.pairs().len();
         check_pair(count, pair)?;
         let method = run.method().map(|(_, m)| m).ok_or_else(finished)?;
-        let sensors = &self.sensors;
-        run.record_pair(pair, outcome, |p| ProgressSink::value(method, sensors, p))
-            .ok_or_else(no_pairs)?
+        let shape = &self.shape;
+        run.record_pair(pair, outcome, |p| shape.value(method, p)).ok_or_else(no_pairs)?
     }
 
     /// Ends the current stage (EM even if unfinished; the frame pairs as far as registered)

@@ -1,20 +1,19 @@
 // What the page says of a calibration: while it runs, the progress bar's share, the status line
 // and the time line (elapsed, and the time left once there is a measure of it) from the worker's
-// progress messages; then the status line for the results. A calibration reports its stages:
-// the sensors aligned globally (`gmm`, `cad`, when the global stage runs), JRMPC's iterations
-// (`gmm`, `jrmpc`) or `cad`'s, then the frame pairs registered (`gmm`'s refinement, the ICP
-// methods). Each stage has its share of one bar, so the bar moves in every stage.
+// progress messages; then the status line for the results. Each message names its stage and
+// the stages its method goes through (`stages`, the library's plan): the sensors aligned
+// globally, the views prepared, JRMPC's or `cad`'s iterations, the frame pairs registered, the
+// result made. Each stage has its share of one bar, so the bar moves in every stage.
 
-// Shares of a method's bar by stage, before normalising over the stages it runs. Two of them
-// report nothing while they run: `views` (after the global stage, or first: each sensor's ground
-// levelled, the bird's-eye search, the crop to the ROI, the targets found) and `finish` (the
-// plane adjustment, the verdict's evidence, the report). Measured in the page on the real rigs
-// (2 workers): on the Livox rig the global stage takes 1.5 s, `views` 15 s, its two frame pairs
-// 6 s each; on the twins JRMPC takes about four fifths of what follows `views`.
+// Shares of a method's bar by stage, before normalising over the stages it runs. Measured in the
+// page on the real rigs (2 workers): on the Livox rig the global stage takes 1.5 s, `views` 15 s,
+// its two frame pairs 6 s each; on the twins JRMPC takes about four fifths of what follows
+// `views`.
 const SHARES = { global: 0.08, views: 0.3, jrmpc: 0.42, cad: 0.42, framePairs: 0.15, finish: 0.05 };
 
-// What a silent stage does, for the status line while it runs.
-const SILENT = {
+// The stages that are one step (reported as they begin, with no count), and what each does, for
+// the status line while it runs.
+const STEPS = {
   views: 'levelling the grounds, the bird\'s-eye search and the crop to the ROI',
   finish: 'the plane adjustment and the verdict',
 };
@@ -26,7 +25,7 @@ const SILENT = {
 // measure.
 export const MIN_MEASURED = 3;
 const MIN_MEASURED_JOBS = 1;
-// Before a stage has a measure (and all through a silent one) the bar creeps towards this share
+// Before a stage has a measure (and all through a step) the bar creeps towards this share
 // of the next mark, with this time constant (s): it shows work going on, and claims nothing.
 const CREEP_UNMEASURED = 0.6;
 const CREEP_SECONDS = 8;
@@ -51,22 +50,6 @@ export class StageClock {
   }
 }
 
-// The stages a method runs, as the library's `methods()` lists them ({jrmpc, pairs, global,
-// name}), with `globalSetting` ('auto' | 'on' | 'off') deciding the global stage and the
-// target ('none': `gmm` runs no JRMPC on a whole scene, the library's rule in Stages::of), and
-// the silent stages between them.
-export function stagesOf(info, globalSetting = 'auto', target = '') {
-  const global = globalSetting === 'on' || (globalSetting === 'auto' && Boolean(info.global));
-  const stages = [];
-  if (global) stages.push('global');
-  stages.push('views');
-  if (info.name === 'cad') stages.push('cad');
-  else if (info.jrmpc && !(info.name === 'gmm' && (target === 'none' || globalSetting === 'refine'))) stages.push('jrmpc');
-  if (info.pairs) stages.push('framePairs');
-  stages.push('finish');
-  return stages;
-}
-
 // {start, share} of `stage` in a method's bar running `stages`; a stage the plan did not expect
 // (the library knows best) takes the rest of the bar from where it stands.
 export function shareOf(stages, stage) {
@@ -77,7 +60,7 @@ export function shareOf(stages, stage) {
   return { start, share: SHARES[stage] / total };
 }
 
-// {fraction, text} for progress `p` of a method running `stages` (stagesOf); `left`: seconds
+// {fraction, text} for progress `p` of a method running `stages` (its plan); `left`: seconds
 // left in the stage (StageClock), or null; `done`: the share of the stage done (by default
 // p.iteration / p.maxIterations; more between the global stage's messages, see RunProgress).
 export function describeProgress(stages, p, left = null, done = p.iteration / p.maxIterations) {
@@ -88,26 +71,26 @@ export function describeProgress(stages, p, left = null, done = p.iteration / p.
     return { fraction, text: `global alignment: ${p.iteration} of ${p.maxIterations} sensors aligned${eta}` };
   }
   if (p.stage === 'framePairs') return { fraction, text: `frame pair ${p.iteration}/${p.maxIterations}${eta}` };
+  if (STEPS[p.stage]) return { fraction, text: STEPS[p.stage] };
   const sigma = `σ ${(p.meanSigma * 100).toFixed(2)} cm`;
   if (p.stage === 'cad') return { fraction, text: `CAD iteration ${p.iteration}/${p.maxIterations}, ${sigma}${eta}` };
   const then = stages.includes('framePairs') ? ', then the frame pairs' : '';
   return { fraction, text: `JRMPC iteration ${p.iteration}/${p.maxIterations}, ${sigma}${eta}${then}` };
 }
 
-// One run's progress over its methods (`plans`: method -> stages, in order) and stages, on a
-// clock of seconds (`now`). `message(p, now)` takes each progress message; `at(now)` says where
-// the run stands at any moment, so the bar, the status line and a time line move between
-// messages, and through the stages that send none: {fraction, text, elapsed, left} with `left`
-// the seconds left in the current stage (counted down since it was measured) or null.
+// One run's progress over its methods (`names`, in order) and their stages (as each message's
+// `stages` plans them), on a clock of seconds (`now`). `message(p, now)` takes each progress
+// message; `at(now)` says where the run stands at any moment, so the bar, the status line and a
+// time line move between messages, and through the steps that send one message: {fraction,
+// text, elapsed, left} with `left` the seconds left in the current stage (counted down since it
+// was measured) or null.
 export class RunProgress {
-  #plans;
   #names;
   #started;
   #last = null; // {key, clock, p, at, leftAt: {left, at} | null}
 
-  constructor(plans, now) {
-    this.#plans = plans;
-    this.#names = [...plans.keys()];
+  constructor(names, now) {
+    this.#names = names;
     this.#started = now;
   }
 
@@ -127,25 +110,19 @@ export class RunProgress {
   at(now) {
     const elapsed = now - this.#started;
     const last = this.#last;
-    const method = last?.p.method ?? this.#names[0];
-    const stages = this.#plans.get(method) ?? [];
-    const index = Math.max(0, this.#names.indexOf(method));
-    const label = this.#names.length > 1 ? `${method} (${index + 1}/${this.#names.length}): ` : '';
-    const of = (fraction) => (index + fraction) / this.#names.length;
-    if (!last) {
-      // Before the first message: the views are prepared first when there is no global stage.
-      const first = stages[0] === 'views' ? shareOf(stages, 'views') : null;
-      return { fraction: first ? of(first.start + first.share * creep(elapsed)) : 0, text: first ? label + SILENT.views : null, elapsed, left: null };
-    }
+    // Before the first message (the run's first step begins at once).
+    if (!last) return { fraction: 0, text: null, elapsed, left: null };
     const { p } = last;
+    const stages = p.stages ?? [];
+    const index = Math.max(0, this.#names.indexOf(p.method));
+    const label = this.#names.length > 1 ? `${p.method} (${index + 1}/${this.#names.length}): ` : '';
+    const of = (fraction) => (index + fraction) / this.#names.length;
     const since = now - last.at;
     const left = last.leftAt && Math.max(0, last.leftAt.left - (now - last.leftAt.at));
-    // A stage done, the next one silent: the bar creeps through it and the status says what it does.
-    const next = stages[stages.indexOf(p.stage) + 1];
-    if (p.iteration >= p.maxIterations && SILENT[next]) {
-      const place = shareOf(stages, next);
-      const { text } = describeProgress(stages, p);
-      return { fraction: of(place.start + place.share * creep(since)), text: `${label}${text}; now ${SILENT[next]}`, elapsed, left: null };
+    // A step: the bar creeps through its share, and the status says what it does.
+    if (STEPS[p.stage]) {
+      const { fraction, text } = describeProgress(stages, p, null, creep(since));
+      return { fraction: of(fraction), text: label + text, elapsed, left: null };
     }
     // Between messages seconds apart (a sensor aligned, a frame pair), the bar moves by the time
     // measured per step, or by the creep before there is a measure; never to the next mark.

@@ -2,8 +2,7 @@
 // worker (which shares it over its pool), progress as bar and status, the outcome split into
 // results and failures. Comparing every method is one request (`method: 'all'`): the library
 // runs them in turn and keeps a failed method's error.
-import { RunProgress, stagesOf } from './progress.js';
-import { methodInfo } from './state.js';
+import { RunProgress } from './progress.js';
 import { nextTask } from './tasks.js';
 
 // The scans are copied (the originals stay loaded, whatever happens to the worker) one per task:
@@ -60,7 +59,7 @@ export async function runCalibration(client, state, onProgress) {
   const compared = state.settings.method === 'all';
   const names = compared ? state.methods.map((m) => m.name) : [state.settings.method];
   const now = () => performance.now() / 1000;
-  const run = new RunProgress(new Map(names.map((n) => [n, stagesOf(methodInfo(state, n), state.settings.global, state.settings.target)])), now());
+  const run = new RunProgress(names, now());
   const tick = setInterval(() => onProgress({ ...run.at(now()), progress: null }), TICK_MS);
   try {
     const { input, transfer } = await calibrateInput(state);

@@ -187,12 +187,12 @@ export function pairGroups(pairs, parts) {
 // reference view (`pairGroups`), handed out a group at a time to whichever worker is free,
 // this one included. The session keeps the outcomes in pair order, so who registered what
 // does not change the result.
-async function shareFramePairs(session, pool, onProgress, workers, begin = () => {}) {
+async function shareFramePairs(session, pool, onProgress, workers) {
   const work = session.framePairs();
   const queue = pairGroups(work.pairs, workers);
-  // The library says when a pair is done; the page also needs when the first began (a pair
-  // takes seconds on a large scene: its time is the estimate of the rest).
-  begin(work.pairs.length / 2);
+  // The stage begun, none done: the first pair's time is the estimate of the rest (a pair
+  // takes seconds on a large scene).
+  onProgress(session.progress());
   // One group (one pair) is this worker's alone: no remote is started for it.
   const remotes = queue.length > 1 ? await pool() : [];
   let stopped = false;
@@ -236,18 +236,10 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
   const session = new wasm.CalibrationSession(input);
   const remotes = [];
   let cancelled = false;
-  let last = null;
   const heed = (progress) => {
-    last = progress;
     if (onProgress(progress) === false) cancelled = true;
     return !cancelled;
   };
-  // The frame pairs' stage begun: a progress message of no pair done yet, in calibrate's shape
-  // (the corrections as the last message left them).
-  const pairsBegin = (pairs) => heed({
-    method: session.method(), stage: 'framePairs', iteration: 0, maxIterations: pairs, meanSigma: 0, maxChange: 0,
-    corrections: last?.corrections ?? [], sensors: last?.sensors ?? [],
-  });
   let gpu = null;
   const emRan = new Map(); // method -> its E-step's path
   try {
@@ -280,7 +272,9 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
           const timing = await shareEm(wasm, session, gpu ? [] : await pool(), heed, gpu);
           emRan.set(method, timing ? { estep: 'gpu', gpu: gpu.name, gpuEStepSeconds: timing.seconds, gpuIterations: timing.iterations } : { estep: 'cpu' });
         } else if (stage === 'cad') session.registerCad(heed); // one call: fast, not shared
-        else await shareFramePairs(session, pool, heed, workers, pairsBegin);
+        else if (stage === 'framePairs') await shareFramePairs(session, pool, heed, workers);
+        // The run's own steps ('views', 'finish'), taken at advance: said as they begin.
+        else if (!heed(session.progress())) session.cancel();
         session.advance();
       } catch (error) {
         if (input.method !== 'all') throw error;

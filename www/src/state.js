@@ -83,5 +83,3 @@ export function shownPoses(state) {
   return poses;
 }
 
-// The library's entry for method `name` ({jrmpc, pairs} say which stages it runs).
-export const methodInfo = (state, name) => state.methods.find((m) => m.name === name) ?? { name, jrmpc: false, pairs: false };

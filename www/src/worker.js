@@ -57,21 +57,24 @@ const handlers = {
   // `estep` 'auto' or 'gpu' puts the E-step on the GPU where WebGPU allows (shard-pool.js,
   // gpu-estep.js).
   calibrate: async ({ input, workers = 1, estep = 'cpu' }, id) => {
-    // At most 10 progress messages a second, and always each stage's last: the page redraws on
-    // each, and that work competes with the calculation (docs/benchmarks.md). A stage that
-    // stops before its maximum (EM converged) has its last message posted when the next
-    // stage begins.
+    // At most 10 progress messages a second, and always each stage's first and last: the page
+    // redraws on each, and that work competes with the calculation (docs/benchmarks.md). A
+    // stage that stops before its maximum (EM converged) has its last message posted when the
+    // next stage begins.
     let postedAt = -Infinity;
+    let postedStage = null;
     let held = null;
+    const stageOf = (progress) => `${progress.method}/${progress.stage}`;
     const post = (progress) => {
       postedAt = performance.now();
+      postedStage = stageOf(progress);
       held = null;
       self.postMessage({ type: 'progress', id, progress });
     };
     const onProgress = (progress) => {
-      const next = held !== null && (held.method !== progress.method || held.stage !== progress.stage);
-      if (next) post(held);
-      if (next || performance.now() - postedAt >= 100 || progress.iteration === progress.maxIterations) post(progress);
+      const begun = stageOf(progress) !== postedStage;
+      if (held !== null && stageOf(held) !== stageOf(progress)) post(held);
+      if (begun || performance.now() - postedAt >= 100 || progress.iteration === progress.maxIterations) post(progress);
       else held = progress;
       return true;
     };

@@ -9,7 +9,7 @@ import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from 
 import { exportsOf, gmmcalibYaml, resultJson, targetPly } from '../src/exports.js';
 import { DEFAULTS, readHash } from '../src/url.js';
 import { rebuildRig } from '../src/state.js';
-import { MIN_MEASURED, RunProgress, StageClock, describeDone, describeProgress, describeTime, stagesOf } from '../src/progress.js';
+import { MIN_MEASURED, RunProgress, StageClock, describeDone, describeProgress, describeTime } from '../src/progress.js';
 
 // The config reader is the library's, through the wasm package.
 initSync({ module: readFileSync(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
@@ -170,46 +170,46 @@ test('progress: every stage has its share of one bar, each with its own wording'
   assert.equal(describeProgress(GMM, { ...pairs, iteration: 4 }, null).text, 'frame pair 4/4');
   const global = { stage: 'global', iteration: 1, maxIterations: 2, meanSigma: 0 };
   assert.equal(describeProgress(['global', ...GMM], global).text, 'global alignment: 1 of 2 sensors aligned');
-  // Which stages a method runs: the library's list, the global setting, gmm without a target,
-  // and the two that report nothing.
-  const gmm = { name: 'gmm', jrmpc: true, pairs: true, global: true };
-  assert.deepEqual(stagesOf(gmm), ['global', 'views', 'jrmpc', 'framePairs', 'finish']);
-  assert.deepEqual(stagesOf(gmm, 'off'), ['views', 'jrmpc', 'framePairs', 'finish']);
-  assert.deepEqual(stagesOf(gmm, 'auto', 'none'), ['global', 'views', 'framePairs', 'finish']);
-  assert.deepEqual(stagesOf({ name: 'cad', jrmpc: false, pairs: false, global: true }), ['global', 'views', 'cad', 'finish']);
-  assert.deepEqual(stagesOf({ name: 'p2l', jrmpc: false, pairs: true, global: false }, 'on'), ['global', 'views', 'framePairs', 'finish']);
+  // The run's own steps say what they do.
+  assert.match(describeProgress(GMM, { stage: 'views', iteration: 0, maxIterations: 1 }).text, /^levelling the grounds/);
+  assert.equal(describeProgress(GMM, { stage: 'finish', iteration: 0, maxIterations: 1 }).text, 'the plane adjustment and the verdict');
 });
 
-test('a run\'s time and bar: elapsed always, the time left once measured, the bar moving between messages and through the silent stages', () => {
-  const plan = ['global', 'views', 'framePairs', 'finish'];
-  const run = new RunProgress(new Map([['gmm', plan]]), 100);
+test('a run\'s time and bar: elapsed always, the time left once measured, the bar moving between messages and through the steps', () => {
+  const stages = ['global', 'views', 'framePairs', 'finish'];
+  const run = new RunProgress(['gmm'], 100);
   assert.deepEqual(run.at(103), { fraction: 0, text: null, elapsed: 3, left: null });
-  const g = (iteration) => ({ method: 'gmm', stage: 'global', iteration, maxIterations: 3, meanSigma: 0 });
+  const g = (iteration) => ({ method: 'gmm', stage: 'global', stages, iteration, maxIterations: 3, meanSigma: 0 });
   assert.equal(run.message(g(0), 101).left, null);
   assert.equal(run.at(108).left, null, 'no sensor aligned yet: no estimate');
   assert.ok(run.at(108).fraction > run.at(102).fraction, 'the bar creeps before any measure');
-  assert.ok(run.at(1000).fraction < describeProgress(plan, g(1)).fraction, 'never to the first sensor\'s mark');
+  assert.ok(run.at(1000).fraction < describeProgress(stages, g(1)).fraction, 'never to the first sensor\'s mark');
   const one = run.message(g(1), 110); // 9 s for the first sensor
   assert.equal(one.left, 18);
   assert.equal(run.at(114).left, 14, 'the estimate counts down');
   assert.ok(run.at(114).fraction > one.fraction, 'the bar moves between messages');
-  assert.ok(run.at(150).fraction < describeProgress(plan, g(2)).fraction, 'never to the next sensor\'s mark');
+  assert.ok(run.at(150).fraction < describeProgress(stages, g(2)).fraction, 'never to the next sensor\'s mark');
   assert.equal(describeTime(run.at(114)), '14.0 s elapsed, about 14 s left in this stage');
   assert.equal(describeTime({ elapsed: 2.04, left: null }), '2.0 s elapsed');
-  // The global stage done: the silent views stage moves the bar and says what it does.
   const done = run.message(g(3), 120);
-  assert.equal(done.text, 'global alignment: 3 of 3 sensors aligned; now levelling the grounds, the bird\'s-eye search and the crop to the ROI');
-  assert.ok(run.at(130).fraction > done.fraction && run.at(130).fraction < describeProgress(plan, { ...g(0), stage: 'framePairs', maxIterations: 2 }).fraction);
+  // The views' step begun: the bar creeps through its share and the status says what it does.
+  const step = (stage, at) => run.message({ method: 'gmm', stage, stages, iteration: 0, maxIterations: 1, meanSigma: 0 }, at);
+  const views = step('views', 120);
+  assert.equal(views.text, 'levelling the grounds, the bird\'s-eye search and the crop to the ROI');
+  assert.ok(views.fraction >= done.fraction);
+  const pair = (iteration) => ({ method: 'gmm', stage: 'framePairs', stages, iteration, maxIterations: 3, meanSigma: 0 });
+  assert.ok(run.at(130).fraction > views.fraction && run.at(1000).fraction < describeProgress(stages, pair(0)).fraction, 'never past its share');
   // Frame pairs: one pair is a measure.
-  const pair = (iteration) => ({ method: 'gmm', stage: 'framePairs', iteration, maxIterations: 3, meanSigma: 0 });
   assert.equal(run.message(pair(0), 135).left, null, 'a new stage measures again');
   assert.equal(run.message(pair(1), 141).left, 12);
   assert.equal(run.at(141).text, 'frame pair 1/3');
-  assert.match(run.message(pair(3), 150).text, /^frame pair 3\/3; now the plane adjustment and the verdict$/);
-  // Before any message, with no global stage, the views come first and say so.
-  const icp = new RunProgress(new Map([['p2l', ['views', 'framePairs', 'finish']]]), 0);
-  assert.match(icp.at(5).text, /^levelling the grounds/);
-  assert.ok(icp.at(5).fraction > 0);
+  run.message(pair(3), 150);
+  assert.equal(step('finish', 150).text, 'the plane adjustment and the verdict');
+  // Comparing methods: each has its part of the bar and is named.
+  const all = new RunProgress(['gmm', 'p2l'], 0);
+  const p2l = all.message({ method: 'p2l', stage: 'views', stages: ['views', 'framePairs', 'finish'], iteration: 0, maxIterations: 1, meanSigma: 0 }, 5);
+  assert.match(p2l.text, /^p2l \(2\/2\): levelling the grounds/);
+  assert.ok(p2l.fraction >= 0.5 && p2l.fraction < 0.75);
 });
 
 test('the time left comes from measured iterations, not from the setup before the first', () => {

@@ -119,10 +119,12 @@ test('a result file: the JSON of Export read back; anything else named', () => {
   assert.throws(() => readResult(JSON.stringify({ ...report, roi: null }), 'r.json'), /not a gmmcalib result/);
 });
 
-test('what ROI auto held: targets found, none found, or the overlap', () => {
-  const r = (fits, reasons = []) => ({ roi: { min: [-20, -13, -2], max: [24, 13, 4] }, reconstruction: { fits }, verdict: { reasons } });
+test('what ROI auto held: targets found, none found, or the overlap, as the library says', () => {
+  const r = (fits, reasons = [], source = 'overlap') => ({ roi: { min: [-20, -13, -2], max: [24, 13, 4], source }, reconstruction: { fits }, verdict: { reasons } });
   const cube = { target: 'cube:0.5', roiAuto: true };
-  assert.match(autoRoiFound(r([{}, {}, {}]), cube).text, /3 targets found; the ROI around them, 44\.0 × 26\.0 × 6\.0 m/);
+  assert.match(autoRoiFound(r([{}, {}, {}], [], 'targets'), cube).text, /3 targets found; the ROI around them, 44\.0 × 26\.0 × 6\.0 m/);
+  // The reconstruction fitted a cube, but the region was not narrowed to it: the overlap.
+  assert.match(autoRoiFound(r([{}]), cube).text, /clouds overlap in 44\.0 × 26\.0 × 6\.0 m/);
   const none = autoRoiFound(r([], [{ kind: 'noTarget', text: 'no target stands out of the reconstruction' }]), cube);
   assert.equal(none.level, 'failed');
   assert.match(none.text, /no cube:0\.5 found, so the ROI was the clouds' whole overlap/);

@@ -59,11 +59,15 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.deepEqual(driven.sensors, direct.sensors);
   assert.deepEqual(driven.history, direct.history);
   assert.deepEqual(Array.from(driven.reconstruction.means), Array.from(direct.reconstruction.means));
-  assert.equal(progress.filter((p) => p.maxIterations === 30).length, direct.iterations);
+  assert.equal(progress.filter((p) => p.stage === 'jrmpc').length, direct.iterations);
+  // Every stage the plan names is said, in its order; the run's own steps as they begin.
+  const said = progress.map((p) => p.stage).filter((stage, i, all) => stage !== all[i - 1]);
+  assert.deepEqual(said, progress[0].stages);
+  assert.deepEqual(said, ['views', 'jrmpc', 'framePairs', 'finish'], 'the sampled twin\'s scans show no ground to align by');
   // gmm's frame pairs come after EM's iterations: their beginning (none done), then one
   // progress each, however they are shared; each of the 3 frames is refined from every start
   // the selection weighs (JRMPC's result, the nominal, ...).
-  const pairs = progress.filter((p) => p.maxIterations !== 30);
+  const pairs = progress.filter((p) => p.stage === 'framePairs');
   const count = pairs.length - 1;
   assert.ok(count >= 3 && count % 3 === 0, `${count} frame pairs`);
   assert.deepEqual(pairs.map((p) => [p.stage, p.iteration]).sort(), Array.from({ length: count + 1 }, (_, i) => ['framePairs', i]).sort());
@@ -188,7 +192,7 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.equal(aligning.alignGlobally(Uint32Array.of(1)).iteration, 2);
   assert.deepEqual(Array.from(aligning.globalJobs()), []);
   aligning.advance();
-  assert.notEqual(aligning.stage(), 'global');
+  assert.equal(aligning.stage(), 'views', 'the views are prepared from the alignments');
   assert.throws(() => aligning.globalJobs(), /not in its global stage/);
   assert.throws(() => aligning.globalProgress(), /not in its global stage/);
   aligning.free();
@@ -200,6 +204,8 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   for (const [a, b] of compared.map((r, i) => [r, expected[i]])) assert.deepEqual(a.sensors, b.sensors, a.method);
 
   const session = new wasm.CalibrationSession(input());
+  assert.throws(() => session.mStep([new Float64Array(7)]), /not in its jrmpc stage/, 'the views are not prepared yet');
+  session.advance();
   assert.throws(() => session.mStep([new Float64Array(7)]), /not a whole number of views/);
   assert.throws(() => session.shardPoints(5, 2), /views 5\.\.5\+2 of 6/);
   const shardOf = (driven) => new wasm.JrmpcShard(driven.shardPoints(0, driven.viewSizes().length), driven.viewSizes());
@@ -216,6 +222,9 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
 
   // Frame pairs: a bad plan, cloud, start or outcome is an error, not a crash.
   const pairsOf = new wasm.CalibrationSession(input());
+  assert.equal(pairsOf.stage(), 'views');
+  assert.deepEqual([pairsOf.progress().stage, pairsOf.progress().iteration], ['views', 0]);
+  pairsOf.advance();
   assert.equal(pairsOf.stage(), 'jrmpc');
   assert.throws(() => pairsOf.framePairs(), /not registering frame pairs/);
   while (!pairsOf.finished()) pairsOf.mStep([shardOf(pairsOf).eStep(pairsOf.eStepInput(), 0)]);
@@ -243,6 +252,8 @@ test('the driven session gives calibrate\'s result, and bad shard data is an err
   assert.equal(pairsOf.recordPair(0, aligned).iteration, 1);
   assert.equal(pairsOf.recordPair(1, 'gicp could not converge').iteration, 2);
   assert.throws(() => pairsOf.result(), /has not finished/);
+  pairsOf.advance();
+  assert.equal(pairsOf.stage(), 'finish');
   pairsOf.advance();
   assert.equal(pairsOf.stage(), 'done');
   const finished = pairsOf.result();

@@ -100,6 +100,7 @@ test('mutated global jobs and frame pairs are errors or results, never a trap', 
   // Frame pairs: a sampled twin's first pair, its target, source and start mutated.
   const rig = wasm.simulateRig({ preset: 'sampled', sensors: 2, frames: 2, pointsPerView: 600, seed: 5 });
   const pairs = new wasm.CalibrationSession({ scans: rig.scans, nominal: rig.nominal, roi: rig.roi, method: 'gicp' });
+  pairs.advance(); // the views prepared
   assert.equal(pairs.stage(), 'framePairs');
   const work = pairs.framePairs();
   const [reference, view] = work.pairs;

@@ -57,12 +57,11 @@ export function adviceForResult(r, context) {
 const size = (roi) => roi.max.map((v, i) => (v - roi.min[i]).toFixed(1)).join(' × ');
 
 // What the last run's auto ROI held, for the rig panel: {text, level}, or null (a ROI given,
-// no run). Whether the library narrowed it to targets is not in the result (docs/web-app.md):
-// a target found by the reconstruction says so; none, or no target given, means the overlap.
+// no run). The library says where the region came from (`roi.source`).
 export function autoRoiFound(r, context) {
   if (!r || !context?.roiAuto) return null;
   const fits = r.reconstruction.fits.length;
-  if (context.target !== 'none' && fits) {
+  if (r.roi.source === 'targets') {
     return { level: 'good', text: `Last run: ${fits === 1 ? 'a target' : `${fits} targets`} found; the ROI around them, ${size(r.roi)} m, is drawn grey in the view.` };
   }
   if (context.target !== 'none' && noTarget(r)) {
