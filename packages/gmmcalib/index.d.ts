@@ -195,8 +195,9 @@ export interface CalibrationResult {
   planeAdjustment: Note[];
   levelling: Levelling[];
   global: Record<string, unknown>[];
-  /** The region cropped to; `source`: the given ROI, around the targets found, or the clouds' overlap. */
-  roi: { min: Vec3; max: Vec3; source: 'given' | 'targets' | 'overlap' };
+  /** The region cropped to: the given ROI, around the `found` objects of the target's shape
+   * standing in the reference's scans, or the clouds' overlap. */
+  roi: { min: Vec3; max: Vec3 } & ({ source: 'given' | 'overlap' } | { source: 'targets'; found: number });
   history: { meanSigma: number[]; maxChange: number[]; terms: number[] };
 }
 

@@ -58,14 +58,15 @@ fn find_targets(mesh: &Mesh, views: &[View], r: usize, ground: Option<&Plane>) -
 /// (at least the target's size) across and half a metre above and below, within the overlap.
 /// JRMPC and the refinement then see the targets and the ground around them, not tens of
 /// metres of mostly ground (the paper twin's full scans: an overlap of 77 m x 24 m, where the
-/// targets are a handful of the verdict's sampled points). `None` when nothing is found.
+/// targets are a handful of the verdict's sampled points). `None` when nothing is found; else
+/// the region and the number of copies found.
 pub(super) fn roi_around_targets(
     target: &Target,
     views: &[View],
     r: usize,
     ground: Option<&Plane>,
     overlap: &Aabb,
-) -> Option<Aabb> {
+) -> Option<(Aabb, usize)> {
     let mesh = target.model()?;
     let placements = find_targets(&mesh, views, r, ground);
     if placements.is_empty() {
@@ -92,7 +93,8 @@ pub(super) fn roi_around_targets(
     let (lo, hi) = (min - grow, max + grow);
     let clip = |i: usize| (lo[i].max(overlap.min[i]), hi[i].min(overlap.max[i]));
     let [(x0, x1), (y0, y1), (z0, z1)] = [0, 1, 2].map(clip);
-    (x0 < x1 && y0 < y1 && z0 < z1).then(|| Aabb::new([x0, y0, z0], [x1, y1, z1]))
+    (x0 < x1 && y0 < y1 && z0 < z1)
+        .then(|| (Aabb::new([x0, y0, z0], [x1, y1, z1]), placements.len()))
 }
 
 /// One view's points as `cad` takes them: near each placed copy, and on the ground.

@@ -11,12 +11,14 @@ use crate::se3::Pose;
 
 /// Where the region the scans were cropped to came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "camelCase")]
+#[serde(tag = "source", rename_all = "camelCase")]
 pub enum RoiSource {
     /// The user's.
     Given,
-    /// Around the targets found in the reference's points, within the clouds' overlap.
-    Targets,
+    /// Around the objects of the target's shape and size found standing in the reference's
+    /// points (`found` of them), within the clouds' overlap. Whether they are the targets is
+    /// the reconstruction's to say.
+    Targets { found: usize },
     /// The clouds' overlap at the starts ([`overlap_region`]): no ROI given and no target found.
     Overlap,
 }

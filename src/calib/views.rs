@@ -183,11 +183,11 @@ impl Views {
         let mut roi = roi;
         let mut roi_source = if rig.roi.is_some() { RoiSource::Given } else { RoiSource::Overlap };
         if rig.roi.is_none() {
-            if let Some(around) =
+            if let Some((around, found)) =
                 roi_around_targets(&settings.target, &views, r, ground.as_ref(), &roi)
             {
                 roi = around;
-                roi_source = RoiSource::Targets;
+                roi_source = RoiSource::Targets { found };
                 (views, skipped) = crop(rig, &roi, &sensors, &pre_aligned, settings);
             }
         }

@@ -48,7 +48,9 @@ pub struct Report {
 pub struct RoiReport {
     pub min: [f64; 3],
     pub max: [f64; 3],
-    /// `"given"`, `"targets"` (around the targets found) or `"overlap"` (the clouds' overlap).
+    /// `source`: `"given"`, `"targets"` (around the `found` objects of the target's shape
+    /// found standing in the reference's scans) or `"overlap"` (the clouds' overlap).
+    #[serde(flatten)]
     pub source: crate::calib::region::RoiSource,
 }
 

@@ -48,9 +48,14 @@ pub fn summary(c: &Calibration) -> String {
         lo[2],
         hi[2],
         match c.roi_source {
-            RoiSource::Given => "as given",
-            RoiSource::Targets => "around the targets found",
-            RoiSource::Overlap => "where the clouds overlap (no ROI given, no target found)",
+            RoiSource::Given => "as given".to_string(),
+            RoiSource::Targets { found } => format!(
+                "around {found} object{} of the target's shape found standing in the reference's scans",
+                if found == 1 { "" } else { "s" }
+            ),
+            RoiSource::Overlap => {
+                "where the clouds overlap (no ROI given, no target found)".to_string()
+            }
         }
     );
     for s in &c.sensors {

@@ -8,7 +8,7 @@ import { mostPoints, rebuildRig } from '../src/state.js';
 import { readEntries } from '../src/files.js';
 import { DEFAULTS, explicitSettings, hashOf, readRig } from '../src/url.js';
 import { readResult } from '../src/panels/result-file.js';
-import { adviceForError, autoRoiFound } from '../src/panels/advice.js';
+import { adviceForError, adviceForResult, autoRoiFound } from '../src/panels/advice.js';
 import { calibrateBlocker } from '../src/summary.js';
 
 test('the view frames the 2nd-98th percentile of the points, and a framed box is wholly in view from every side', () => {
@@ -119,15 +119,26 @@ test('a result file: the JSON of Export read back; anything else named', () => {
   assert.throws(() => readResult(JSON.stringify({ ...report, roi: null }), 'r.json'), /not a gmmcalib result/);
 });
 
-test('what ROI auto held: targets found, none found, or the overlap, as the library says', () => {
-  const r = (fits, reasons = [], source = 'overlap') => ({ roi: { min: [-20, -13, -2], max: [24, 13, 4], source }, reconstruction: { fits }, verdict: { reasons } });
+test('what ROI auto held: targets found, objects that were not, none found, or the overlap, as the library says', () => {
+  const r = (fits, reasons = [], source = 'overlap', found) => ({ roi: { min: [-20, -13, -2], max: [24, 13, 4], source, found }, reconstruction: { fits }, verdict: { reasons } });
   const cube = { target: 'cube:0.5', roiAuto: true };
-  assert.match(autoRoiFound(r([{}, {}, {}], [], 'targets'), cube).text, /3 targets found; the ROI around them, 44\.0 × 26\.0 × 6\.0 m/);
+  const missing = [{ kind: 'noTarget', text: 'no target stands out of the reconstruction' }];
+  assert.match(autoRoiFound(r([{}, {}, {}], [], 'targets', 3), cube).text, /3 targets found; the ROI around them, 44\.0 × 26\.0 × 6\.0 m/);
+  // Cube-sized objects stood in the scans, the region went around them, no cube stood out.
+  const notIt = autoRoiFound(r([], missing, 'targets', 4), cube);
+  assert.equal(notIt.level, 'failed');
+  assert.match(notIt.text, /the ROI was put around 4 objects of the target's size .* 44\.0 × 26\.0 × 6\.0 m .*but no cube:0\.5 stood out/);
   // The reconstruction fitted a cube, but the region was not narrowed to it: the overlap.
   assert.match(autoRoiFound(r([{}]), cube).text, /clouds overlap in 44\.0 × 26\.0 × 6\.0 m/);
-  const none = autoRoiFound(r([], [{ kind: 'noTarget', text: 'no target stands out of the reconstruction' }]), cube);
+  const none = autoRoiFound(r([], missing), cube);
   assert.equal(none.level, 'failed');
   assert.match(none.text, /no cube:0\.5 found, so the ROI was the clouds' whole overlap/);
   assert.match(autoRoiFound(r([]), { target: 'none', roiAuto: true }).text, /clouds overlap in 44\.0 × 26\.0 × 6\.0 m/);
   assert.equal(autoRoiFound(r([]), { target: 'none', roiAuto: false }), null, 'a ROI given: nothing to say');
+  // The advice on the result says where the auto ROI was, as the library says it.
+  const [around] = adviceForResult(r([], missing, 'targets', 4), cube);
+  assert.match(around.html, /^No cube:0\.5 found: no target stands out of the reconstruction\. The ROI was auto: around 4 objects of its size standing in the reference's scans, none of which stood out as it\. Set the target to none/);
+  const [overlap] = adviceForResult(r([], missing), cube);
+  assert.match(overlap.html, /The ROI was auto: with no target found it is where the clouds overlap\./);
+  assert.deepEqual(adviceForResult(r([], missing), { target: 'none', roiAuto: true }), []);
 });

@@ -47,7 +47,7 @@ const noTarget = (r) => r.verdict.reasons.find((x) => x.kind === 'noTarget');
 export function adviceForResult(r, context) {
   const missing = noTarget(r);
   if (!missing || !context || context.target === 'none' || context.target.startsWith('mesh:')) return [];
-  const where = context.roiAuto ? ' The ROI was auto: with no target found it is where the clouds overlap.' : '';
+  const where = context.roiAuto ? ` The ROI was auto: ${r.roi.source === 'targets' ? `around ${objects(r.roi.found)} of its size standing in the reference's scans, none of which stood out as it.` : 'with no target found it is where the clouds overlap.'}` : '';
   return [{
     html: `No ${esc(context.target)} found: ${esc(missing.text)}.${where} Set the target to none to calibrate on the scene itself, or draw the ROI around the targets.`,
     actions: [{ label: 'Target: none', what: 'target', value: 'none' }, { label: 'Draw the ROI', what: 'roi' }],
@@ -56,16 +56,24 @@ export function adviceForResult(r, context) {
 
 const size = (roi) => roi.max.map((v, i) => (v - roi.min[i]).toFixed(1)).join(' × ');
 
+const objects = (n) => `${n} object${n === 1 ? '' : 's'}`;
+
 // What the last run's auto ROI held, for the rig panel: {text, level}, or null (a ROI given,
-// no run). The library says where the region came from (`roi.source`).
+// no run). The library says where the region came from (`roi.source`): around objects of the
+// target's shape found standing in the reference's scans (`found`), which the reconstruction
+// then fits or not, or the clouds' overlap.
 export function autoRoiFound(r, context) {
   if (!r || !context?.roiAuto) return null;
   const fits = r.reconstruction.fits.length;
-  if (r.roi.source === 'targets') {
+  const draw = 'Draw the ROI around the targets (untick auto, drag the handles) or set the target to none.';
+  if (r.roi.source === 'targets' && !noTarget(r)) {
     return { level: 'good', text: `Last run: ${fits === 1 ? 'a target' : `${fits} targets`} found; the ROI around them, ${size(r.roi)} m, is drawn grey in the view.` };
   }
+  if (r.roi.source === 'targets') {
+    return { level: 'failed', text: `Last run: the ROI was put around ${objects(r.roi.found)} of the target's size standing in the reference's scans, ${size(r.roi)} m (grey in the view), but no ${context.target} stood out of the reconstruction. ${draw}` };
+  }
   if (context.target !== 'none' && noTarget(r)) {
-    return { level: 'failed', text: `Last run: no ${context.target} found, so the ROI was the clouds' whole overlap, ${size(r.roi)} m (grey in the view). Draw the ROI around the targets (untick auto, drag the handles) or set the target to none.` };
+    return { level: 'failed', text: `Last run: no ${context.target} found, so the ROI was the clouds' whole overlap, ${size(r.roi)} m (grey in the view). ${draw}` };
   }
   return { level: 'good', text: `Last run: the sensors' clouds overlap in ${size(r.roi)} m, the ROI drawn grey in the view.` };
 }
