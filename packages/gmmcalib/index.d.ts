@@ -148,6 +148,8 @@ export interface ShapeFit {
   extents: Vec3;
   centre: Vec3;
   rotation: Vec3;
+  /** Share of the fitted components' weight within 10 % of the size from the surface. */
+  inlierShare: number;
   weight: number;
 }
 

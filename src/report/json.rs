@@ -121,7 +121,7 @@ pub struct ReconstructionReport {
     pub sigmas: Vec<f64>,
     pub priors: Vec<f64>,
     /// The target's shape fitted to each target off the ground, largest first.
-    pub fits: Vec<FitReport>,
+    pub fits: Vec<crate::targets::ShapeFit>,
     /// Where a CAD-model target was found in the reference's data before registration, best
     /// first (empty for the other targets).
     pub placements: Vec<PlacementReport>,
@@ -138,24 +138,6 @@ pub struct PlacementReport {
     pub points: usize,
     pub inliers: f64,
     pub rms: f64,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct FitReport {
-    /// `cube`, `box`, `sphere` or `mesh`: the shape fitted.
-    pub shape: &'static str,
-    /// RMS distance (m) of the target's means from the fitted shape.
-    pub rms: f64,
-    /// Fitted size (m): the cube's edge, the box's largest edge or the sphere's diameter.
-    pub size: f64,
-    /// Fitted extents (m) along the shape's axes: the box's edges, else the size thrice.
-    pub extents: [f64; 3],
-    /// Centre (m), vehicle frame.
-    pub centre: [f64; 3],
-    /// Orientation as a rotation vector (rad), vehicle frame.
-    pub rotation: [f64; 3],
-    /// Share of the mixture's weight off the ground that this target holds.
-    pub weight: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -195,19 +177,7 @@ impl From<&Calibration> for Report {
                 means: t.means.iter().flatten().copied().collect(),
                 sigmas: t.sigmas.clone(),
                 priors: t.priors.clone(),
-                fits: t
-                    .fits
-                    .iter()
-                    .map(|f| FitReport {
-                        shape: f.shape,
-                        rms: f.rms,
-                        size: f.size,
-                        extents: f.extents,
-                        centre: f.centre,
-                        rotation: f.rotation,
-                        weight: f.weight,
-                    })
-                    .collect(),
+                fits: t.fits.iter().copied().collect(),
                 placements: t
                     .placements
                     .iter()

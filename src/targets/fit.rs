@@ -12,7 +12,9 @@ use super::Target;
 use super::place::{ModelCloud, PlaceSettings};
 
 /// The fitted shape.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Serialized as it is (camelCase) in the result's JSON.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "camelCase")]
 pub struct ShapeFit {
     /// The shape fitted: `cube` or `sphere` ([`Target::kind`]).
     pub shape: &'static str,
