@@ -177,7 +177,7 @@ impl From<&Calibration> for Report {
                 means: t.means.iter().flatten().copied().collect(),
                 sigmas: t.sigmas.clone(),
                 priors: t.priors.clone(),
-                fits: t.fits.iter().copied().collect(),
+                fits: t.fits.to_vec(),
                 placements: t
                     .placements
                     .iter()
