@@ -321,14 +321,16 @@ fn frame_pairs_recorded_in_any_order_calibrate_alike() {
 }
 
 /// Without a ROI, a sensor whose start overlaps no other's scans (its nominal 300 m off, the
-/// global stage off) is an error that says so and what to do, not "no points in the ROI" the
-/// user never gave.
+/// global stage off) is left out: the others are calibrated, and it is `failed`, its nominal
+/// kept, with what to do. With only the reference beside it, the run cannot go on: an error
+/// that says what to do.
 #[test]
-fn a_sensor_outside_the_overlap_found_is_named_with_what_to_do() {
+fn a_sensor_outside_the_overlap_found_is_left_out_and_named_with_what_to_do() {
     use gmmcalib::twin::{Miscalibration, Model, Preset, Twin};
     let twin = Twin::new(&Model::RayCast(Preset::paper_roof()), 1, 1, &Miscalibration::default());
     let mut rig = twin.rig();
     rig.roi = None;
+    assert_eq!(rig.sensors().len(), 3);
     let far = rig.nominal[2].0.clone();
     rig.nominal[2].1.translation.vector.x += 300.0;
     let settings = Settings {
@@ -336,9 +338,36 @@ fn a_sensor_outside_the_overlap_found_is_named_with_what_to_do() {
         target: gmmcalib::targets::Target::None,
         ..Settings::default()
     };
-    let error = calib::calibrate(&rig, &settings, |_| Control::Continue).err();
-    assert_eq!(error, Some(CalibError::OutsideOverlap(far.clone())));
-    let said = error.unwrap().to_string();
-    assert!(said.contains(&format!("sensor '{far}' has no usable points in the ROI")), "{said}");
+    let mut seen = Vec::new();
+    let c = calib::calibrate(&rig, &settings, |p| {
+        seen.push(p.corrections.len());
+        Control::Continue
+    })
+    .expect("the others calibrated");
+    assert!(seen.iter().all(|&n| n == 3), "progress has a correction per sensor: {seen:?}");
+    let names: Vec<&str> = c.sensors.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, rig.sensors(), "every sensor, in the rig's order");
+    let left_out = c.sensors.iter().find(|s| s.name == far).expect("the far sensor");
+    assert_eq!(left_out.extrinsic, rig.nominal[2].1, "its nominal kept");
+    assert_eq!(c.verdict.level, calib::Level::Failed);
+    let verdict = c.verdict.sensors.iter().find(|v| v.sensor == far).expect("its verdict");
+    assert_eq!(verdict.level, calib::Level::Failed);
+    assert_eq!(verdict.reasons[0].kind, calib::ReasonKind::OutsideOverlap);
+    let said = verdict.reasons[0].kind.to_string();
     assert!(said.contains("closer nominal"), "{said}");
+    for s in c.sensors.iter().filter(|s| s.name != far) {
+        let v = c.verdict.sensors.iter().find(|v| v.sensor == s.name).expect("a verdict");
+        assert_ne!(v.level, calib::Level::Failed, "{}: {v:?}", s.name);
+        let truth = twin.truth.iter().find(|(n, _)| *n == s.name).expect("its truth").1;
+        let e = gmmcalib::eval::transform_error(&s.extrinsic, &truth);
+        let (angle, distance) =
+            (e.rpy.into_iter().fold(0.0, f64::max), e.xyz.into_iter().fold(0.0, f64::max));
+        assert!(angle < 0.2f64.to_radians() && distance < 0.02, "{}: {e:?}", s.name);
+    }
+
+    // Two sensors: nothing left to calibrate without it, and nothing the two share.
+    rig.scans.retain(|v| v.sensor != rig.nominal[1].0);
+    let error = calib::calibrate(&rig, &settings, |_| Control::Continue).err();
+    assert_eq!(error, Some(CalibError::NoOverlap));
+    assert!(error.unwrap().to_string().contains("give a ROI, or nominals that place the sensors"));
 }
