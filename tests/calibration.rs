@@ -352,7 +352,7 @@ fn a_sensor_outside_the_overlap_found_is_left_out_and_named_with_what_to_do() {
     assert_eq!(c.verdict.level, calib::Level::Failed);
     let verdict = c.verdict.sensors.iter().find(|v| v.sensor == far).expect("its verdict");
     assert_eq!(verdict.level, calib::Level::Failed);
-    assert_eq!(verdict.reasons[0].kind, calib::ReasonKind::OutsideOverlap);
+    assert_eq!(verdict.reasons[0].kind, calib::ReasonKind::OutsideRegion { given: false });
     let said = verdict.reasons[0].kind.to_string();
     assert!(said.contains("closer nominal"), "{said}");
     for s in c.sensors.iter().filter(|s| s.name != far) {

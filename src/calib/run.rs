@@ -551,7 +551,8 @@ impl<'r> Run<'r> {
                 precision: None,
             };
             c.sensors.insert((*s).min(c.sensors.len()), result);
-            let reason = Reason { level: Level::Failed, kind: ReasonKind::OutsideOverlap };
+            let kind = ReasonKind::OutsideRegion { given: self.rig.roi.is_some() };
+            let reason = Reason { level: Level::Failed, kind };
             let verdict = SensorVerdict {
                 sensor: name,
                 level: Level::Failed,
@@ -586,10 +587,12 @@ impl<'r> Run<'r> {
         let views = loop {
             let (rig, kept) = self.without_left_out(&alignments);
             match Views::with_global(&rig, &settings, kept) {
-                // A sensor that shares nothing with the others at its start is left out, and
-                // the others calibrated; its verdict says so (never the reference, and two
+                // A sensor none of whose points lie in the region at its start is left out,
+                // and the others calibrated; its verdict says so (never the reference, and two
                 // sensors stay).
-                Err(CalibError::OutsideOverlap(name)) if self.can_leave_out(&name) => {
+                Err(CalibError::OutsideOverlap(name) | CalibError::NoPointsInRoi(name))
+                    if self.can_leave_out(&name) =>
+                {
                     let s = self.rig.sensors().iter().position(|n| *n == name);
                     let s = s.expect("a sensor of the rig");
                     self.left_out.push((s, alignments.get(s).cloned()));

@@ -147,9 +147,9 @@ pub enum ReasonKind {
     /// No target stands out of the reconstruction.
     NoTarget,
     /// At its start (its nominal, or the global stage's placement) none of the sensor's
-    /// points lie in the region found where the clouds overlap: the others were calibrated
-    /// without it, and its nominal is kept.
-    OutsideOverlap,
+    /// points lie in the region: the user's (`given`), or the one found where the clouds
+    /// overlap. The others were calibrated without it, and its nominal is kept.
+    OutsideRegion { given: bool },
     /// Registered alone onto `other` (or it onto this one), from the result, the pair moved
     /// `angle` (rad) / `distance` (m): beyond what two registrations agree within and beyond
     /// both sensors' precision. The result does not hold together where the two overlap.

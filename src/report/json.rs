@@ -418,7 +418,10 @@ impl From<&Reason> for ReasonReport {
                 ("rms", Number(fit.rms)),
                 ("fitsBadly", Number(f64::from(u8::from(ReasonKind::fits_badly(target, fit))))),
             ],
-            ReasonKind::NoTarget | ReasonKind::OutsideOverlap => vec![],
+            ReasonKind::NoTarget => vec![],
+            ReasonKind::OutsideRegion { given } => {
+                vec![("given", Number(f64::from(u8::from(*given))))]
+            }
             ReasonKind::Methods { agree, differ } => vec![
                 ("agree", Names(agree.clone())),
                 ("differ", Names(differ.iter().map(|(m, _, _)| *m).collect())),

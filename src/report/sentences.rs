@@ -333,11 +333,12 @@ impl fmt::Display for ReasonKind {
                 )
             }
             ReasonKind::NoTarget => f.write_str("no target stands out of the reconstruction"),
-            ReasonKind::OutsideOverlap => f.write_str(
+            ReasonKind::OutsideRegion { given } => write!(
+                f,
                 "at its start (its nominal, or the global alignment's placement of it) none of \
-                 its points lie where the other sensors' clouds overlap: the others were \
-                 calibrated without it and its nominal is kept; give a closer nominal, or a ROI \
-                 around what it and the reference both see",
+                 its points lie {}: the others were calibrated without it and its nominal is \
+                 kept; give a closer nominal, or a ROI around what it and the reference both see",
+                if *given { "in the ROI" } else { "where the other sensors' clouds overlap" }
             ),
             ReasonKind::Methods { agree, differ } => {
                 let agree = if agree.is_empty() { "none".into() } else { agree.join(", ") };
@@ -380,7 +381,7 @@ impl ReasonKind {
             ReasonKind::NotConverged { .. } => "notConverged",
             ReasonKind::TargetFit { .. } => "targetFit",
             ReasonKind::NoTarget => "noTarget",
-            ReasonKind::OutsideOverlap => "outsideOverlap",
+            ReasonKind::OutsideRegion { .. } => "outsideRegion",
             ReasonKind::Methods { .. } => "methods",
         }
     }
