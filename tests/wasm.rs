@@ -109,17 +109,22 @@ fn bad_input_throws_errors_that_name_the_problem() {
 #[wasm_bindgen_test]
 fn progress_fires_every_iteration_and_can_cancel() {
     let rig = js("rig.iterations = 12; rig.method = 'jrmpc'; return rig;", &small_rig());
-    let counter = js("const calls = []; return calls;", &JsValue::NULL);
+    // EM's iterations, and the stages as they begin: the run's own steps first and last.
+    let seen = js("return { calls: [], stages: [] };", &JsValue::NULL);
     let on_progress = Function::new_with_args(
-        "calls",
-        "return (p) => { calls.push(p.iteration); return true; };",
+        "seen",
+        "return (p) => { if (p.stage === 'jrmpc') seen.calls.push(p.iteration); \
+         if (seen.stages.at(-1) !== p.stage) seen.stages.push(p.stage); return true; };",
     )
-    .call1(&JsValue::NULL, &counter)
+    .call1(&JsValue::NULL, &seen)
     .unwrap()
     .unchecked_into::<Function>();
     let result = calibrate(rig.clone(), Some(on_progress)).map_err(JsValue::from).unwrap();
     let iterations = Reflect::get(&result, &"iterations".into()).unwrap().as_f64().unwrap();
-    let calls: Vec<f64> = Array::from(&counter).iter().map(|v| v.as_f64().unwrap()).collect();
+    let field = |name: &str| Array::from(&Reflect::get(&seen, &name.into()).unwrap());
+    let stages: Vec<String> = field("stages").iter().map(|v| v.as_string().unwrap()).collect();
+    assert_eq!(stages, ["views", "jrmpc", "finish"], "plain jrmpc on the small rig");
+    let calls: Vec<f64> = field("calls").iter().map(|v| v.as_f64().unwrap()).collect();
     assert_eq!(calls.len() as f64, iterations);
     assert_eq!(calls, (1..=calls.len()).map(|i| i as f64).collect::<Vec<_>>());
 
