@@ -47,6 +47,14 @@ impl Rig {
         self.nominal.iter().find(|(n, _)| n == sensor).map_or_else(Pose::identity, |(_, p)| *p)
     }
 
+    /// The reference's name: the rig's, else the first scan's sensor (empty without scans).
+    pub fn reference_name(&self) -> String {
+        self.reference
+            .clone()
+            .or_else(|| self.scans.first().map(|v| v.sensor.clone()))
+            .unwrap_or_default()
+    }
+
     /// The sensors in result order and the reference's index among them, after checking the
     /// ROI, the nominals, the points and the reference.
     pub(super) fn checked(&self) -> Result<(Vec<String>, usize), CalibError> {
@@ -67,7 +75,7 @@ impl Rig {
         if sensors.len() < 2 {
             return Err(CalibError::TooFewSensors(sensors.len()));
         }
-        let reference = self.reference.clone().unwrap_or_else(|| sensors[0].clone());
+        let reference = self.reference_name();
         let Some(r) = sensors.iter().position(|n| *n == reference) else {
             return Err(CalibError::UnknownReference(reference));
         };

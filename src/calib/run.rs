@@ -9,11 +9,11 @@ use std::borrow::Cow;
 
 use super::finish::finish;
 use super::global::{GlobalAlignment, GlobalSettings, GlobalStage};
+use super::left_out::LeftOut;
 use super::pairs::FramePairs;
 use super::progress::{Progress, Stage};
-use super::result::{Calibration, SensorResult, Spread};
+use super::result::Calibration;
 use super::settings::{Method, Settings, Stages};
-use super::verdict::{Level, Reason, ReasonKind, SensorVerdict};
 use super::views::Views;
 use super::{CalibError, Rig};
 use crate::jrmpc::{CentredViews, Control, Em, Registration, Shards};
@@ -34,9 +34,8 @@ pub struct Run<'r> {
     pending: Option<Pending>,
     /// The methods that asked for a global stage and found nothing to align.
     nothing_to_align: Vec<usize>,
-    /// The sensors the method under way calibrates without (indices among the rig's, rising),
-    /// each with its global alignment: at their starts they share nothing with the others.
-    left_out: Vec<(usize, Option<GlobalAlignment>)>,
+    /// The sensors the method under way calibrates without.
+    left_out: LeftOut,
     /// The last global stage's settings and alignments: a later method asking for the same
     /// stage (`gmm`, then `cad`) takes them instead of aligning again.
     aligned: Option<(GlobalSettings, Vec<GlobalAlignment>)>,
@@ -82,7 +81,7 @@ impl<'r> Run<'r> {
             aligning: None,
             pending: None,
             nothing_to_align: Vec::new(),
-            left_out: Vec::new(),
+            left_out: LeftOut::default(),
             aligned: None,
             outcomes: Vec::with_capacity(methods.len()),
             cancelled: false,
@@ -187,7 +186,7 @@ impl<'r> Run<'r> {
         let Some((_, views, State::Pairs(_, pairs))) = &mut self.current else { return };
         let left_out = &self.left_out;
         pairs.run(&views.clouds(), which, threads, &mut |p: &Progress| {
-            let corrections = with_left_out(left_out, views.levelled(p.corrections));
+            let corrections = left_out.corrections(views.levelled(p.corrections));
             progress(&Progress { corrections: &corrections, ..*p })
         });
     }
@@ -202,7 +201,7 @@ impl<'r> Run<'r> {
     ) -> Option<R> {
         let Some((_, views, State::Pairs(_, pairs))) = &mut self.current else { return None };
         pairs.record(pair, outcome);
-        let corrections = with_left_out(&self.left_out, views.levelled(&pairs.running()));
+        let corrections = self.left_out.corrections(views.levelled(&pairs.running()));
         Some(then(&pairs.progress(&corrections)))
     }
 
@@ -211,7 +210,7 @@ impl<'r> Run<'r> {
     pub fn register_cad(&mut self, progress: &mut impl FnMut(&Progress) -> Control) {
         let Some((_, views, State::Cad(outcome))) = &mut self.current else { return };
         let max_iterations = views.stages().cad.as_ref().map_or(0, |c| c.max_iterations);
-        let sensors = views.sensors().len() + self.left_out.len();
+        let sensors = self.rig.sensors().len();
         let reg = views.register_cad(|it| {
             let corrections = vec![Pose::identity(); sensors];
             progress(&Progress {
@@ -250,7 +249,7 @@ impl<'r> Run<'r> {
             Stage::Jrmpc => self.em_progress(then),
             Stage::FramePairs => {
                 let Some((_, views, State::Pairs(_, pairs))) = &self.current else { return None };
-                let corrections = with_left_out(&self.left_out, views.levelled(&pairs.running()));
+                let corrections = self.left_out.corrections(views.levelled(&pairs.running()));
                 Some(then(&pairs.progress(&corrections)))
             }
             Stage::Cad => {
@@ -299,7 +298,7 @@ impl<'r> Run<'r> {
     pub fn em_progress<R>(&self, then: impl FnOnce(&Progress) -> R) -> Option<R> {
         let Some((_, views, State::Em(em, _))) = &self.current else { return None };
         let latest = em.latest();
-        let corrections = with_left_out(&self.left_out, views.jrmpc_corrections(&latest.poses));
+        let corrections = self.left_out.corrections(views.jrmpc_corrections(&latest.poses));
         Some(then(&Progress {
             stage: Stage::Jrmpc,
             iteration: latest.iteration,
@@ -317,7 +316,7 @@ impl<'r> Run<'r> {
             Some(Pending::Views(index, alignments)) => return self.begin(index, alignments),
             Some(Pending::Finish(index, f)) => {
                 let outcome = finish(f.views, f.registration, f.pairs);
-                let outcome = outcome.map(|c| self.put_back_left_out(c));
+                let outcome = outcome.map(|c| self.left_out.put_back(&self.rig, c));
                 return self.done(index, outcome);
             }
             None => {}
@@ -364,7 +363,7 @@ impl<'r> Run<'r> {
         pairs: Option<FramePairs>,
         corrections: Vec<Pose>,
     ) {
-        let corrections = with_left_out(&self.left_out, corrections);
+        let corrections = self.left_out.corrections(corrections);
         let f = Finishing { views, registration, pairs, corrections };
         self.pending = Some(Pending::Finish(index, Box::new(f)));
     }
@@ -503,73 +502,6 @@ impl<'r> Run<'r> {
         self.pending = Some(Pending::Views(index, alignments));
     }
 
-    /// The rig less the sensors left out, and the global stage's alignments less theirs.
-    fn without_left_out(
-        &self,
-        alignments: &[GlobalAlignment],
-    ) -> (Cow<'_, Rig>, Vec<GlobalAlignment>) {
-        if self.left_out.is_empty() {
-            return (Cow::Borrowed(&*self.rig), alignments.to_vec());
-        }
-        let sensors = self.rig.sensors();
-        let out = |name: &str| self.left_out.iter().any(|(s, _)| sensors[*s] == name);
-        let rig = Rig {
-            scans: self.rig.scans.iter().filter(|v| !out(&v.sensor)).cloned().collect(),
-            nominal: self.rig.nominal.clone(),
-            roi: self.rig.roi,
-            reference: Some(self.reference()),
-        };
-        let kept = alignments.iter().enumerate().filter(|(s, _)| !out(&sensors[*s]));
-        (Cow::Owned(rig), kept.map(|(_, a)| a.clone()).collect())
-    }
-
-    /// The reference's name: the rig's, else its first sensor's.
-    fn reference(&self) -> String {
-        self.rig.reference.clone().unwrap_or_else(|| self.rig.sensors()[0].clone())
-    }
-
-    /// Whether sensor `name` may be left out: not the reference, and two sensors stay.
-    fn can_leave_out(&self, name: &str) -> bool {
-        name != self.reference() && self.rig.sensors().len() - self.left_out.len() > 2
-    }
-
-    /// `c`, calibrated without the sensors left out, with each of them back in its place: its
-    /// nominal kept, and failed.
-    fn put_back_left_out(&self, mut c: Calibration) -> Calibration {
-        let sensors = self.rig.sensors();
-        let reference = c.sensors.iter().find(|s| s.name == c.reference).map(|s| s.extrinsic);
-        for (s, alignment) in &self.left_out {
-            let name = sensors[*s].clone();
-            let nominal = self.rig.nominal_of(&name);
-            let relative = reference.map_or(nominal, |r| r.inverse() * nominal);
-            let result = SensorResult {
-                name: name.clone(),
-                correction: Pose::identity(),
-                extrinsic: nominal,
-                relative,
-                spread: Spread::default(),
-                precision: None,
-            };
-            c.sensors.insert((*s).min(c.sensors.len()), result);
-            let kind = ReasonKind::OutsideRegion { given: self.rig.roi.is_some() };
-            let reason = Reason { level: Level::Failed, kind };
-            let verdict = SensorVerdict {
-                sensor: name,
-                level: Level::Failed,
-                reasons: vec![reason],
-                evidence: None,
-            };
-            c.verdict.sensors.insert((*s).min(c.verdict.sensors.len()), verdict);
-            if let Some(a) = alignment.as_ref().filter(|_| !c.global.is_empty()) {
-                c.global.insert((*s).min(c.global.len()), a.clone());
-            }
-        }
-        if !self.left_out.is_empty() {
-            c.verdict.level = Level::Failed;
-        }
-        c
-    }
-
     /// The global stage's alignments, kept for later methods too.
     fn keep_alignments(&mut self, stage: GlobalStage) -> Vec<GlobalAlignment> {
         let settings = stage.settings().clone();
@@ -583,20 +515,16 @@ impl<'r> Run<'r> {
     fn begin(&mut self, index: usize, alignments: Vec<GlobalAlignment>) {
         let method = self.methods[index];
         let settings = Settings { method, ..self.settings.clone() };
-        self.left_out.clear();
+        self.left_out = LeftOut::default();
         let views = loop {
-            let (rig, kept) = self.without_left_out(&alignments);
+            let (rig, kept) = self.left_out.rig(&self.rig, &alignments);
             match Views::with_global(&rig, &settings, kept) {
                 // A sensor none of whose points lie in the region at its start is left out,
-                // and the others calibrated; its verdict says so (never the reference, and two
-                // sensors stay).
+                // and the others calibrated; its verdict says so.
                 Err(CalibError::OutsideOverlap(name) | CalibError::NoPointsInRoi(name))
-                    if self.can_leave_out(&name) =>
+                    if self.left_out.may_leave(&self.rig, &name) =>
                 {
-                    let s = self.rig.sensors().iter().position(|n| *n == name);
-                    let s = s.expect("a sensor of the rig");
-                    self.left_out.push((s, alignments.get(s).cloned()));
-                    self.left_out.sort_by_key(|(s, _)| *s);
+                    self.left_out.leave(&self.rig, &name, &alignments)
                 }
                 views => break views,
             }
@@ -625,17 +553,4 @@ impl<'r> Run<'r> {
             Err(e) => self.done(index, Err(e)),
         }
     }
-}
-
-/// `corrections` of the sensors calibrated, with identity put in for each sensor left out: one
-/// per sensor of the rig, as progress reports them.
-fn with_left_out(
-    left_out: &[(usize, Option<GlobalAlignment>)],
-    corrections: Vec<Pose>,
-) -> Vec<Pose> {
-    let mut all = corrections;
-    for (s, _) in left_out {
-        all.insert((*s).min(all.len()), Pose::identity());
-    }
-    all
 }
