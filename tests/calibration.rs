@@ -2,10 +2,8 @@
 
 mod common;
 
-use std::borrow::Cow;
-
 use common::{RigSpec, for_seeds, generate, median, rig_of, run, worst_error};
-use gmmcalib::calib::{self, CalibError, Settings, Stage, Stages};
+use gmmcalib::calib::{self, CalibError, Settings, Stages};
 use gmmcalib::jrmpc::Control;
 
 /// Full views: every face of the cube in every view, 1 cm range noise, each non-reference
@@ -240,84 +238,6 @@ fn threads_change_nothing_but_the_time() {
     assert_eq!(reasons(&one.plane_adjustment), reasons(&three.plane_adjustment));
     assert!(one_seen.len() > 100, "JRMPC's iterations and every frame pair report progress");
     assert_eq!(one_seen, three_seen);
-}
-
-/// Every method's run reports its stages in the order its plan gives (what the page shares its
-/// progress bar by), each as it begins: the run's own steps (the views, the result) too.
-#[test]
-fn a_run_reports_the_stages_its_plan_names_in_order() {
-    use gmmcalib::twin::{Miscalibration, Model, Preset, Twin};
-    // A scene with a ground, so that `gmm`'s global stage has sensors to align.
-    let twin = Twin::new(&Model::RayCast(Preset::paper_roof()), 1, 2, &Miscalibration::default());
-    let rig = twin.rig();
-    let sensors = rig.sensors().len();
-    for method in ["gmm", "jrmpc", "gicp"] {
-        let settings = Settings { method: method.parse().unwrap(), ..Settings::default() };
-        let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[settings.method]);
-        let plan = run.plan(0);
-        assert_eq!(plan, Stages::of(&settings).plan());
-        let mut seen: Vec<Stage> = Vec::new();
-        run.drive(1, &mut |_, p| {
-            if seen.last() != Some(&p.stage) {
-                seen.push(p.stage);
-            }
-            assert_eq!(p.corrections.len(), sensors, "{method}: a correction per sensor");
-            Control::Continue
-        });
-        assert_eq!(seen, plan, "{method}");
-        assert!(run.into_outcomes()[0].1.is_ok(), "{method}");
-    }
-    let gmm = Stages::of(&Settings::default()).plan();
-    assert_eq!(gmm, [Stage::Global, Stage::Views, Stage::Jrmpc, Stage::FramePairs, Stage::Finish]);
-    let none = Settings { target: gmmcalib::targets::Target::None, ..Settings::default() };
-    assert_eq!(
-        Stages::of(&none).plan(),
-        [Stage::Global, Stage::Views, Stage::FramePairs, Stage::Finish],
-        "gmm runs no JRMPC on a whole scene"
-    );
-}
-
-/// Frame pairs registered elsewhere (the page's pool workers) and recorded in any order give
-/// the calibration and the verdict `calibrate` gives.
-#[test]
-fn frame_pairs_recorded_in_any_order_calibrate_alike() {
-    let spec = RigSpec { sensors: 3, frames: 4, seed: 6, ..RigSpec::default() };
-    let rig = rig_of(&generate(&spec));
-    let settings = Settings { method: "gicp".parse().unwrap(), ..Settings::default() };
-    let direct = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibration");
-
-    let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[settings.method]);
-    assert_eq!(run.stage(), Some(Stage::Views), "the run prepares the views first");
-    run.advance();
-    assert_eq!(run.stage(), Some(Stage::FramePairs), "gicp registers frame pairs");
-    let clouds: Vec<Vec<[f32; 3]>> =
-        run.views().expect("views").clouds().iter().map(|c| c.to_vec()).collect();
-    let pairs = run.frame_pairs().expect("frame pairs");
-    let jobs = pairs.pairs().to_vec();
-    assert_eq!(jobs.len(), 8, "two sensors against the reference, four frames each");
-    let icp = pairs.icp().clone();
-    for (j, job) in jobs.iter().enumerate().rev() {
-        let target = calib::target(&clouds[job.reference_view], &icp, false).expect("target");
-        let pose = calib::align(&target, &clouds[job.view], &job.start, &icp);
-        pairs.record(j, pose.map_err(|e| e.to_string()));
-    }
-    // A second outcome for a recorded pair, or one for no pair, changes nothing.
-    pairs.record(0, Err("late".into()));
-    pairs.record(99, Err("none".into()));
-    assert_eq!(pairs.done(), jobs.len());
-    run.advance();
-    assert_eq!(run.stage(), Some(Stage::Finish), "then makes the result");
-    run.advance();
-    assert_eq!(run.stage(), None);
-    let (_, recorded) = run.into_outcomes().pop().expect("one outcome");
-    let recorded = recorded.expect("calibration");
-    for (a, b) in direct.sensors.iter().zip(&recorded.sensors) {
-        assert_eq!((a.name.as_str(), a.correction), (b.name.as_str(), b.correction));
-    }
-    assert_eq!(direct.skipped.len(), recorded.skipped.len());
-    // The verdict's surfaces came from the frame pairs' targets there and were searched again
-    // here: the same evidence, bit for bit.
-    assert_eq!(direct.verdict, recorded.verdict);
 }
 
 /// Without a ROI, a sensor whose start overlaps no other's scans (its nominal 300 m off, the

@@ -68,7 +68,12 @@ fn rig_as_read(rig: &Twin) -> Rig {
             (name.clone(), pose_from_xyz_rpy(xyz, rpy))
         })
         .collect();
-    Rig { scans, nominal, roi: Some(rig.roi), reference: None }
+    Rig {
+        scans,
+        nominal,
+        roi: Some(rig.roi),
+        reference: rig.nominal.first().map(|(n, _)| n.clone()),
+    }
 }
 
 fn gmmcalib(dir: &Path, extra: &[&str]) -> Output {

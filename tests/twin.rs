@@ -117,7 +117,7 @@ fn rig_with_error(frames: usize, seed: u64, error: Pose) -> (Rig, Pose) {
             (preset.sensors[1].name.clone(), nominal),
         ],
         roi: Some(preset.roi),
-        reference: None,
+        reference: Some(preset.sensors[0].name.clone()),
     };
     (rig, nominal)
 }

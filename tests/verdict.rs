@@ -190,7 +190,7 @@ fn cases() -> Vec<Case> {
         nominal: nominal.collect(),
         scans,
         roi: Some(Aabb::new([8.0, -4.0, -3.0], [13.0, 4.0, 1.0])),
-        reference: None,
+        reference: Some("scan_1".into()),
     };
     cases.push(Case {
         name: "frames of one sensor as sensors".into(),

@@ -64,7 +64,7 @@ export interface CalibrationInput extends SettingsInput {
   nominal: Record<string, XyzRpy>;
   /** Vehicle frame, m, inclusive; default: where the sensors' clouds overlap. */
   roi?: { min: Vec3; max: Vec3 };
-  /** Default: the sensor of the first scan. */
+  /** Default: the sensor with the most points. */
   reference?: string;
   targetMesh?: { name: string; bytes: Uint8Array };
   /** The former name of `global`. */

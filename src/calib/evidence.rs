@@ -30,7 +30,7 @@ const MIN_NOISE: f64 = 0.003;
 /// The noise (m) a point's agreement is judged at, at least: a LiDAR's range noise (1-3 cm)
 /// beside the other's. A dense sensor's neighbourhoods are thinner than that, and a sparse
 /// 32-beam scan's rings show no thickness across at all; judged by their own thickness, a right
-/// calibration of a sparse pair read 28 % agreeing (issue 37).
+/// calibration of a sparse pair read 28 % agreeing.
 const AGREEMENT_NOISE: f64 = 0.01;
 /// Edge (m) of the blocks whose residuals the observability takes as one (cluster-robust):
 /// neighbouring points share what the surface model misses.

@@ -1,4 +1,4 @@
-//! Global initial alignment (issue 19): from a tape-measure nominal (any yaw, tilts of tens of
+//! Global initial alignment: from a tape-measure nominal (any yaw, tilts of tens of
 //! degrees, metres off) to a start the local pipeline's basin holds.
 //!
 //! Per non-reference sensor, on its whole scan (all frames):

@@ -127,8 +127,8 @@ pub fn is_open(
 /// lands the scans better than the result's, is one draw of the difference between two
 /// sensors' errors, so per axis the two one-sigmas together must reach it. Each is raised to at
 /// least the gap over root two; loops that close or slide (landing no better) change nothing,
-/// so a rig whose loops close keeps the precision its scans give (issue 37: Hesai's QTs claimed
-/// 0.07 deg / 1 cm where their loops open by 0.8 deg / 5-16 cm).
+/// so a rig whose loops close keeps the precision its scans give (Hesai's QTs claimed 0.07 deg /
+/// 1 cm where their loops open by 0.8 deg / 5-16 cm).
 pub(super) fn widen(precision: &mut [Option<super::Precision>], gaps: &[LoopGap]) {
     for gap in gaps.iter().filter(|g| g.better) {
         for s in [gap.a, gap.b] {

@@ -25,7 +25,8 @@ pub struct Rig {
     /// Region of interest in the vehicle frame (m), bounds inclusive; `None`: where the
     /// sensors' clouds overlap (`region`).
     pub roi: Option<Aabb>,
-    /// The sensor the others are calibrated to; default: the sensor of the first scan.
+    /// The sensor the others are calibrated to; default: the sensor with the most points
+    /// (`reference_name`).
     pub reference: Option<String>,
 }
 
@@ -47,12 +48,26 @@ impl Rig {
         self.nominal.iter().find(|(n, _)| n == sensor).map_or_else(Pose::identity, |(_, p)| *p)
     }
 
-    /// The reference's name: the rig's, else the first scan's sensor (empty without scans).
+    /// The reference's name: the rig's, else the sensor with the most points over all its
+    /// scans (the first such in `sensors` order; empty without scans). The densest sensor is
+    /// the one that sees most of the scene and so the one the others overlap; the first named
+    /// could be a side unit that sees the ground only. The page's panel applies the same rule
+    /// (`www/src/state.js`, `mostPoints`) before any worker runs.
     pub fn reference_name(&self) -> String {
-        self.reference
-            .clone()
-            .or_else(|| self.scans.first().map(|v| v.sensor.clone()))
-            .unwrap_or_default()
+        if let Some(name) = &self.reference {
+            return name.clone();
+        }
+        let count = |name: &str| -> usize {
+            self.scans.iter().filter(|v| v.sensor == name).map(|v| v.points.len()).sum()
+        };
+        let mut best: Option<(String, usize)> = None;
+        for name in self.sensors() {
+            let n = count(&name);
+            if best.as_ref().is_none_or(|(_, most)| n > *most) {
+                best = Some((name, n));
+            }
+        }
+        best.map(|(name, _)| name).unwrap_or_default()
     }
 
     /// The sensors in result order and the reference's index among them, after checking the
@@ -96,4 +111,33 @@ impl Rig {
 /// scans give the same result whatever order the files came in.
 pub(super) fn sensor_seed(seed: u64, sensors: &[String], s: usize) -> u64 {
     seed.wrapping_add(sensors.iter().filter(|n| **n < sensors[s]).count() as u64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rig(counts: &[(&str, usize)], reference: Option<&str>) -> Rig {
+        let scans = counts
+            .iter()
+            .flat_map(|(sensor, n)| {
+                // Two frames each, so that the count is over all of a sensor's scans.
+                ["1", "2"].map(|frame| Scan {
+                    sensor: sensor.to_string(),
+                    frame: frame.into(),
+                    points: vec![[1.0, 0.0, 0.0]; *n],
+                    source: None,
+                })
+            })
+            .collect();
+        Rig { scans, nominal: Vec::new(), roi: None, reference: reference.map(str::to_string) }
+    }
+
+    #[test]
+    fn the_reference_is_the_one_named_else_the_sensor_with_the_most_points() {
+        assert_eq!(rig(&[("down", 10), ("up", 30), ("side", 20)], None).reference_name(), "up");
+        assert_eq!(rig(&[("b", 10), ("a", 10)], None).reference_name(), "b", "a tie: the first");
+        assert_eq!(rig(&[("down", 10), ("up", 30)], Some("down")).reference_name(), "down");
+        assert_eq!(rig(&[], None).reference_name(), "");
+    }
 }

@@ -17,7 +17,7 @@ use super::select::{GroundAgreement, SensorSelection, Source};
 use crate::targets::{ShapeFit, Target};
 
 /// What `good` promises: within this (rad, m) of the truth. What `check` promises: within
-/// `USABLE`; beyond it a result must read `failed` (issue 37).
+/// `USABLE`; beyond it a result must read `failed`.
 pub const GOOD_WITHIN: (f64, f64) = (0.1 * std::f64::consts::PI / 180.0, 0.01);
 pub const USABLE_WITHIN: (f64, f64) = (1.0 * std::f64::consts::PI / 180.0, 0.1);
 /// Fewest ground patches seen by two sensors to judge their grounds by.

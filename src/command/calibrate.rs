@@ -101,12 +101,13 @@ pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
             names.into_iter().map(|n| (n, crate::Pose::identity())).collect()
         }
     };
-    let reference = a
-        .reference
-        .clone()
-        .or(bag.as_ref().map(|b| b.rig.reference.clone()))
-        .or(config.as_ref().and_then(|c| c.reference.clone()))
-        .or_else(|| scans.first().map(|s| s.sensor.clone()));
+    // A reference the user names (for a recording, a topic: the sensor it makes), else the
+    // config's, else the library's default.
+    let reference = match &bag {
+        Some(b) if a.reference.is_some() => Some(b.rig.reference.clone()),
+        _ => a.reference.clone(),
+    }
+    .or(config.as_ref().and_then(|c| c.reference.clone()));
     let roi = a
         .roi
         .map(|r| crate::Aabb::new([r[0], r[1], r[2]], [r[3], r[4], r[5]]))

@@ -155,9 +155,9 @@ pub struct OrganizedScan {
 
 /// How wrong the non-reference nominals are: each axis drawn uniformly within its bound, as a
 /// mounting error is made: the sensor turned about itself (roll, pitch, yaw about the vehicle's
-/// axes through the sensor) and its position off by the shift, as a tape measure errs. (Before
-/// issue 36 the turn was about the vehicle's origin, which put a sensor 2.4 m from it up to 5 m
-/// away under a half-turn: no tape measure errs so.)
+/// axes through the sensor) and its position off by the shift, as a tape measure errs. A turn
+/// about the vehicle's origin would put a sensor 2.4 m from it up to 5 m away under a
+/// half-turn: no tape measure errs so.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Miscalibration {
     /// Roll, pitch, yaw bounds (rad).
@@ -234,7 +234,9 @@ impl Twin {
                 source: None,
             })
             .collect();
-        Rig { scans, nominal: self.nominal.clone(), roi: Some(self.roi), reference: None }
+        // The twin's truth is relative to its first sensor, which keeps its true mount.
+        let reference = self.nominal.first().map(|(name, _)| name.clone());
+        Rig { scans, nominal: self.nominal.clone(), roi: Some(self.roi), reference }
     }
 
     /// The correction a calibration should find for sensor `i`: `truth * nominal^-1`.

@@ -1,4 +1,4 @@
-// The drift check in the results (issue 24): a stored calibration (our JSON, its tf YAML
+// The drift check in the results: a stored calibration (our JSON, its tf YAML
 // export, or the exported URDF), picked or dropped on the control, compared with the current result
 // by the library (`compareCalibrations`, the same check as `gmmcalib drift`), against fixed
 // limits or K sigma of the combined precision. Per sensor the rotation and translation change,

@@ -353,7 +353,7 @@ async function showResults(results, failures, json) {
 }
 
 // Everything a result shows, in three tasks of a few ms each: on a busy machine a task waits for
-// a core several times as long as it computes, and the page must not stall (issue 7). A result
+// a core several times as long as it computes, and the page must not stall. A result
 // forgotten meanwhile (new files, a new run) stops here.
 async function renderOutcome(results, failures, json) {
   const parent = state.rig.parent;

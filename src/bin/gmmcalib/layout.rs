@@ -78,6 +78,7 @@ impl TwinFiles {
             }));
         }
         let nominal = self.folders.iter().cloned().zip(self.twin.nominal.iter().map(|(_, p)| *p));
-        Rig { scans, nominal: nominal.collect(), roi: Some(self.twin.roi), reference: None }
+        let reference = self.folders.first().cloned();
+        Rig { scans, nominal: nominal.collect(), roi: Some(self.twin.roi), reference }
     }
 }

@@ -122,6 +122,7 @@ fn config_yaml(files: &TwinFiles) -> String {
             list(&values)
         );
     }
+    yaml += &format!("reference: {}\n", files.folders[0]);
     yaml += &format!("min_bound:\n  - [{}]\n", list(&twin.roi.min));
     yaml += &format!("max_bound:\n  - [{}]\n", list(&twin.roi.max));
     yaml

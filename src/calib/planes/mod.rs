@@ -1,4 +1,4 @@
-//! Joint plane adjustment: the last word on `gmm`'s corrections (issue 6).
+//! Joint plane adjustment: the last word on `gmm`'s corrections.
 //!
 //! The per-frame GICP matches each point to a neighbourhood of the reference's; on 0.5 m cubes
 //! many neighbourhoods straddle an edge, and those matches bias the yaw (docs/method.md, "Where the bias
