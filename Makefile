@@ -26,12 +26,15 @@ test: lint test-rust test-wasm test-package test-browser
 lint: setup-rust
 	cargo fmt --check
 	cargo clippy --all-targets -- -D warnings
+	cargo clippy --all-targets --features ts -- -D warnings
 	cargo clippy --lib --target $(WASM_TARGET) -- -D warnings
 	RUSTDOCFLAGS='-D warnings' cargo doc --no-deps --lib
 
 test-rust:
 	# --show-output: the accuracy tests print their error distributions.
 	cargo test -- --show-output
+	# The npm package's result types are what the Rust types declare (ts-rs, feature `ts`).
+	cargo test --features ts --test typescript
 
 test-wasm: setup-rust
 	cargo test --target $(WASM_TARGET)

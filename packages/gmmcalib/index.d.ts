@@ -1,9 +1,13 @@
-// Hand-written types for the gmmcalib package: the shapes of docs/api.md. wasm-bindgen's own
-// declarations type inputs and results as `any`; these say what crosses. Units: m and rad;
-// matrices are 16 numbers, row-major; `T_a_b` maps points from frame b into frame a.
+// The gmmcalib package's types. What the library returns (the calibration's result, the drift
+// check's report) is generated from the Rust types that serialize it: ./result.d.ts (ts-rs,
+// checked by tests/typescript.rs). The inputs and the functions are written here, in the shapes
+// of docs/api.md. wasm-bindgen's own declarations type both as `any`. Units: m and rad; matrices
+// are 16 numbers, row-major; `T_a_b` maps points from frame b into frame a.
 
-/** 16 numbers, a row-major 4x4 rigid transform. */
-export type Matrix4 = number[];
+import type { DriftReport, LimitReport, Matrix4, MethodName, Report, ReconstructionReport } from './result.js';
+
+export type * from './result.js';
+
 export type Vec3 = [number, number, number];
 
 /** A pose as translation (m) and roll, pitch, yaw about the fixed x, y, z axes (rad). */
@@ -11,8 +15,6 @@ export interface XyzRpy {
   xyz: Vec3;
   rpy: Vec3;
 }
-
-export type MethodName = 'gmm' | 'jrmpc' | 'cad' | 'p2p' | 'p2l' | 'gicp';
 
 export type Target =
   | { kind: 'cube'; edge: number }
@@ -97,147 +99,15 @@ export interface Progress {
 /** Return `false` to stop the stage under way. */
 export type OnProgress = (p: Progress) => boolean | void;
 
-/** One sigma: rotation about the vehicle's x, y, z axes (rad) and position (m). */
-export interface Precision {
-  rotation: Vec3;
-  position: Vec3;
-}
-
-export type Level = 'good' | 'check' | 'failed';
-
-export interface Reason {
-  kind: string;
-  level: Level;
-  text: string;
-  values: Record<string, number | string | string[]>;
-}
-
-export interface Verdict {
-  level: Level;
-  reasons: Reason[];
-  sensors: Record<string, { level: Level; reasons: Reason[]; evidence: Record<string, unknown> | null }>;
-}
-
-export interface SensorResult {
-  name: string;
-  /** `C_ref_s`. */
-  correction: Matrix4;
-  /** Corrected `T_vehicle_sensor`. */
-  extrinsic: Matrix4;
-  /** `T_ref_s`. */
-  relative: Matrix4;
-  xyz: Vec3;
-  rpy: Vec3;
-  spread: { xyz: Vec3; rpy: Vec3; frames: number };
-  /** `gmm`, for every sensor the plane adjustment moved; null otherwise. */
-  precision: Precision | null;
-}
-
-export interface Note {
-  sensor: string;
-  /** A frame, or 'all'. */
-  frame: string;
-  kind: string;
-  reason: string;
-}
-
-export interface ShapeFit {
-  shape: 'cube' | 'box' | 'sphere' | 'mesh';
-  rms: number;
-  size: number;
-  extents: Vec3;
-  centre: Vec3;
-  rotation: Vec3;
-  /** Share of the fitted components' weight within 10 % of the size from the surface. */
-  inlierShare: number;
-  weight: number;
-}
-
-export interface Placement {
-  pose: Matrix4;
-  xyz: Vec3;
-  rpy: Vec3;
-  points: number;
-  inliers: number;
-  rms: number;
-}
-
-export interface Levelling {
-  sensor: string;
-  ground: [number, number, number, number] | null;
-  inliers: number;
-  motion: Matrix4;
-  note: string | null;
-  bev: { yaw: number; shift: Vec3; score: number; scoreUnchanged: number; atEdge: boolean } | null;
-  warning: string | null;
-  warningKind: 'nothingToOverlay' | 'lowOverlap' | 'atEdge' | null;
-}
-
-/** `calibrate`'s result (and, with numbers instead of Float32Arrays, the CLI's --json). */
-export interface CalibrationResult {
-  verdict: Verdict;
-  method: MethodName;
-  reference: string;
-  iterations: number;
-  converged: boolean;
-  cancelled: boolean;
-  /** JRMPC ran with its exact E-step (`exact: true`). */
-  exact: boolean;
-  sensors: SensorResult[];
-  reconstruction: {
+/** `calibrate`'s result: the CLI's --json (`Report`), with the reconstruction's bulk arrays as
+ *  Float32Arrays. */
+export type CalibrationResult = Omit<Report, 'reconstruction'> & {
+  reconstruction: Omit<ReconstructionReport, 'means' | 'sigmas' | 'priors'> & {
     means: Float32Array;
     sigmas: Float32Array;
     priors: Float32Array;
-    fits: ShapeFit[];
-    placements: Placement[];
   };
-  skipped: Note[];
-  /** Per non-reference sensor, every stage's hypothesis scored on the whole scans, and the one chosen. */
-  selection: SensorSelection[];
-  planeAdjustment: Note[];
-  levelling: Levelling[];
-  global: Record<string, unknown>[];
-  /** The region cropped to: the given ROI, around the `found` objects of the target's shape
-   * standing in the reference's scans, or the clouds' overlap. */
-  roi: { min: Vec3; max: Vec3 } & ({ source: 'given' | 'overlap' } | { source: 'targets'; found: number });
-  history: { meanSigma: number[]; maxChange: number[]; terms: number[] };
-}
-
-/** One sensor's hypotheses and the one chosen (docs/method.md, "Selection"). */
-export interface SensorSelection {
-  sensor: string;
-  /** Index of the chosen hypothesis. */
-  chosen: number;
-  hypotheses: Hypothesis[];
-}
-
-/** One placement a stage proposed. */
-export interface Hypothesis {
-  stage:
-    | 'nominal'
-    | 'global'
-    | 'levelled'
-    | 'jrmpc'
-    | 'cad'
-    | 'refinedFromNominal'
-    | 'refinedFromStart'
-    | 'refined'
-    | 'planes';
-  /** A global candidate's rank (0: the global stage's best overlay). */
-  rank: number | null;
-  /** The hypothesis it was refined from. */
-  parent: number | null;
-  /** On top of the nominal, row-major 4x4. */
-  correction: number[];
-  /** The selection's score: `landing` less `contradiction` (-1..1). */
-  score: number;
-  /** Share of the points landing on another sensor's surfaces (0..1). */
-  landing: number;
-  /** Share of the points standing where another sensor saw through (0..1). */
-  contradiction: number;
-  /** Share of the points with another sensor's surface beside them (0..1). */
-  overlap: number;
-}
+};
 
 /** With `method: 'all'`: a method that failed. */
 export interface MethodFailure {
@@ -327,35 +197,9 @@ export interface ToleranceOptions {
   sigmas?: number;
 }
 
-export type Limit =
-  | { kind: 'fixed'; rotation: number; translation: number }
-  | { kind: 'sigmas'; sigmas: number; rotation: Vec3; position: Vec3 };
-
-export interface SensorDrift {
-  name: string;
-  moved: boolean;
-  /** Beyond a fixed limit, yet within 3 sigma of both calibrations' combined precision: not a move they can tell from their own scatter. */
-  unresolved: boolean;
-  /** Rotation vector of the change about the vehicle's axes (rad), and its angle. */
-  rotation: Vec3;
-  angle: number;
-  /** Position change (m), and its length. */
-  translation: Vec3;
-  distance: number;
-  /** The new calibration's one sigma. */
-  precision: Precision | null;
-  limit: Limit;
-}
-
-export interface DriftReport {
-  passed: boolean;
-  reference: string;
-  sensors: SensorDrift[];
-  missing: string[];
-  added: string[];
-  /** One sentence per sensor that moved or went missing. */
-  findings: string[];
-}
+/** The former names of the drift check's types. */
+export type Limit = LimitReport;
+export type SensorDrift = DriftReport['sensors'][number];
 
 /** The drift check over two calibrations' texts: our JSON (calibrate --json, the page's
  *  export), a URDF or a /tf_static YAML; `current` needs our JSON for its precision. */

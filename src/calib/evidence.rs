@@ -43,6 +43,7 @@ const STRUCTURE_HEIGHT: f64 = 0.1;
 const GROUND_BAND: f64 = 0.03;
 
 /// How much of a sensor's structure lands on the reference's surfaces.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Agreement {
     /// Sensor points compared (sampled).
@@ -96,6 +97,7 @@ fn ratio(a: usize, b: usize) -> f64 {
 /// about their centroid, from the point-to-surface information (the Cramér-Rao bound of these
 /// data for the noise measured). A direction nothing constrains has a spread in the metres or
 /// radians.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Observability {
     /// Rotation about the vehicle's x, y, z axes (rad).
@@ -105,6 +107,7 @@ pub struct Observability {
 }
 
 /// The evidence on one non-reference sensor.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct SensorEvidence {

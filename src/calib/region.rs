@@ -10,6 +10,7 @@ use crate::cloud::{Aabb, is_valid_point};
 use crate::se3::Pose;
 
 /// Where the region the scans were cropped to came from.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(tag = "source", rename_all = "camelCase")]
 pub enum RoiSource {

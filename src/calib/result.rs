@@ -13,6 +13,7 @@ use crate::se3::Pose;
 use crate::targets::{Placement, ShapeFit};
 
 /// Per-axis standard deviation of the per-frame corrections around their mean.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Spread {
     /// Translation, m.

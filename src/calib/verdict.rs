@@ -72,8 +72,10 @@ pub const LOOP_SIGMAS: f64 = 3.0;
 /// (rad, m).
 pub const METHODS_AGREE: (f64, f64) = (0.2 * std::f64::consts::PI / 180.0, 0.02);
 
-/// How far to trust a result.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+/// How far to trust a result; in the JSON by its name.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Level {
     Good,
     Check,

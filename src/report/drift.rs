@@ -7,6 +7,7 @@ use crate::calib::Precision;
 use crate::drift::{Drift, Limit, SensorDrift};
 
 /// The comparison for programs: m and rad, vectors about the vehicle's x, y, z axes.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct DriftReport {
@@ -20,6 +21,7 @@ pub struct DriftReport {
     pub findings: Vec<String>,
 }
 
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct SensorDriftReport {
@@ -41,6 +43,7 @@ pub struct SensorDriftReport {
 
 /// `fixed`: an angle (rad) and a distance (m); `sigmas`: per axis, `sigmas` times the
 /// combined precision.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(tag = "kind", rename_all = "camelCase")]
 pub enum LimitReport {

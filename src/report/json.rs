@@ -7,15 +7,18 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::calib::{
-    Calibration, Note, Precision, Reason, ReasonKind, SensorEvidence, SensorResult, Spread, Verdict,
+    Calibration, Level, Note, Precision, Reason, ReasonKind, SensorEvidence, SensorResult, Spread,
+    Verdict,
 };
 use crate::se3::{to_row_major, xyz_rpy};
 
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Report {
     /// How far to trust the result, and why: read it first.
     pub verdict: VerdictReport,
+    #[cfg_attr(feature = "ts", ts(type = "MethodName"))]
     pub method: &'static str,
     pub reference: String,
     pub iterations: usize,
@@ -44,6 +47,7 @@ pub struct Report {
     pub history: HistoryReport,
 }
 
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 pub struct RoiReport {
     pub min: [f64; 3],
@@ -54,6 +58,7 @@ pub struct RoiReport {
     pub source: crate::calib::region::RoiSource,
 }
 
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct LevellingReport {
@@ -65,6 +70,7 @@ pub struct LevellingReport {
     pub inliers: usize,
     /// The motion applied to the pre-aligned points (levelling, then the bird's-eye search),
     /// row-major.
+    #[cfg_attr(feature = "ts", ts(type = "Matrix4"))]
     pub motion: [f64; 16],
     /// Why no levelling was applied, if none was.
     pub note: Option<String>,
@@ -77,6 +83,7 @@ pub struct LevellingReport {
     pub warning_kind: Option<&'static str>,
 }
 
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct BevReport {
@@ -91,14 +98,18 @@ pub struct BevReport {
     pub at_edge: bool,
 }
 
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 pub struct SensorReport {
     pub name: String,
     /// `C_ref_s`, row-major.
+    #[cfg_attr(feature = "ts", ts(type = "Matrix4"))]
     pub correction: [f64; 16],
     /// Corrected `T_vehicle_sensor`, row-major.
+    #[cfg_attr(feature = "ts", ts(type = "Matrix4"))]
     pub extrinsic: [f64; 16],
     /// `T_ref_s`, row-major.
+    #[cfg_attr(feature = "ts", ts(type = "Matrix4"))]
     pub relative: [f64; 16],
     /// Translation (m) of the corrected extrinsic.
     pub xyz: [f64; 3],
@@ -113,6 +124,7 @@ pub struct SensorReport {
 
 /// The reconstructed target: the mixture in the vehicle frame (where the reference sensor sees
 /// it, by the mean of the reference views' poses).
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 pub struct ReconstructionReport {
     /// Component means, flat: x, y, z, x, y, z, ... (m).
@@ -128,9 +140,11 @@ pub struct ReconstructionReport {
 }
 
 /// One placed copy of a CAD-model target.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 pub struct PlacementReport {
     /// `T_vehicle_model`, row-major 4x4, and as xyz (m) and roll, pitch, yaw (rad).
+    #[cfg_attr(feature = "ts", ts(type = "Matrix4"))]
     pub pose: [f64; 16],
     pub xyz: [f64; 3],
     pub rpy: [f64; 3],
@@ -140,6 +154,7 @@ pub struct PlacementReport {
     pub rms: f64,
 }
 
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 pub struct NoteReport {
     pub sensor: String,
@@ -152,6 +167,7 @@ pub struct NoteReport {
 }
 
 /// Per EM iteration: mean sigma (m) and the largest transform change (rad or m).
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct HistoryReport {
@@ -274,32 +290,36 @@ fn notes(notes: &[Note]) -> Vec<NoteReport> {
 }
 
 /// `good`, `check` or `failed`, with the reasons (heaviest first) and each sensor's own.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 pub struct VerdictReport {
-    pub level: &'static str,
+    pub level: Level,
     /// Calibration-wide reasons.
     pub reasons: Vec<ReasonReport>,
     pub sensors: BTreeMap<String, SensorVerdictReport>,
 }
 
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 pub struct SensorVerdictReport {
-    pub level: &'static str,
+    pub level: Level,
     pub reasons: Vec<ReasonReport>,
     /// The measurements (none for the reference sensor).
     pub evidence: Option<SensorEvidence>,
 }
 
 /// One reason: its kind, the level it sets, the sentence, and its numbers (rad, m, shares).
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 pub struct ReasonReport {
     pub kind: &'static str,
-    pub level: &'static str,
+    pub level: Level,
     pub text: String,
     pub values: BTreeMap<&'static str, Value>,
 }
 
 /// A reason's value: a number, a name, or a list of names.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(untagged)]
 pub enum Value {
@@ -311,14 +331,14 @@ pub enum Value {
 impl From<&Verdict> for VerdictReport {
     fn from(v: &Verdict) -> Self {
         VerdictReport {
-            level: v.level.name(),
+            level: v.level,
             reasons: v.reasons.iter().map(ReasonReport::from).collect(),
             sensors: v
                 .sensors
                 .iter()
                 .map(|s| {
                     let report = SensorVerdictReport {
-                        level: s.level.name(),
+                        level: s.level,
                         reasons: s.reasons.iter().map(ReasonReport::from).collect(),
                         evidence: s.evidence.clone(),
                     };
@@ -429,7 +449,7 @@ impl From<&Reason> for ReasonReport {
         };
         ReasonReport {
             kind: r.kind.name(),
-            level: r.level.name(),
+            level: r.level,
             text: r.kind.to_string(),
             values: values.into_iter().collect(),
         }
@@ -437,11 +457,13 @@ impl From<&Reason> for ReasonReport {
 }
 
 /// One sensor's global alignment.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct GlobalReport {
     pub sensor: String,
     /// The motion applied on top of the nominal, row-major.
+    #[cfg_attr(feature = "ts", ts(type = "Matrix4"))]
     pub motion: [f64; 16],
     /// The ground found in the sensor's frame: its angle from the nominal's up (rad) and the
     /// sensor's height above it (m).
@@ -455,6 +477,7 @@ pub struct GlobalReport {
     pub skipped: Option<String>,
 }
 
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct OverlayReport {
@@ -464,6 +487,7 @@ pub struct OverlayReport {
 }
 
 /// A placement from above: yaw (rad) about the ground normal, shift (m), score (0..1).
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 pub struct CandidateReport {
     pub yaw: f64,
@@ -476,6 +500,7 @@ fn candidate(c: &crate::calib::correlate::Candidate) -> CandidateReport {
 }
 
 /// One sensor's selection: every stage's hypothesis and the one chosen.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct SelectionReport {
@@ -487,6 +512,7 @@ pub struct SelectionReport {
 
 /// One hypothesis: the stage it came from, its correction on top of the nominal (row-major)
 /// and how it scored.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct HypothesisReport {
@@ -497,6 +523,7 @@ pub struct HypothesisReport {
     pub rank: Option<usize>,
     /// The hypothesis it was refined from.
     pub parent: Option<usize>,
+    #[cfg_attr(feature = "ts", ts(type = "Matrix4"))]
     pub correction: [f64; 16],
     /// The selection's score: `landing` less `contradiction` (-1..1).
     pub score: f64,

@@ -13,6 +13,7 @@ use super::place::{ModelCloud, PlaceSettings};
 
 /// The fitted shape.
 /// Serialized as it is (camelCase) in the result's JSON.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct ShapeFit {

@@ -88,7 +88,7 @@ test('one input door: a folder per sensor named by timestamps places and pairs a
       fs.copyFileSync(path.join(dir, 'a/data', sensor, name), path.join(bag, 'data', folder, `${stamp}.pcd`));
     }
   }
-  const config = fs.readFileSync(path.join(dir, 'a/config.yaml'), 'utf8').replace('transform_sensor_1:', 'transform_front:').replace('transform_sensor_2:', 'transform_rear:');
+  const config = fs.readFileSync(path.join(dir, 'a/config.yaml'), 'utf8').replace('transform_sensor_1:', 'transform_front:').replace('transform_sensor_2:', 'transform_rear:').replace('reference: sensor_1', 'reference: front');
   fs.writeFileSync(path.join(bag, 'config.yaml'), config);
   const args = (json) => [...calibrateArgs('bag', json), '--method', 'jrmpc', '--iterations', '10'];
   const fromNode = run(node, args('bag.node.json'));

@@ -8,6 +8,11 @@ const result: CalibrationResult = calibrate(
   (p: Progress) => p.iteration < 1000,
 );
 const sigma: number | undefined = result.sensors[1]?.precision?.rotation[2];
+// The result's types are generated from the Rust ones (result.d.ts): a level is one of three.
+const level: 'good' | 'check' | 'failed' = result.verdict.level;
+const means: Float32Array = result.reconstruction.means;
+// @ts-expect-error a level that does not exist
+const wrong: typeof result.verdict.level = 'fine';
 const all = calibrate({ scans: rig.scans, nominal: rig.nominal, method: 'all' });
 for (const r of all) {
   if ('error' in r) console.log(r.method, r.error);
@@ -21,4 +26,4 @@ calibrate({ scans: [], nominal: {}, method: 'ndt' });
 // A folder's files placed as the CLI and the page place them.
 const layout: Layout = placeScans(['up/100.pcd', 'down/100.03.pcd']);
 const sensors: string[] = layout.scans.map((s) => s.sensor);
-console.log(sigma, moved, sensors, layout.pairings.join('; '));
+console.log(sigma, level, means.length, wrong, moved, sensors, layout.pairings.join('; '));

@@ -107,6 +107,7 @@ pub struct SensorAdjustment {
 /// docs/accuracy.md, "How precise"). The calibration then floors it by what the scans tell
 /// apart and widens it by the loops that do not close (`calib::finish`); it is no bound on
 /// errors no evidence sees (a target that moved, a wrong nominal beyond reach).
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Precision {
     /// Rotation about the vehicle's x, y, z axes (rad).
