@@ -8,6 +8,7 @@
 
 // Primitives.
 pub mod cloud;
+pub mod mesh;
 pub mod plane;
 pub mod se3;
 // Decoding, and which file is which sensor and frame.

@@ -52,7 +52,7 @@ impl Rig {
     /// scans (the first such in `sensors` order; empty without scans). The densest sensor is
     /// the one that sees most of the scene and so the one the others overlap; the first named
     /// could be a side unit that sees the ground only. The page's panel applies the same rule
-    /// (`www/src/state.js`, `mostPoints`) before any worker runs.
+    /// (`www/src/state/state.js`, `mostPoints`) before any worker runs.
     pub fn reference_name(&self) -> String {
         if let Some(name) = &self.reference {
             return name.clone();

@@ -42,7 +42,7 @@ fn point_major(cloud: &Cloud, intensity: Option<&[f32]>) -> Vec<u8> {
 }
 
 /// A triangle mesh as Wavefront OBJ text: `v x y z` lines, then `f a b c` (1-based).
-pub fn write_obj(mesh: &crate::io::mesh::Mesh) -> String {
+pub fn write_obj(mesh: &crate::mesh::Mesh) -> String {
     let mut out = String::from("# gmmcalib\n");
     for v in &mesh.vertices {
         out += &format!("v {:?} {:?} {:?}\n", v[0], v[1], v[2]);

@@ -13,7 +13,8 @@ pub use sample::{box_surface, cube_surface, sphere_surface};
 use std::sync::Arc;
 
 use crate::io::IoError;
-use crate::io::mesh::{Mesh, parse_mesh};
+use crate::io::mesh::parse_mesh;
+use crate::mesh::Mesh;
 
 /// The shape of the calibration target (m).
 #[derive(Clone, Debug, PartialEq)]

@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use nalgebra::{Point3, Translation3, UnitQuaternion, Vector3};
 
 use crate::icp::{IcpSettings, Metric, TargetCloud};
-use crate::io::mesh::Mesh;
+use crate::mesh::Mesh;
 use crate::plane::Plane;
 use crate::se3::Pose;
 

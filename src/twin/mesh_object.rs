@@ -4,7 +4,7 @@
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
 
 use crate::cloud::Aabb;
-use crate::io::mesh::Mesh;
+use crate::mesh::Mesh;
 use crate::se3::Pose;
 
 /// A mesh at a pose: `pose` is `T_world_mesh` (the mesh's own coordinates, m, mapped into the

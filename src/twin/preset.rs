@@ -13,7 +13,7 @@ use super::mesh_object::MeshObject;
 use super::scene::{OrientedBox, Scene};
 use super::shapes;
 use crate::cloud::Aabb;
-use crate::io::mesh::Mesh;
+use crate::mesh::Mesh;
 use crate::se3::{Pose, pose_from_xyz_rpy};
 
 /// One simulated sensor.

@@ -2,7 +2,7 @@
 //! on a stand. Each stands on z = 0 with its base centred on the origin ([`Mesh::centred`]'s
 //! convention) and faces -x, towards sensors placed behind it at smaller x.
 
-use crate::io::mesh::Mesh;
+use crate::mesh::Mesh;
 
 /// Faces of a cuboid, as bits: the ones a part leaves out where it meets another part (a
 /// hidden face would draw surface samples that no sensor can see).

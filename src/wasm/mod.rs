@@ -2,7 +2,7 @@
 //! no algorithm and no control flow lives here. Bulk data crosses as flat typed arrays (`x, y,
 //! z, x, y, z, ...`). Every failure becomes a JS `Error` with a message; nothing here may
 //! panic, since a panic aborts the whole wasm instance. One file per exported job, as in
-//! `www/src/worker.js`.
+//! `www/src/calibrate/worker.js`.
 
 mod calibrate;
 mod command;

@@ -2,30 +2,30 @@
 // -> view, results, exports. Every error goes to one place (showError). The state lives here,
 // not in the worker, so a crashed or cancelled worker is replaced without losing the loaded
 // files.
-import { WorkerClient } from './rpc.js';
-import { Viewer } from './viewer.js';
-import { Display, livePoses } from './display.js';
-import { fromDrop, fromInput } from './files.js';
-import { renderFiles } from './filelist.js';
-import { renderRig, showRoi } from './rig.js';
-import { drawConvergence, renderResults, verdictTitle } from './results.js';
-import { exportsOf, renderExports, resultJson } from './exports.js';
-import { targetBounds } from './target.js';
-import { writeHash } from './url.js';
-import { describeDone, describeTime } from './progress.js';
-import { clearState, createState, nominalPoses, rebuildRig, shownPoses, sortScans } from './state.js';
+import { WorkerClient } from './calibrate/rpc.js';
+import { Viewer } from './view/viewer.js';
+import { Display, livePoses } from './view/display.js';
+import { fromDrop, fromInput } from './files/files.js';
+import { renderFiles } from './files/filelist.js';
+import { renderRig, showRoi } from './panels/rig.js';
+import { drawConvergence, renderResults, verdictTitle } from './results/results.js';
+import { exportsOf, renderExports, resultJson } from './results/exports.js';
+import { targetBounds } from './view/target.js';
+import { writeHash } from './state/url.js';
+import { describeDone, describeTime } from './calibrate/progress.js';
+import { clearState, createState, nominalPoses, rebuildRig, shownPoses, sortScans } from './state/state.js';
 import { focusBox, openingBox } from './view/focus.js';
 import { initRoiEditor } from './view/roi-editor.js';
 import { adviceForError, adviceForResult, autoRoiFound } from './panels/advice.js';
-import { runCalibration } from './run.js';
-import { nextTask } from './tasks.js';
-import { foldSetup, initInset, initLayout } from './layout.js';
-import { initViewTools } from './viewtools.js';
-import { calibrateBlocker, countLine, describeRig, describeScans } from './summary.js';
-import { initSettings } from './settings.js';
-import { initDrift } from './drift.js';
+import { runCalibration } from './calibrate/run.js';
+import { nextTask } from './calibrate/tasks.js';
+import { foldSetup, initInset, initLayout } from './panels/layout.js';
+import { initViewTools } from './view/viewtools.js';
+import { calibrateBlocker, countLine, describeRig, describeScans } from './panels/summary.js';
+import { initSettings } from './panels/settings.js';
+import { initDrift } from './results/drift.js';
 import { initKeeping } from './state/keep.js';
-import { initLoading } from './panels/loading.js';
+import { initLoading } from './files/loading.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new WorkerClient();

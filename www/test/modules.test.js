@@ -2,14 +2,14 @@
 // (round trip through GMMCalib YAML), URL settings.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { groupNameless, natural, placeAll, splitNameless } from '../src/files.js';
+import { groupNameless, natural, placeAll, splitNameless } from '../src/files/files.js';
 import { readFileSync } from 'node:fs';
 import { initSync, parseConfig, placeScans, rosExports } from '../pkg/gmmcalib.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
-import { exportsOf, gmmcalibYaml, resultJson, targetPly } from '../src/exports.js';
-import { DEFAULTS, readHash } from '../src/url.js';
-import { rebuildRig } from '../src/state.js';
-import { MIN_MEASURED, RunProgress, StageClock, describeDone, describeProgress, describeTime } from '../src/progress.js';
+import { exportsOf, gmmcalibYaml, resultJson, targetPly } from '../src/results/exports.js';
+import { DEFAULTS, readHash } from '../src/state/url.js';
+import { rebuildRig } from '../src/state/state.js';
+import { MIN_MEASURED, RunProgress, StageClock, describeDone, describeProgress, describeTime } from '../src/calibrate/progress.js';
 
 // The config reader is the library's, through the wasm package.
 initSync({ module: readFileSync(new URL('../pkg/gmmcalib_bg.wasm', import.meta.url)) });
@@ -236,7 +236,7 @@ test('the status once done: iterations for the GMM methods, frame pairs for ICP,
 });
 
 test('view colours: robust range, the ramp, distance to a plane of reference points', async () => {
-  const { robustRange, ramp, SurfaceGrid, leastAxis } = await import('../src/colouring.js');
+  const { robustRange, ramp, SurfaceGrid, leastAxis } = await import('../src/view/colouring.js');
   // GMMCalib's intensity: mostly about 45, a few bright returns up to 5615.
   const values = Array.from({ length: 1000 }, (_, i) => (i < 990 ? 30 + (i % 30) : 5615));
   const [lo, hi] = robustRange(values);

@@ -4,12 +4,12 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { frame, robustBounds } from '../src/view/framing.js';
 import { alongAxis, handlesOf } from '../src/view/roi-editor.js';
-import { mostPoints, rebuildRig } from '../src/state.js';
-import { readEntries } from '../src/files.js';
-import { DEFAULTS, explicitSettings, hashOf, readRig } from '../src/url.js';
+import { mostPoints, rebuildRig } from '../src/state/state.js';
+import { readEntries } from '../src/files/files.js';
+import { DEFAULTS, explicitSettings, hashOf, readRig } from '../src/state/url.js';
 import { readResult } from '../src/panels/result-file.js';
 import { adviceForError, adviceForResult, autoRoiFound } from '../src/panels/advice.js';
-import { calibrateBlocker } from '../src/summary.js';
+import { calibrateBlocker } from '../src/panels/summary.js';
 
 test('the view frames the 2nd-98th percentile of the points, and a framed box is wholly in view from every side', () => {
   // A road scene: 10,000 points within 20 m, and 50 returns 200 m away.

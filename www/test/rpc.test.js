@@ -21,7 +21,7 @@ class FakeWorker {
   }
 }
 globalThis.Worker = FakeWorker;
-const { WorkerClient } = await import('../src/rpc.js');
+const { WorkerClient } = await import('../src/calibrate/rpc.js');
 
 test('results, progress and errors reach the request they answer', async () => {
   const client = new WorkerClient();

@@ -6,7 +6,7 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFile } from 'node:fs/promises';
 import init, * as wasm from '../pkg/gmmcalib.js';
-import { calibrateSharded, pairGroups, splitViews } from '../src/shard-pool.js';
+import { calibrateSharded, pairGroups, splitViews } from '../src/calibrate/shard-pool.js';
 
 test('views are split into contiguous slices of about equal points, none empty', () => {
   assert.deepEqual(splitViews([5, 5, 5, 5], 2), [{ first: 0, count: 2 }, { first: 2, count: 2 }]);

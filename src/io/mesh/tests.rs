@@ -1,5 +1,7 @@
 use super::*;
+use crate::cloud::Aabb;
 use crate::io::Offset;
+use crate::mesh::triangle_area;
 
 /// A unit cube [0, 1]^3 as OBJ quads, with the forms writers use: `v/vt/vn`, `v//vn`, negative
 /// (relative) indices, comments, and statements the reader skips.

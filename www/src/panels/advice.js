@@ -2,7 +2,7 @@
 // reference that cannot be registered (choose this sensor instead), a target shape that is not
 // in the data (set the target to none, or draw the ROI), a ROI auto that found only the clouds'
 // overlap. Each advice carries the one action that follows it, for a button.
-import { esc } from '../answer.js';
+import { esc } from '../results/answer.js';
 
 // What to do about a run that failed, where the page can say: {text, action: {label, what,
 // value}} with `what` 'reference' (make `value` the reference) or 'target' (set the target to

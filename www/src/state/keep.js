@@ -4,8 +4,8 @@
 // another demo than the one kept (a link's settings win over the kept ones).
 import * as store from './store.js';
 import { keptScans, restoreSession, sessionOf } from './session.js';
-import { DEFAULTS, explicitSettings, readRig, writeHash } from '../url.js';
-import { countLine } from '../summary.js';
+import { DEFAULTS, explicitSettings, readRig, writeHash } from './url.js';
+import { countLine } from '../panels/summary.js';
 
 const PERSIST_MS = 300;
 const DEMO_KEYS = ['demo', 'seed', 'frames', 'maxAngleDeg', 'maxTranslation'];

@@ -1,7 +1,7 @@
 // The boxes the view frames: on opening (the ROI, else the data's robust extent, placed by the
 // nominals) and for each focus choice (everything, the ROI, a sensor, a target).
 import { boxAround, robustBounds } from './framing.js';
-import { nominalPoses, shownPoses } from '../state.js';
+import { nominalPoses, shownPoses } from '../state/state.js';
 
 const TARGET_MARGIN = 0.3; // m around a fitted target
 

@@ -1,7 +1,7 @@
 // Exports of one calibration result (the report shape): text generators, and the panel that
 // offers each with copy and download. Every extrinsic is T_parent_child: `vehicle` (the frame
 // the nominal extrinsics and ROI are given in) is the parent, each sensor the child.
-import { xyzOf, rpyOf } from './transforms.js';
+import { xyzOf, rpyOf } from '../transforms.js';
 
 const num = (x) => String(+x.toPrecision(10));
 

@@ -6,7 +6,7 @@
 //
 // The calibration's own settings start from the library's defaults (`defaults()`, written to
 // pkg/defaults.json when the wasm is built); the rest are the page's.
-import library from '../pkg/defaults.json' with { type: 'json' };
+import library from '../../pkg/defaults.json' with { type: 'json' };
 
 export const DEFAULTS = Object.freeze({
   method: library.method, // gmm | jrmpc | cad | p2p | p2l | gicp | all

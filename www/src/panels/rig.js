@@ -3,8 +3,8 @@
 // with what the last run found) or bounds, also dragged in the view (roi-editor.js). Edits go
 // straight into `rig` ({sensors, nominal, roi, reference, parent}); `onChange(what)` tells the
 // page to update the view.
-import { degrees, radians } from './transforms.js';
-import { DEFAULT_ROI } from './state.js';
+import { degrees, radians } from '../transforms.js';
+import { DEFAULT_ROI } from '../state/state.js';
 
 function numberInput(value, step, onInput, label) {
   const input = Object.assign(document.createElement('input'), { type: 'number', step, value: +value.toFixed(6) });

@@ -4,7 +4,7 @@
 // limits or K sigma of the combined precision. Per sensor the rotation and translation change,
 // the precision, the limit and moved / within; the outcome in the library's words. A comparison
 // outlives the result it was made with, marked out of date, so Compare again is one click.
-import { degrees } from './transforms.js';
+import { degrees } from '../transforms.js';
 import { esc } from './answer.js';
 
 // Names the library puts in its error messages for the current side.

@@ -6,7 +6,7 @@
 // sensor-to-sensor transform T_ref_s (not printed again when it equals the extrinsic: a
 // reference at the parent's origin), the precision, and the spread over frames (none for one
 // frame). Everything else (4x4 matrices, corrections, notes) folds below (results.js).
-import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from './transforms.js';
+import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from '../transforms.js';
 
 const f = (v, d) => v.map((x) => x.toFixed(d)).join(' ');
 // Fixed-width columns, so the table's numbers line up.

@@ -1,7 +1,7 @@
 // The settings panel's inputs (method, target, global alignment, components, iterations,
 // initial sigma, workers, the E-step's device; the demo's preset, seed, frames) bound to `state.settings` and the URL
 // hash, and the target's CAD model, checked by the library.
-import { writeHash } from './url.js';
+import { writeHash } from '../state/url.js';
 
 const SETTING_INPUTS = ['method', 'components', 'iterations', 'initialSigma', 'workers', 'estep', 'global'];
 

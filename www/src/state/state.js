@@ -1,7 +1,7 @@
 // The page's state: the scans loaded, the rig, the settings, the last results. One object,
 // changed through these functions, so what invalidates a result is decided in one place.
-import { natural } from './files.js';
-import { matrixFromXyzRpy } from './transforms.js';
+import { natural } from '../files/files.js';
+import { matrixFromXyzRpy } from '../transforms.js';
 import { DEFAULTS, readHash, readRig } from './url.js';
 
 // The ROI a user starts editing from when they turn 'auto' off (m, vehicle frame).

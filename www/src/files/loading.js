@@ -1,13 +1,13 @@
 // Loading what a user drops or picks: point clouds with their rig files (GMMCalib's config,
 // OpenCalib's lists), a recording (its topics offered, then the scans chosen), a target's CAD
 // model, a result saved as a file. Each becomes the page's state; main.js renders it.
-import { groupNameless, isMesh, placeAll, readEntries, splitNameless } from '../files.js';
-import { renderLooseQuestion } from '../loose.js';
-import { describeInstants, isRecording, renderRecording } from '../recording.js';
-import { isResultFile, readResult } from './result-file.js';
-import { sortScans } from '../state.js';
-import { countLine } from '../summary.js';
-import { writeHash } from '../url.js';
+import { groupNameless, isMesh, placeAll, readEntries, splitNameless } from './files.js';
+import { renderLooseQuestion } from './loose.js';
+import { describeInstants, isRecording, renderRecording } from './recording.js';
+import { isResultFile, readResult } from '../panels/result-file.js';
+import { sortScans } from '../state/state.js';
+import { countLine } from '../panels/summary.js';
+import { writeHash } from '../state/url.js';
 
 // `page`: what main.js lends: {$, state, client, settings, nextId(), setStatus, showError,
 // clearAll, showLoaded(config), showResults, forgetResults, setStale, rigFrom, renderPanels,

@@ -2,8 +2,8 @@
 // own wasm instance, and answers each {type: 'eStep', input, first} with its views'
 // statistics; registers frame pairs, {type: 'align', ...}, and aligns a sensor globally,
 // {type: 'alignGlobal', job}, for the calibration worker.
-import init, { JrmpcShard, alignGlobal, alignPairs } from '../pkg/gmmcalib.js';
-import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
+import init, { JrmpcShard, alignGlobal, alignPairs } from '../../pkg/gmmcalib.js';
+import wasmUrl from '../../pkg/gmmcalib_bg.wasm?url';
 
 // The first message is {type: 'module', module}: the calibration worker's compiled module,
 // whose code this worker shares, or undefined to fetch and compile its own.

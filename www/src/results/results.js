@@ -4,7 +4,7 @@
 // folds below: the 4x4 matrices and corrections, the target's plausibility, the ground
 // levelling, the notes. With several methods, one comparison table with each method's verdict
 // and the methods it agrees with. The convergence plot is drawn here too.
-import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from './transforms.js';
+import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf } from '../transforms.js';
 import { answerHtml, concerns, errorVsTruth, esc, wireCopy } from './answer.js';
 
 export { errorVsTruth };

@@ -3,7 +3,7 @@
 // Clouds are uploaded once per view and sensor; a pose change only moves objects, and the
 // colouring (by sensor, height, intensity or distance to the reference) is made in the render
 // worker.
-import { multiply } from './transforms.js';
+import { multiply } from '../transforms.js';
 
 const PALETTE = [0xff6b6b, 0x4dabf7, 0x69db7c, 0xffd43b, 0xda77f2, 0xff922b, 0x38d9a9, 0xf783ac];
 

@@ -4,7 +4,7 @@
 // there why). Every method posts one message; the worker renders on demand.
 import { PerspectiveCamera, Raycaster, Vector2, Vector3 } from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
-import { frame } from './view/framing.js';
+import { frame } from './framing.js';
 
 const INTERACTION_SETTLE_MS = 250;
 // From the framed box's centre towards the camera, per preset view.

@@ -26,7 +26,7 @@ import * as THREE from 'three';
 import { targetObject } from './target.js';
 import { DISTANCE_RANGE, SurfaceGrid, fillRamp, fillSolid, heightOf, robustRange } from './colouring.js';
 import { nearestOnScreen } from './pick.js';
-import { drawOverlay } from './view/snapshot.js';
+import { drawOverlay } from './snapshot.js';
 
 const scene = new THREE.Scene();
 scene.background = new THREE.Color(0x15181d);

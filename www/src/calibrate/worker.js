@@ -1,8 +1,8 @@
 // All heavy work happens here, off the main thread: the wasm module is loaded once and each
 // request {type, id, ...} is answered with {type: 'result' | 'error', id, ...}. Typed arrays in
 // results are transferred, not copied.
-import init, * as wasm from '../pkg/gmmcalib.js';
-import wasmUrl from '../pkg/gmmcalib_bg.wasm?url';
+import init, * as wasm from '../../pkg/gmmcalib.js';
+import wasmUrl from '../../pkg/gmmcalib_bg.wasm?url';
 import { RemoteWorker, calibrateSharded } from './shard-pool.js';
 
 const { calibrate, compareCalibrations, methods, parseCloud, parseConfig, parseMesh, parseOpenCalib, placeScans, rosExports, simulateRig, RecordingFile } = wasm;
