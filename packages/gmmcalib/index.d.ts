@@ -226,13 +226,15 @@ export interface CommandHost {
 /** `gmmcalib calibrate|compare ...` (argv without the program's name); the exit status. */
 export function runCommand(argv: string[], host: CommandHost): number;
 
-export function rosExports(extrinsics: { parent: string; child: string; pose: Matrix4 }[]): {
+/** With `roi`, GMMCalib's config.yaml of the extrinsics too (`gmmcalibYaml`). */
+export function rosExports(extrinsics: { parent: string; child: string; pose: Matrix4 }[], roi?: { min: Vec3; max: Vec3 }): {
   ros1: string;
   ros2: string;
   tfYaml: string;
   urdf: string;
   autoware: string;
   kitti: string;
+  gmmcalibYaml?: string;
 };
 
 /** Browsers: resolves once the wasm is instantiated (the browser entry awaits it on import). */

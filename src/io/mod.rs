@@ -30,8 +30,8 @@ use crate::cloud::Cloud;
 use crate::se3::Pose;
 
 pub use write::{
-    write_obj, write_pcd_binary, write_pcd_binary_compressed, write_pcd_binary_organized,
-    write_ply_binary,
+    ConfigTransform, gmmcalib_config, write_obj, write_pcd_binary, write_pcd_binary_compressed,
+    write_pcd_binary_organized, write_ply_binary,
 };
 
 /// The on-disk encoding a cloud was read from.

@@ -48,7 +48,7 @@ test('an MCAP dropped on the page: pick topics, calibrate, export URDF', async (
   assert.match(urdf, /<parent link="base_link"\/>\s*<child link="front_right"\/>/);
   // One name per sensor in every export.
   const yaml = await page.locator('[data-export=yaml] pre').textContent();
-  assert.match(yaml, /^transform_front_right: {2}# front_right -> base_link,/m);
+  assert.match(yaml, /^transform_front_right: {2}# front_right -> base_link\n/m);
   assert.match(await page.locator('[data-export=ros2] pre').textContent(), /--frame-id base_link --child-frame-id front_right$/m);
   assert.deepEqual(problems, []);
 });

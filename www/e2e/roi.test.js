@@ -103,7 +103,7 @@ test('the cube sample as an MCAP: ROI auto finds no cube and says so; the ROI dr
   const result = JSON.parse(await page.getByTestId('result-json').textContent());
   assert.deepEqual(result.sensors.map((s) => s.name), ['lidar_1', 'lidar_2']);
   const yaml = await page.locator('[data-export=yaml] pre').textContent();
-  assert.match(yaml, /^transform_lidar_1: {2}# lidar_1 -> base_link,/m);
+  assert.match(yaml, /^transform_lidar_1: {2}# lidar_1 -> base_link\n/m);
   assert.doesNotMatch(yaml, /transform_\//);
   assert.match(await page.locator('[data-export=urdf] pre').textContent(), /<parent link="base_link"\/>\s*<child link="lidar_1"\/>/);
   await glance(page, 'recording-cube-mcap');

@@ -59,7 +59,7 @@ test('upload a GMMCalib folder through file-input and calibrate it', async () =>
     assert.ok(worst < 1e-12, `${s.name}: the page's extrinsic differs from the direct call by ${worst}`);
   });
   const yaml = await page.locator('[data-export=yaml] pre').textContent();
-  assert.match(yaml, /^number_of_sensors: 3\ntransform_sensor_1:/);
+  assert.match(yaml, /^number_of_sensors: 3\ntransform_sensor_1:/m);
   assert.deepEqual(problems, []);
 });
 

@@ -366,7 +366,7 @@ async function renderOutcome(results, failures, json) {
   if (state.results !== results) return;
   $('convergence-box').hidden = results[0].history.meanSigma.length < 2;
   drawConvergence($('convergence'), results[0].history);
-  const ros = (extrinsics) => client.request('exports', { extrinsics });
+  const ros = (extrinsics, roi) => client.request('exports', { extrinsics, roi });
   const items = await exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, parent }, ros);
   if (state.results !== results) return;
   renderExports($('exports'), items);

@@ -6,7 +6,7 @@ import { groupNameless, natural, placeAll, splitNameless } from '../src/files/fi
 import { readFileSync } from 'node:fs';
 import { initSync, parseConfig, placeScans, rosExports } from '../pkg/gmmcalib.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
-import { exportsOf, gmmcalibYaml, resultJson, targetPly } from '../src/results/exports.js';
+import { exportsOf, resultJson, targetPly } from '../src/results/exports.js';
 import { DEFAULTS, readHash } from '../src/state/url.js';
 import { rebuildRig } from '../src/state/state.js';
 import { MIN_MEASURED, RunProgress, StageClock, describeDone, describeProgress, describeTime } from '../src/calibrate/progress.js';
@@ -127,14 +127,15 @@ test('exports: YAML round trip, the ROS forms from the library, PLY, JSON with p
     reconstruction: { means: new Float32Array([1, 2, 3, 4, 5, 6]), sigmas: new Float32Array([0.1, 0.2]), priors: new Float32Array([0.5, 0]) },
   };
   const roi = { min: [1, -2, -0.5], max: [3, 2, 1] };
-  const back = parseConfig(gmmcalibYaml(result, roi), 'out.yaml');
-  const b = back.nominal.b_frame;
-  assert.ok(close(matrixFromXyzRpy(b.xyz, b.rpy), extrinsic, 1e-9));
-  assert.deepEqual(back.roi, roi);
-  const items = await exportsOf(result, { roi, parent: 'base_link' }, async (e) => rosExports(e));
+  const items = await exportsOf(result, { roi, parent: 'base_link' }, async (e, r) => rosExports(e, r));
   const text = (key) => items.find((i) => i.key === key).text;
+  // GMMCalib's YAML, from the library's writer, reads back to the same extrinsics and ROI.
+  const back = parseConfig(text('yaml'), 'out.yaml');
+  const b = back.nominal.b_frame;
+  assert.ok(close(matrixFromXyzRpy(b.xyz, b.rpy), extrinsic, 1e-12));
+  assert.deepEqual(back.roi, roi);
   // One name per sensor in every export, the parent's name too.
-  assert.match(text('yaml'), /^transform_b_frame: {2}# b_frame -> base_link,/m);
+  assert.match(text('yaml'), /^transform_b_frame: {2}# b_frame -> base_link\n/m);
   assert.deepEqual(items.map((i) => i.key), ['json', 'yaml', 'urdf', 'ros2', 'ros1', 'tfYaml', 'autoware', 'kitti', 'ply']);
   const joint = text('urdf').match(/<parent link="base_link"\/>\n\s*<child link="b_frame"\/>\n\s*<origin xyz="([^"]+)" rpy="([^"]+)"\/>/);
   assert.ok(joint && close(joint[1].split(' ').map(Number), [2.3, -0.6, 1.6], 1e-12) && close(joint[2].split(' ').map(Number), [-0.35, 0.01, -0.02], 1e-12), text('urdf'));

@@ -10,7 +10,9 @@
 use std::fs;
 use std::path::Path;
 
-use gmmcalib::io::{write_obj, write_pcd_binary, write_pcd_binary_organized};
+use gmmcalib::io::{
+    ConfigTransform, gmmcalib_config, write_obj, write_pcd_binary, write_pcd_binary_organized,
+};
 use gmmcalib::se3::{Pose, to_row_major};
 use gmmcalib::targets::Target;
 use serde::Serialize;
@@ -104,28 +106,25 @@ pub fn write(files: &TwinFiles, args: &TwinArgs, dir: &Path) -> Result<(), Strin
     fs::write(&path, json + "\n").map_err(|e| fail(&path, e))
 }
 
-/// GMMCalib's config: `transform_sensor_N: - [roll, pitch, yaw, x, y, z]` and the ROI.
+/// GMMCalib's config (the library's writer): the nominals as the numbers the layout reads back,
+/// the first sensor named the reference, the preset's ROI.
 fn config_yaml(files: &TwinFiles) -> String {
     let twin = &files.twin;
-    // `{:?}` prints the shortest text that parses back to the same f64.
-    let list = |v: &[f64]| v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ");
-    let mut yaml = format!(
-        "# gmmcalib simulate: the first sensor is the reference (true mount); the others are\n\
-         # miscalibrated. The truth is in truth.json.\nnumber_of_sensors: {}\n",
-        files.folders.len()
-    );
     let numbers = files.nominal_numbers.iter().zip(&files.folders);
-    for ((name, _), ((xyz, rpy), folder)) in twin.truth.iter().zip(numbers) {
-        let values = [rpy[0], rpy[1], rpy[2], xyz[0], xyz[1], xyz[2]];
-        yaml += &format!(
-            "transform_{folder}:  # {name}\n  - [{}]  # [roll, pitch, yaw, x, y, z]\n",
-            list(&values)
-        );
-    }
-    yaml += &format!("reference: {}\n", files.folders[0]);
-    yaml += &format!("min_bound:\n  - [{}]\n", list(&twin.roi.min));
-    yaml += &format!("max_bound:\n  - [{}]\n", list(&twin.roi.max));
-    yaml
+    let transforms: Vec<ConfigTransform> = twin
+        .truth
+        .iter()
+        .zip(numbers)
+        .map(|((name, _), ((xyz, rpy), folder))| ConfigTransform {
+            sensor: folder.clone(),
+            xyz: *xyz,
+            rpy: *rpy,
+            note: name.clone(),
+        })
+        .collect();
+    let comment = "gmmcalib simulate: the first sensor is the reference (true mount); the others are\n\
+                   miscalibrated. The truth is in truth.json.";
+    gmmcalib_config(comment, &transforms, Some(&files.folders[0]), &twin.roi)
 }
 
 fn matrix(pose: &Pose) -> Matrix {

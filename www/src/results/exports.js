@@ -1,24 +1,12 @@
 // Exports of one calibration result (the report shape): text generators, and the panel that
 // offers each with copy and download. Every extrinsic is T_parent_child: `vehicle` (the frame
 // the nominal extrinsics and ROI are given in) is the parent, each sensor the child.
-import { xyzOf, rpyOf } from '../transforms.js';
 
 const num = (x) => String(+x.toPrecision(10));
 
 // The result as JSON, typed arrays as plain arrays.
 export const resultJson = (result) =>
   JSON.stringify(result, (_, v) => (ArrayBuffer.isView(v) ? Array.from(v) : v), 2);
-
-export function gmmcalibYaml(result, roi, parent = 'vehicle') {
-  const lines = [`number_of_sensors: ${result.sensors.length}`];
-  for (const s of result.sensors) {
-    const [xyz, rpy] = [xyzOf(s.extrinsic), rpyOf(s.extrinsic)];
-    lines.push(`transform_${s.name}:  # ${s.name} -> ${parent}, [roll, pitch, yaw (rad), x, y, z (m)]`);
-    lines.push(`  - [${[...rpy, ...xyz].map(num).join(', ')}]`);
-  }
-  lines.push('min_bound:', `  - [${roi.min.map(num).join(', ')}]`, 'max_bound:', `  - [${roi.max.map(num).join(', ')}]`);
-  return `${lines.join('\n')}\n`;
-}
 
 // The reconstructed target as ASCII PLY: components holding data, with sigma and prior.
 export function targetPly({ means, sigmas, priors }) {
@@ -31,16 +19,17 @@ export function targetPly({ means, sigmas, priors }) {
   return `${[...header, ...body].join('\n')}\n`;
 }
 
-// Every export of `result`. The ROS forms come from the library's writers (`ros`: the
-// worker's `exports` request, given [{parent, child, pose}]), as the CLI's --export prints them.
+// Every export of `result`. The ROS forms and GMMCalib's YAML come from the library's writers
+// (`ros`: the worker's `exports` request, given [{parent, child, pose}] and the ROI), as the
+// CLI's --export and `gmmcalib simulate` write them.
 // `parent`: the vehicle frame's name (a recording's base frame, or the name the user gave it);
 // each sensor is the child of its own name (a recording's frame id), in every export alike.
 export async function exportsOf(result, { roi, parent = 'vehicle' }, ros) {
-  const texts = await ros(result.sensors.map((s) => ({ parent, child: s.name, pose: Array.from(s.extrinsic) })));
+  const texts = await ros(result.sensors.map((s) => ({ parent, child: s.name, pose: Array.from(s.extrinsic) })), roi);
   const direction = `T_${parent}_sensor: maps each sensor's points into ${parent} (parent ${parent}, child the sensor)`;
   const out = [
     { key: 'json', title: 'JSON (everything)', direction: `as the CLI's --json; matrices row-major T_${parent}_sensor / C_ref_s / T_ref_s`, file: 'gmmcalib-result.json', text: resultJson(result) },
-    { key: 'yaml', title: 'GMMCalib YAML', direction: `transform_<sensor>: sensor -> ${parent}`, file: 'config-calibrated.yaml', text: gmmcalibYaml(result, roi, parent) },
+    { key: 'yaml', title: 'GMMCalib YAML', direction: `transform_<sensor>: sensor -> ${parent}`, file: 'config-calibrated.yaml', text: texts.gmmcalibYaml },
     { key: 'urdf', title: 'URDF origins', direction, file: 'extrinsics.urdf.xml', text: texts.urdf },
     { key: 'ros2', title: 'ROS 2 static_transform_publisher', direction: `--frame-id ${parent} (parent), --child-frame-id the sensor`, file: 'static_transforms.sh', text: texts.ros2 },
     { key: 'ros1', title: 'ROS 1 static_transform_publisher', direction: `positional x y z yaw pitch roll (yaw first), then ${parent} (parent) and the sensor`, file: 'static_transforms_ros1.sh', text: texts.ros1 },
