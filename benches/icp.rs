@@ -7,7 +7,7 @@
 use std::time::{Duration, Instant};
 
 use gmmcalib::Pose;
-use gmmcalib::icp::{IcpSettings, Metric, TargetCloud};
+use gmmcalib::icp::{FixedCloud, IcpSettings, Metric};
 use gmmcalib::se3::{angle_between, pose_from_xyz_rpy};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
@@ -75,8 +75,7 @@ pub fn run() {
         let target = scene(&mut rng, n, half, &Pose::identity());
         let source = scene(&mut rng, n, half, &truth.inverse());
         for metric in Metric::ALL {
-            let (prepare, prepared) =
-                best_of(runs, || TargetCloud::new(&target, metric, &settings));
+            let (prepare, prepared) = best_of(runs, || FixedCloud::new(&target, metric, &settings));
             let Ok(prepared) = prepared else {
                 println!("  {label:<10} {metric:<5} failed: {}", prepared.unwrap_err());
                 continue;

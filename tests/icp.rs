@@ -2,7 +2,7 @@
 //! forward and inverse, and reject degenerate input with an error.
 
 use gmmcalib::Pose;
-use gmmcalib::icp::{IcpError, IcpSettings, Metric, Role, TargetCloud, align};
+use gmmcalib::icp::{FixedCloud, IcpError, IcpSettings, Metric, Role, align};
 use gmmcalib::se3::angle_between;
 use nalgebra::{Point3, Translation3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
@@ -268,7 +268,7 @@ fn prepared_target_is_reusable_and_deterministic() {
     let (target, source) = scene_pair(3, 0.01, true);
     let settings = IcpSettings::default();
     for metric in Metric::ALL {
-        let prepared = TargetCloud::new(&target, metric, &settings).unwrap();
+        let prepared = FixedCloud::new(&target, metric, &settings).unwrap();
         assert_eq!(prepared.metric(), metric);
         let first = prepared.align(&source, &Pose::identity(), &settings).unwrap();
         // Bit-identical on reuse and through the one-call entry.

@@ -66,7 +66,7 @@ fn frame_pairs_recorded_in_any_order_calibrate_alike() {
     assert_eq!(jobs.len(), 8, "two sensors against the reference, four frames each");
     let icp = pairs.icp().clone();
     for (j, job) in jobs.iter().enumerate().rev() {
-        let target = calib::target(&clouds[job.reference_view], &icp, false).expect("target");
+        let target = calib::fixed_cloud(&clouds[job.reference_view], &icp, false).expect("target");
         let pose = calib::align(&target, &clouds[job.view], &job.start, &icp);
         pairs.record(j, pose.map_err(|e| e.to_string()));
     }

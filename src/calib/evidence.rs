@@ -13,7 +13,7 @@ use std::borrow::Cow;
 use nalgebra::{Matrix6, Point3, SymmetricEigen, Vector3, Vector6};
 
 use crate::icp::normals::{self, Neighbourhood};
-use crate::icp::{KdTree, TargetCloud};
+use crate::icp::{FixedCloud, KdTree};
 use crate::plane::Plane;
 use crate::se3::Pose;
 
@@ -142,12 +142,12 @@ impl<'a> ReferenceSurface<'a> {
         Self::from_neighbourhoods(points, Cow::Owned(tree), &neighbourhoods, ground)
     }
 
-    /// The surface of `points` from the ICP target built on them, whose tree and neighbourhoods
+    /// The surface of `points` from the ICP fixed cloud built on them, whose tree and neighbourhoods
     /// it takes instead of searching again: the same surface as [`ReferenceSurface::new`]'s.
     /// `None` unless the target kept its neighbourhoods, of as many neighbours, on the same
     /// points (not downsampled).
     pub(super) fn of_target(
-        target: &'a TargetCloud,
+        target: &'a FixedCloud,
         points: &[[f32; 3]],
         ground: Option<&Plane>,
     ) -> Option<Self> {
@@ -458,26 +458,26 @@ mod tests {
         let searched = ReferenceSurface::new(&reference, Some(&ground));
         assert!(searched.noise > MIN_NOISE, "{}", searched.noise);
         for metric in [Metric::Gicp, Metric::PointToPlane, Metric::PointToPoint] {
-            let target = TargetCloud::with_neighbourhoods(&reference, metric, &settings).unwrap();
+            let target = FixedCloud::with_neighbourhoods(&reference, metric, &settings).unwrap();
             let shared = ReferenceSurface::of_target(&target, &reference, Some(&ground)).unwrap();
             assert_eq!(shared.normals, searched.normals, "{metric:?}");
             assert_eq!((shared.radius, shared.noise), (searched.radius, searched.noise));
         }
-        let target = TargetCloud::with_neighbourhoods(&reference, Metric::Gicp, &settings).unwrap();
+        let target = FixedCloud::with_neighbourhoods(&reference, Metric::Gicp, &settings).unwrap();
 
         // ICP sees the same target; the surface is not taken when the target's points or
         // neighbourhoods differ from its own.
-        let plain = TargetCloud::new(&reference, Metric::Gicp, &settings).unwrap();
+        let plain = FixedCloud::new(&reference, Metric::Gicp, &settings).unwrap();
         assert_eq!(plain.covariances(), target.covariances());
-        let kept = TargetCloud::with_neighbourhoods(&reference, Metric::PointToPlane, &settings);
-        let plain_p2l = TargetCloud::new(&reference, Metric::PointToPlane, &settings).unwrap();
+        let kept = FixedCloud::with_neighbourhoods(&reference, Metric::PointToPlane, &settings);
+        let plain_p2l = FixedCloud::new(&reference, Metric::PointToPlane, &settings).unwrap();
         assert_eq!(plain_p2l.normals(), kept.unwrap().normals());
         let fewer = IcpSettings { neighbours: 10, ..settings.clone() };
         let thinned = IcpSettings { voxel: Some(0.1), ..settings.clone() };
         for other in [
             plain,
-            TargetCloud::with_neighbourhoods(&reference, Metric::Gicp, &fewer).unwrap(),
-            TargetCloud::with_neighbourhoods(&reference, Metric::Gicp, &thinned).unwrap(),
+            FixedCloud::with_neighbourhoods(&reference, Metric::Gicp, &fewer).unwrap(),
+            FixedCloud::with_neighbourhoods(&reference, Metric::Gicp, &thinned).unwrap(),
         ] {
             assert!(ReferenceSurface::of_target(&other, &reference, None).is_none());
         }

@@ -266,9 +266,9 @@ pub(super) fn finish(
     // The verdict, from evidence measured on the same views.
     let mut surfaces: Vec<Option<ReferenceSurface>> = clouds.iter().map(|_| None).collect();
     for &(view, _) in &frame_pairs[r] {
-        // The frame pairs' ICP target of this view, where it was built here, has searched
+        // The frame pairs' ICP fixed cloud of this view, where it was built here, has searched
         // the same neighbourhoods already.
-        let target = pairs.as_ref().and_then(|p| p.target(view));
+        let target = pairs.as_ref().and_then(|p| p.fixed_cloud(view));
         let shared =
             target.and_then(|t| ReferenceSurface::of_target(t, clouds[view], ground.as_ref()));
         surfaces[view] =

@@ -9,7 +9,7 @@ use std::f64::consts::SQRT_2;
 use nalgebra::{Point3, Vector3};
 
 use super::average::average;
-use super::pairs::{PairIcp, align, target};
+use super::pairs::{PairIcp, align, fixed_cloud};
 use crate::cloud::transformed;
 use crate::icp;
 use crate::se3::Pose;
@@ -63,9 +63,9 @@ pub(super) fn gaps(
 ) -> Vec<LoopGap> {
     let sensors = placed.len();
     let mut gaps = Vec::new();
-    // Each view's ICP target, built when a pair first needs it: a sensor with several
+    // Each view's ICP fixed cloud, built when a pair first needs it: a sensor with several
     // neighbours is the target of each.
-    let mut targets: Vec<Option<Option<icp::TargetCloud>>> = clouds.iter().map(|_| None).collect();
+    let mut targets: Vec<Option<Option<icp::FixedCloud>>> = clouds.iter().map(|_| None).collect();
     for a in (0..sensors).filter(|&a| a != r) {
         for b in (a + 1..sensors).filter(|&b| b != r) {
             if overlap(a, b).max(overlap(b, a)) < min_overlap {
@@ -77,7 +77,7 @@ pub(super) fn gaps(
                     continue;
                 };
                 let onto = targets[view_a].get_or_insert_with(|| {
-                    target(&transformed(clouds[view_a], &placed[a]), icp, false).ok()
+                    fixed_cloud(&transformed(clouds[view_a], &placed[a]), icp, false).ok()
                 });
                 let Some(onto) = onto else { continue };
                 let source = transformed(clouds[view_b], &placed[b]);

@@ -58,7 +58,7 @@ pub use loops::LoopGap;
 pub use notes::{BevWarning, LevellingSkipped, Note, NoteKind, SearchRange};
 pub use pairs::{
     FramePair, FramePairs, PairCorrections, PairFailure, PairIcp, PairSettings, PairStart, align,
-    target,
+    fixed_cloud,
 };
 pub use planes::{PlaneSettings, Precision};
 pub use progress::{Progress, Stage};

@@ -130,19 +130,19 @@ impl FramePair {
     }
 }
 
-/// The ICP target of reference view `cloud`, with the ground's normals. Build it once per
+/// The ICP fixed cloud of reference view `cloud`, with the ground's normals. Build it once per
 /// reference view: every sensor's pair of that frame aligns onto it. With `for_verdict` (where
 /// the run finishes), it keeps its points' neighbourhoods, which the verdict reads afterwards.
-pub fn target(
+pub fn fixed_cloud(
     cloud: &[[f32; 3]],
     icp: &PairIcp,
     for_verdict: bool,
-) -> Result<icp::TargetCloud, icp::IcpError> {
+) -> Result<icp::FixedCloud, icp::IcpError> {
     let (metric, settings) = (icp.settings.metric, &icp.settings.icp);
     let mut target = if for_verdict {
-        icp::TargetCloud::with_neighbourhoods(cloud, metric, settings)?
+        icp::FixedCloud::with_neighbourhoods(cloud, metric, settings)?
     } else {
-        icp::TargetCloud::new(cloud, metric, settings)?
+        icp::FixedCloud::new(cloud, metric, settings)?
     };
     if let Some((plane, band)) = icp.ground {
         target.set_normals(|p| {
@@ -156,13 +156,13 @@ pub fn target(
 /// Registers `cloud` onto `target` from `start`: one ICP stage per match distance, on one
 /// prepared source.
 pub fn align(
-    target: &icp::TargetCloud,
+    target: &icp::FixedCloud,
     cloud: &[[f32; 3]],
     start: &Pose,
     icp: &PairIcp,
 ) -> Result<Pose, icp::IcpError> {
     let settings = &icp.settings;
-    let source = icp::SourceCloud::new(cloud, settings.metric, &settings.icp)?;
+    let source = icp::MovingCloud::new(cloud, settings.metric, &settings.icp)?;
     let last = settings.match_distances.len().saturating_sub(1);
     let stages: Vec<IcpSettings> = (settings.match_distances.iter().enumerate())
         .map(|(i, &distance)| {
@@ -196,8 +196,8 @@ pub struct FramePairs {
     stopped: bool,
     /// The starts registered from, the first the one progress follows.
     origins: Vec<PairStart>,
-    /// Per view, the ICP target built here when a pair first needed it.
-    targets: Vec<Option<Result<icp::TargetCloud, icp::IcpError>>>,
+    /// Per view, the ICP fixed cloud built here when a pair first needed it.
+    targets: Vec<Option<Result<icp::FixedCloud, icp::IcpError>>>,
 }
 
 impl FramePairs {
@@ -303,7 +303,7 @@ impl FramePairs {
             needed.sort_unstable();
             needed.dedup();
             let icp = &self.icp;
-            let built = crate::on_threads(&needed, threads, |&r| target(clouds[r], icp, true));
+            let built = crate::on_threads(&needed, threads, |&r| fixed_cloud(clouds[r], icp, true));
             for (&r, built) in needed.iter().zip(built) {
                 targets[r] = Some(built);
             }
@@ -331,8 +331,8 @@ impl FramePairs {
         self.targets = targets;
     }
 
-    /// The ICP target of reference view `view`, when [`FramePairs::run`] built one.
-    pub fn target(&self, view: usize) -> Option<&icp::TargetCloud> {
+    /// The ICP fixed cloud of reference view `view`, when [`FramePairs::run`] built one.
+    pub fn fixed_cloud(&self, view: usize) -> Option<&icp::FixedCloud> {
         self.targets.get(view)?.as_ref()?.as_ref().ok()
     }
 

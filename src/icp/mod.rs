@@ -2,29 +2,29 @@
 //! GICP (Segal et al. 2009), as compared against in the GMMCalib paper.
 //!
 //! Two tiers, as in small_gicp: [`align`] with an [`IcpSettings`] for most uses; underneath, a
-//! [`TargetCloud`] prepared once (kd-tree, normals or covariances) and [`TargetCloud::align`]ed with many
-//! sources (or with a [`SourceCloud`] prepared once for several runs), plus the [`KdTree`] and the
+//! [`FixedCloud`] prepared once (kd-tree, normals or covariances) and [`FixedCloud::align`]ed with many
+//! sources (or with a [`MovingCloud`] prepared once for several runs), plus the [`KdTree`] and the
 //! [`normals`] estimators themselves.
 //!
 //! Frames: the result `T_target_source` maps source points into the target frame,
 //! `p_target = T_target_source * p_source`. Points are f32 metres; all maths is f64.
 
+mod clouds;
 mod gicp;
 pub mod kdtree;
 pub mod normals;
 mod plane;
 mod point;
 mod solver;
-mod target;
 
 use std::fmt;
 use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
+pub use clouds::{FixedCloud, MovingCloud};
 pub use kdtree::{KdTree, Neighbour};
 pub use point::kabsch;
-pub use target::{SourceCloud, TargetCloud};
 
 use crate::se3::Pose;
 
@@ -227,7 +227,7 @@ impl fmt::Display for IcpError {
 impl std::error::Error for IcpError {}
 
 /// Registers `source` onto `target` from the initial guess `init` (`T_target_source`) and
-/// returns the refined `T_target_source`. Prepares a [`TargetCloud`] and calls [`TargetCloud::align`];
+/// returns the refined `T_target_source`. Prepares a [`FixedCloud`] and calls [`FixedCloud::align`];
 /// prepare the target yourself to reuse it for several sources.
 pub fn align(
     target: &[[f32; 3]],
@@ -236,7 +236,7 @@ pub fn align(
     metric: Metric,
     settings: &IcpSettings,
 ) -> Result<Alignment, IcpError> {
-    TargetCloud::new(target, metric, settings)?.align(source, init, settings)
+    FixedCloud::new(target, metric, settings)?.align(source, init, settings)
 }
 
 #[cfg(test)]

@@ -17,7 +17,7 @@ use std::collections::HashMap;
 
 use nalgebra::{Point3, Translation3, UnitQuaternion, Vector3};
 
-use crate::icp::{IcpSettings, Metric, TargetCloud};
+use crate::icp::{FixedCloud, IcpSettings, Metric};
 use crate::mesh::Mesh;
 use crate::plane::Plane;
 use crate::se3::Pose;
@@ -67,10 +67,10 @@ pub struct Placement {
     pub rms: f64,
 }
 
-/// The model's dense samples with their faces' normals, ready for ICP: the target cloud of
+/// The model's dense samples with their faces' normals, ready for ICP: the fixed cloud of
 /// every fit.
 pub struct ModelCloud {
-    cloud: TargetCloud,
+    cloud: FixedCloud,
     /// Model height (m) and the radius of its footprint (m).
     height: f64,
     reach: f64,
@@ -91,7 +91,7 @@ impl ModelCloud {
             .map(|(p, (_, n))| (p.map(f32::to_bits), (*n).into()))
             .collect();
         let icp = icp_settings(settings);
-        let mut cloud = TargetCloud::new(&points, Metric::PointToPlane, &icp).ok()?;
+        let mut cloud = FixedCloud::new(&points, Metric::PointToPlane, &icp).ok()?;
         // The faces' own normals: a thin slab's two sides would blur a neighbourhood's PCA.
         cloud.set_normals(|p| normal_of.get(&p.map(f32::to_bits)).copied());
         let b = mesh.bounds();

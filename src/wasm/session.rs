@@ -395,7 +395,7 @@ pub fn align_pairs(
     }
     let target = cloud_from(target, "alignPairs", "target")?;
     // A pool worker's target serves its pairs only: the verdict is the calibration worker's.
-    let built = calib::target(&target.points, &icp, false);
+    let built = calib::fixed_cloud(&target.points, &icp, false);
     let outcomes = Array::new();
     for (i, (source, start)) in sources.iter().zip(starts.chunks_exact(7)).enumerate() {
         let source = cloud_of(&source, &format!("source {i}"))?;

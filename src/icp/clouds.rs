@@ -1,7 +1,8 @@
-//! A target cloud prepared once for registration (kd-tree plus normals or covariances, as the
-//! metric needs) and reused for any number of sources, e.g. every sensor's view of one frame;
-//! and a source prepared once (tree order, GICP covariances) for several registrations, e.g.
-//! stages with a shrinking match distance.
+//! The two sides of a registration, each prepared once: the fixed cloud (held still; ICP's
+//! "target": kd-tree plus normals or covariances, as the metric needs), reused for any number
+//! of moving clouds, e.g. every sensor's view of one frame; and a moving cloud (ICP's "source":
+//! tree order, GICP covariances) for several registrations, e.g. stages with a shrinking match
+//! distance. Not "target": that is the calibration target (`crate::targets`).
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
@@ -25,9 +26,9 @@ const MIN_SPREAD_RATIO: f64 = 1e-4;
 /// Largest principal variance (m^2) below which all points coincide (to a micrometre).
 const MIN_VARIANCE: f64 = 1e-12;
 
-/// The target side of a registration, prepared for one [`Metric`].
+/// The fixed side of a registration, prepared for one [`Metric`].
 #[derive(Clone, Debug)]
-pub struct TargetCloud {
+pub struct FixedCloud {
     metric: Metric,
     points: Vec<[f32; 3]>,
     tree: KdTree,
@@ -39,7 +40,7 @@ pub struct TargetCloud {
     neighbours: usize,
 }
 
-impl TargetCloud {
+impl FixedCloud {
     /// Checks and (when `settings.voxel` is set) downsamples `points`, builds the kd-tree and,
     /// from `settings.neighbours` nearest neighbours, the normals (point-to-plane) or the
     /// plane-regularised covariances (GICP).
@@ -51,7 +52,7 @@ impl TargetCloud {
         Self::build(points, metric, settings, false)
     }
 
-    /// [`TargetCloud::new`] that also keeps each point's [`Neighbourhood`] from the search
+    /// [`FixedCloud::new`] that also keeps each point's [`Neighbourhood`] from the search
     /// that gave its normals or covariances (a search of its own for point-to-point), for
     /// whoever reads the target's surface afterwards (the verdict's evidence). The same target
     /// otherwise, bit for bit.
@@ -151,14 +152,14 @@ impl TargetCloud {
         init: &Pose,
         settings: &IcpSettings,
     ) -> Result<Alignment, IcpError> {
-        self.align_prepared(&SourceCloud::new(source, self.metric, settings)?, init, settings)
+        self.align_prepared(&MovingCloud::new(source, self.metric, settings)?, init, settings)
     }
 
-    /// [`TargetCloud::align`] for a source prepared once, with the same metric; `neighbours` and
+    /// [`FixedCloud::align`] for a source prepared once, with the same metric; `neighbours` and
     /// `voxel` were taken when it was.
     pub fn align_prepared(
         &self,
-        source: &SourceCloud,
+        source: &MovingCloud,
         init: &Pose,
         settings: &IcpSettings,
     ) -> Result<Alignment, IcpError> {
@@ -170,7 +171,7 @@ impl TargetCloud {
     /// stage to the next: a source point far from the target stays known as far.
     pub fn align_stages(
         &self,
-        source: &SourceCloud,
+        source: &MovingCloud,
         init: &Pose,
         stages: &[IcpSettings],
     ) -> Result<Alignment, IcpError> {
@@ -196,11 +197,11 @@ impl TargetCloud {
     fn run(
         &self,
         matcher: &mut Matcher,
-        source: &SourceCloud,
+        source: &MovingCloud,
         init: &Pose,
         settings: &IcpSettings,
     ) -> Result<Alignment, IcpError> {
-        let SourceCloud { points: source, covariances: source_covariances, .. } = source;
+        let MovingCloud { points: source, covariances: source_covariances, .. } = source;
         let target = &self.points[..];
         match self.metric {
             Metric::PointToPoint => {
@@ -228,7 +229,7 @@ impl TargetCloud {
 
 /// The source side of a registration, prepared for one [`Metric`].
 #[derive(Clone, Debug)]
-pub struct SourceCloud {
+pub struct MovingCloud {
     metric: Metric,
     /// In kd-tree order: consecutive queries then land close together in the target tree,
     /// which stays in cache (merged clouds are not spatially ordered).
@@ -237,7 +238,7 @@ pub struct SourceCloud {
     covariances: Vec<Matrix3<f64>>,
 }
 
-impl SourceCloud {
+impl MovingCloud {
     /// Checks and (when `settings.voxel` is set) downsamples `points` and, for GICP, computes
     /// their covariances from `settings.neighbours` nearest neighbours.
     pub fn new(
