@@ -7,6 +7,17 @@ use nalgebra::Vector3;
 
 use crate::se3::Pose;
 
+/// One scan: points `x, y, z` in the sensor's own frame (m). Scans of different sensors with
+/// the same frame name were captured at the same time.
+#[derive(Clone, Debug)]
+pub struct Scan {
+    pub sensor: String,
+    pub frame: String,
+    pub points: Vec<[f32; 3]>,
+    /// Where the scan came from (a file's name, a recording's message), for messages.
+    pub source: Option<String>,
+}
+
 /// An axis-aligned box (metres), bounds inclusive.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {

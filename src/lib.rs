@@ -21,6 +21,7 @@ pub mod jrmpc;
 pub mod targets;
 // The pipeline.
 pub mod calib;
+pub mod config;
 // Has a sensor moved since a stored calibration?
 pub mod drift;
 // Truth: the digital twin and the paper's metrics.

@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use gmmcalib::calib::{self, Method, Rig, Scan, Settings};
-use gmmcalib::io::config::Config;
+use gmmcalib::config::Config;
 use gmmcalib::io::parse_cloud;
 use gmmcalib::io::recording::select::Settings as Select;
 use gmmcalib::io::recording::{Container, Kind, Recording, RecordingError, Tree, nominals};

@@ -226,11 +226,17 @@ pub enum TargetChoice {
     MeshFile(String),
 }
 
+/// The path of a `mesh:PATH` target, if `target` is one.
+pub fn mesh_path(target: &str) -> Option<&str> {
+    let (kind, path) = target.trim().split_once(':')?;
+    (kind.eq_ignore_ascii_case("mesh") && !path.trim().is_empty()).then(|| path.trim())
+}
+
 impl FromStr for TargetChoice {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, String> {
-        match crate::io::config::mesh_path(s) {
+        match mesh_path(s) {
             Some(path) => Ok(TargetChoice::MeshFile(path.to_string())),
             None => s.parse().map(TargetChoice::Shape),
         }

@@ -52,7 +52,7 @@ pub use evidence::{Agreement, Observability, SensorEvidence};
 pub use global::{
     GlobalAlignment, GlobalJob, GlobalReference, GlobalSettings, GlobalSkip, GlobalStage,
 };
-pub use input::{Methods, SettingsInput, TargetChoice};
+pub use input::{Methods, SettingsInput, TargetChoice, mesh_path};
 pub use level::GroundSettings;
 pub use loops::LoopGap;
 pub use notes::{BevWarning, LevellingSkipped, Note, NoteKind, SearchRange};

@@ -3,18 +3,8 @@
 
 use super::CalibError;
 use crate::cloud::Aabb;
+pub use crate::cloud::Scan;
 use crate::se3::Pose;
-
-/// One scan: points `x, y, z` in the sensor's own frame (m). Scans of different sensors with
-/// the same frame name were captured at the same time.
-#[derive(Clone, Debug)]
-pub struct Scan {
-    pub sensor: String,
-    pub frame: String,
-    pub points: Vec<[f32; 3]>,
-    /// Where the scan came from (a file's name, a recording's message), for messages.
-    pub source: Option<String>,
-}
 
 /// Everything about the rig the user supplies.
 #[derive(Clone, Debug)]

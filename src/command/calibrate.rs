@@ -5,7 +5,7 @@ use super::args::CalibrateArgs;
 use super::recording::{self, BagRequest};
 use super::{Host, dataset, parent, read_text};
 use crate::calib::{self, Level, Method, Progress, Rig, Settings, Stage};
-use crate::io::config::Config;
+use crate::config::Config;
 use crate::jrmpc::Control;
 use crate::report::{self, Report};
 use crate::targets::Target;

@@ -12,7 +12,6 @@
 //! Missing returns (NaN/inf coordinates and exact zeros `0 0 0`, `-0 0 0`) are dropped while
 //! decoding and counted in [`ParsedCloud::dropped`]. Coordinates are metres as stored.
 
-pub mod config;
 mod decode;
 mod kitti;
 pub mod lzf;

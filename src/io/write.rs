@@ -127,7 +127,7 @@ pub struct ConfigTransform {
 /// GMMCalib's `config.yaml`: `number_of_sensors`, `transform_<sensor>: - [roll, pitch, yaw, x,
 /// y, z]` per sensor, our `reference` key when given, and the ROI as `min_bound` / `max_bound`;
 /// `comment` (lines) first. Numbers as the shortest text that reads back to the same f64, so
-/// `io::Config` reads the file back bit for bit. The page's export and `gmmcalib simulate`
+/// `config::Config` reads the file back bit for bit. The page's export and `gmmcalib simulate`
 /// both write it here.
 pub fn gmmcalib_config(
     comment: &str,

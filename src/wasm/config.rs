@@ -1,5 +1,5 @@
 //! The rig descriptions the page reads, in the shape its rig panel takes: `parseConfig(text,
-//! fileName)`, GMMCalib's `config.yaml` by the library's one reader (`io::config`); and
+//! fileName)`, GMMCalib's `config.yaml` by the library's one reader (`config`); and
 //! `parseOpenCalib(...)`, OpenCalib's `lidar_cloud_path.txt` and `initial_extrinsic.txt`
 //! (`io::opencalib`).
 
@@ -10,7 +10,7 @@ use wasm_bindgen::prelude::*;
 
 use super::{Roi, XyzRpy, to_js};
 use crate::calib::SettingsInput;
-use crate::io::config::Config;
+use crate::config::Config;
 use crate::io::opencalib;
 
 #[derive(Serialize)]

@@ -330,7 +330,7 @@ fn study(flags: Vec<(String, String)>) -> Result<Command, String> {
 /// A target in its short form (`Target`'s), or `mesh:PATH` with PATH (relative to `dir`) read
 /// here: the library parses the bytes.
 pub fn target(value: &str, dir: &std::path::Path) -> Result<gmmcalib::targets::Target, String> {
-    match gmmcalib::io::config::mesh_path(value) {
+    match gmmcalib::calib::mesh_path(value) {
         Some(path) => {
             let path = dir.join(path);
             let label = path.display().to_string();

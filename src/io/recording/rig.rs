@@ -8,7 +8,7 @@ use super::select::{Motion, Pick, Settings as Select};
 use super::tf::{Tree, TreeError};
 use super::urdf::Urdf;
 use super::{Recording, RecordingError, nominals};
-use crate::calib::Scan;
+use crate::cloud::Scan;
 use crate::se3::Pose;
 
 /// What to take from a recording.

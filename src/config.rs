@@ -20,9 +20,9 @@
 
 use serde_norway::{Mapping, Value};
 
-use super::IoError;
 use crate::calib::{Settings, SettingsInput, TargetChoice};
 use crate::cloud::Aabb;
+use crate::io::IoError;
 use crate::se3::{Pose, pose_from_xyz_rpy};
 
 /// A sensor's nominal `T_vehicle_sensor` as the file gives it.
@@ -131,12 +131,6 @@ fn settings(map: &Mapping) -> Result<SettingsInput, String> {
     }
     unread.apply(&mut Settings::default())?;
     Ok(settings)
-}
-
-/// The path of a `mesh:PATH` target, if `target` is one.
-pub fn mesh_path(target: &str) -> Option<&str> {
-    let (kind, path) = target.trim().split_once(':')?;
-    (kind.eq_ignore_ascii_case("mesh") && !path.trim().is_empty()).then(|| path.trim())
 }
 
 /// A sensor's nominal in any of the forms users have: GMMCalib's six numbers `[roll, pitch,
