@@ -6,6 +6,7 @@ use nalgebra::Vector3;
 use super::CalibError;
 use super::average::{average, robust_average};
 use super::evidence::{ReferenceSurface, sensor_evidence};
+use super::judge::{self, SensorInputs};
 use super::loops;
 use super::notes::{Note, NoteKind};
 use super::pairs::{FramePairs, PairCorrections, PairFailure, PairStart};
@@ -13,7 +14,7 @@ use super::planes;
 use super::reconstruction::reconstruct;
 use super::result::{Calibration, SensorResult};
 use super::select::{self, Hypothesis, SensorSelection, Source};
-use super::verdict::{self, Level, SensorInputs, Verdict};
+use super::verdict::{Level, Verdict};
 use super::views::{Views, jrmpc_per_pair};
 use crate::jrmpc::Registration;
 use crate::se3::Pose;
@@ -304,7 +305,7 @@ pub(super) fn finish(
                 &origins,
                 p.icp(),
                 overlap,
-                verdict::MIN_OVERLAP,
+                super::verdict::MIN_OVERLAP,
                 better,
             )
         }
@@ -321,7 +322,7 @@ pub(super) fn finish(
         });
         let others: Vec<&SensorResult> = results.iter().filter(|o| o.name != *name).collect();
         let level = levelling.get(s);
-        let mut v = verdict::judge_sensor(
+        let mut v = judge::judge_sensor(
             SensorInputs {
                 result,
                 evidence,
@@ -356,7 +357,7 @@ pub(super) fn finish(
             },
             &others,
         );
-        verdict::judge_frames(&mut v, (result.spread.rpy, result.spread.xyz), result.spread.frames);
+        judge::judge_frames(&mut v, (result.spread.rpy, result.spread.xyz), result.spread.frames);
         sensor_verdicts.push(v);
     }
     // Judged open against the precision the scans gave, the loops then widen it.
@@ -365,7 +366,7 @@ pub(super) fn finish(
     for (result, p) in results.iter_mut().zip(precision) {
         result.precision = p;
     }
-    let reasons = verdict::judge_reconstruction(
+    let reasons = judge::judge_reconstruction(
         &settings.target,
         &reconstruction.fits,
         !reconstruction.means.is_empty(),

@@ -26,6 +26,7 @@ mod finish;
 pub mod global;
 mod grounds;
 mod input;
+mod judge;
 mod left_out;
 mod level;
 mod loops;

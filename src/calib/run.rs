@@ -393,7 +393,7 @@ impl<'r> Run<'r> {
         if self.outcomes.len() > 1 {
             let mut ran: Vec<&mut Calibration> =
                 self.outcomes.iter_mut().filter_map(|(_, o)| o.as_mut().ok()).collect();
-            super::verdict::compare_methods(&mut ran);
+            super::judge::compare_methods(&mut ran);
         }
         self.outcomes
     }
