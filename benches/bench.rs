@@ -205,10 +205,10 @@ mod native {
             let mut settings = calib::Settings {
                 method: calib::Method::Gmm,
                 components: job.components,
-                gmm_multiresolution: multiresolution,
                 ..Default::default()
             };
             settings.jrmpc.threads = threads;
+            settings.gmm_em.multiresolution = multiresolution;
             let started = Instant::now();
             let mut em_ended = started;
             let result = calib::calibrate(&rig, &settings, |p| {

@@ -2,8 +2,8 @@
 //! the user receives moves by at most 0.002 deg / 0.2 mm and no verdict changes. Here on a
 //! handful of rigs: the default (the fast E-step and the convergence test of `gmm`'s JRMPC
 //! stage) against the exact path (the exact E-step for all 100 iterations); the convergence
-//! test (`Settings::gmm_em_tolerance`) against all 100 iterations; and multi-resolution EM
-//! (`Settings::gmm_multiresolution`, off by default) against every point every iteration. The
+//! test (`Settings::gmm_em`) against all 100 iterations; and multi-resolution EM
+//! (`Settings::gmm_em`, off by default) against every point every iteration. The
 //! full studies are in docs/benchmarks.md.
 
 #![cfg(not(target_arch = "wasm32"))]
@@ -80,7 +80,8 @@ fn holds_the_rule(
 
 #[test]
 fn gmm_by_default_gives_the_exact_paths_calibration() {
-    let mut exact = Settings { gmm_em_tolerance: 0.0, ..Settings::default() };
+    let mut exact = Settings::default();
+    exact.gmm_em.tolerance = 0.0;
     exact.jrmpc.exact = true;
     for (exact, default) in holds_the_rule("default", &exact, &Settings::default()) {
         let terms = |c: &Calibration| c.history.iter().map(|h| h.terms).sum::<u64>();
@@ -93,8 +94,10 @@ fn gmm_by_default_gives_the_exact_paths_calibration() {
 
 #[test]
 fn gmm_stopping_jrmpc_early_gives_the_same_calibration() {
-    let exact = Settings { gmm_em_tolerance: 0.0, ..Settings::default() };
-    let early = Settings { gmm_em_tolerance: 1e-4, ..exact.clone() };
+    let mut exact = Settings::default();
+    exact.gmm_em.tolerance = 0.0;
+    let mut early = exact.clone();
+    early.gmm_em.tolerance = 1e-4;
     for (exact, early) in holds_the_rule("early stop", &exact, &early) {
         assert_eq!(exact.iterations, 100);
         assert!(early.iterations < 100, "the convergence test stopped EM: {}", early.iterations);
@@ -103,8 +106,10 @@ fn gmm_stopping_jrmpc_early_gives_the_same_calibration() {
 
 #[test]
 fn gmm_on_merged_points_gives_the_same_calibration() {
-    let every = Settings { gmm_multiresolution: false, ..Settings::default() };
-    let merged = Settings { gmm_multiresolution: true, ..Settings::default() };
+    let mut every = Settings::default();
+    every.gmm_em.multiresolution = false;
+    let mut merged = Settings::default();
+    merged.gmm_em.multiresolution = true;
     for (every, merged) in holds_the_rule("multi-resolution", &every, &merged) {
         let terms = |c: &Calibration| c.history.iter().map(|h| h.terms).sum::<u64>();
         assert!(

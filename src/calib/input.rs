@@ -78,7 +78,7 @@ impl SettingsInput {
             components: Some(s.components),
             iterations: Some(s.jrmpc.max_iterations),
             tolerance: None,
-            multiresolution: Some(s.gmm_multiresolution),
+            multiresolution: Some(s.gmm_em.multiresolution),
             exact: Some(s.jrmpc.exact),
             initial_sigma: Some(s.initial_sigma),
             seed: Some(s.seed),
@@ -161,10 +161,10 @@ impl SettingsInput {
             if !(t.is_finite() && t >= 0.0) {
                 return Err(format!("tolerance: expected a non-negative number, got {t}"));
             }
-            (settings.jrmpc.tolerance, settings.gmm_em_tolerance) = (t, t);
+            (settings.jrmpc.tolerance, settings.gmm_em.tolerance) = (t, t);
         }
         if let Some(on) = self.multiresolution {
-            (settings.jrmpc.multiresolution, settings.gmm_multiresolution) = (on, on);
+            (settings.jrmpc.multiresolution, settings.gmm_em.multiresolution) = (on, on);
         }
         if let Some(exact) = self.exact {
             settings.jrmpc.exact = exact;

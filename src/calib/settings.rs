@@ -151,22 +151,36 @@ pub struct Settings {
     pub global: GlobalSettings,
     /// For `cad`'s registration onto the target's model.
     pub cad: CadSettings,
-    /// JRMPC's convergence test inside `gmm` (rad or m per iteration; see
-    /// [`jrmpc::EmSettings::tolerance`]). There JRMPC only finds the basin; the refinement
-    /// and plane adjustment set the accuracy, so it stops early (figures in
-    /// docs/benchmarks.md). Plain `jrmpc` keeps `jrmpc.tolerance`. 0 runs every iteration.
-    pub gmm_em_tolerance: f64,
-    /// Multi-resolution EM inside `gmm` ([`jrmpc::EmSettings::multiresolution`]): the wide
-    /// iterations take each view's points merged in cubes. Plain `jrmpc` keeps
-    /// `jrmpc.multiresolution`. Off by default: on a board trial started beyond the spec it
-    /// lands 0.25 deg off where the exact path does not (docs/benchmarks.md).
-    pub gmm_multiresolution: bool,
+    /// JRMPC inside `gmm`: its own convergence test and multi-resolution; plain `jrmpc` keeps
+    /// those of `jrmpc`.
+    pub gmm_em: EmProfile,
     /// The selection among every stage's hypotheses (docs/method.md, "Selection").
     pub select: SelectSettings,
     /// Refine only: trust the nominal, run no global stage, levelling, search from above or
     /// JRMPC, and refine each frame pair from the nominal (then the plane adjustment and the
     /// selection), so the result stays in the nominal's basin.
     pub refine_only: bool,
+}
+
+/// How a method runs JRMPC's EM beyond what every method shares (`jrmpc`'s iterations, E-step
+/// and threads): one profile per method that overrides them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmProfile {
+    /// The convergence test (rad or m per iteration; [`jrmpc::EmSettings::tolerance`]); 0 runs
+    /// every iteration. Inside `gmm`, JRMPC only finds the basin and the refinement and plane
+    /// adjustment set the accuracy, so it stops early (1e-4; figures in docs/benchmarks.md).
+    pub tolerance: f64,
+    /// Multi-resolution EM ([`jrmpc::EmSettings::multiresolution`]): the wide iterations take
+    /// each view's points merged in cubes. Off inside `gmm`: on a board trial started beyond
+    /// the spec it lands 0.25 deg off where the exact path does not (docs/benchmarks.md).
+    pub multiresolution: bool,
+}
+
+impl Default for EmProfile {
+    /// `gmm`'s.
+    fn default() -> Self {
+        Self { tolerance: 1e-4, multiresolution: false }
+    }
 }
 
 impl Default for Settings {
@@ -189,8 +203,7 @@ impl Default for Settings {
             align_globally: None,
             global: GlobalSettings::default(),
             cad: CadSettings::default(),
-            gmm_em_tolerance: 1e-4,
-            gmm_multiresolution: false,
+            gmm_em: EmProfile::default(),
             select: SelectSettings::default(),
             refine_only: false,
         }
@@ -223,11 +236,8 @@ pub struct Stages {
     pub jrmpc: bool,
     /// Register every sensor onto fixed components on the placed target model (`cad`).
     pub cad: Option<CadSettings>,
-    /// JRMPC's convergence test: `gmm_em_tolerance` for `gmm`, else `jrmpc.tolerance`.
-    pub em_tolerance: f64,
-    /// JRMPC's multi-resolution: `gmm_multiresolution` for `gmm`, else
-    /// `jrmpc.multiresolution`.
-    pub em_multiresolution: bool,
+    /// JRMPC's convergence test and multi-resolution: `gmm_em` for `gmm`, else `jrmpc`'s.
+    pub em: EmProfile,
     /// Register each frame pair by ICP: from JRMPC's corrections (`gmm`) or the nominal.
     pub pairs: Option<PairSettings>,
     /// The starts each frame pair registers from: for `gmm` and `cad` the registration's
@@ -271,13 +281,12 @@ impl Stages {
                 Method::Jrmpc => true,
                 Method::Cad | Method::Icp(_) => false,
             },
-            em_tolerance: match method {
-                Method::Gmm => settings.gmm_em_tolerance,
-                _ => settings.jrmpc.tolerance,
-            },
-            em_multiresolution: match method {
-                Method::Gmm => settings.gmm_multiresolution,
-                _ => settings.jrmpc.multiresolution,
+            em: match method {
+                Method::Gmm => settings.gmm_em,
+                _ => EmProfile {
+                    tolerance: settings.jrmpc.tolerance,
+                    multiresolution: settings.jrmpc.multiresolution,
+                },
             },
             // One knob for the most EM iterations, JRMPC's or cad's.
             cad: (method == Method::Cad).then(|| CadSettings {

@@ -296,8 +296,8 @@ impl Views {
                 InitialSigma::BoundingBox => None,
                 InitialSigma::Fixed(sigma) => Some(sigma),
             },
-            tolerance: self.stages.em_tolerance,
-            multiresolution: self.stages.em_multiresolution,
+            tolerance: self.stages.em.tolerance,
+            multiresolution: self.stages.em.multiresolution,
             ..settings.jrmpc.clone()
         };
         JrmpcInput { clouds, means, settings: jrmpc_settings }

@@ -131,7 +131,7 @@ pub struct StudyArgs {
     pub tolerance: Option<f64>,
     pub bev: bool,
     pub planes: bool,
-    /// `gmm`'s multi-resolution EM (`Settings::gmm_multiresolution`).
+    /// `gmm`'s multi-resolution EM (`Settings::gmm_em`).
     pub multiresolution: bool,
     /// JRMPC's exact E-step (`EmSettings::exact`), the reference the fast path is judged by.
     pub exact: bool,

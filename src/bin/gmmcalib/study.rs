@@ -106,7 +106,7 @@ fn settings(a: &StudyArgs) -> Result<Settings, String> {
         settings.jrmpc.max_iterations = n;
     }
     if let Some(t) = a.tolerance {
-        (settings.jrmpc.tolerance, settings.gmm_em_tolerance) = (t, t);
+        (settings.jrmpc.tolerance, settings.gmm_em.tolerance) = (t, t);
     }
     if !a.bev {
         settings.bev = None;
@@ -114,7 +114,7 @@ fn settings(a: &StudyArgs) -> Result<Settings, String> {
     if !a.planes {
         settings.planes = None;
     }
-    settings.gmm_multiresolution = a.multiresolution;
+    settings.gmm_em.multiresolution = a.multiresolution;
     settings.jrmpc.exact = a.exact;
     settings.level_ground = a.level;
     settings.align_globally = a.global;
