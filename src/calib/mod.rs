@@ -19,6 +19,7 @@
 
 mod average;
 mod bev;
+mod cad_registration;
 pub mod correlate;
 mod error;
 mod evidence;

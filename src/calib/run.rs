@@ -211,7 +211,7 @@ impl<'r> Run<'r> {
         let Some((_, views, State::Cad(outcome))) = &mut self.current else { return };
         let max_iterations = views.stages().cad.as_ref().map_or(0, |c| c.max_iterations);
         let sensors = self.rig.sensors().len();
-        let reg = views.register_cad(|it| {
+        let reg = super::cad_registration::register_cad(views, |it| {
             let corrections = vec![Pose::identity(); sensors];
             progress(&Progress {
                 stage: Stage::Cad,

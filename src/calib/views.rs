@@ -7,7 +7,7 @@ use super::global::{GlobalAlignment, GlobalStage};
 use super::grounds::{level_grounds, sensor_ground};
 use super::notes::{LevellingSkipped, Note, NoteKind};
 use super::pairs::{FramePairs, PairCorrections, PairIcp, PairStart};
-use super::placed::{self, place_targets, roi_around_targets};
+use super::placed::{place_targets, roi_around_targets};
 use super::region::{self, RoiSource};
 use super::result::Levelling;
 use super::rig::sensor_seed;
@@ -183,8 +183,9 @@ impl Views {
         let mut roi = roi;
         let mut roi_source = if rig.roi.is_some() { RoiSource::Given } else { RoiSource::Overlap };
         if rig.roi.is_none() {
+            let reference = reference_points(&views, r);
             if let Some((around, found)) =
-                roi_around_targets(&settings.target, &views, r, ground.as_ref(), &roi)
+                roi_around_targets(&settings.target, &reference, ground.as_ref(), &roi)
             {
                 roi = around;
                 roi_source = RoiSource::Targets { found };
@@ -209,8 +210,9 @@ impl Views {
                 return Err(CalibError::NoCommonFrames(name.clone()));
             }
         }
+        let reference = reference_points(&views, r);
         let placements =
-            place_targets(&settings.target, &stages, &views, r, ground.as_ref(), &roi)?;
+            place_targets(&settings.target, &stages, &reference, ground.as_ref(), &roi)?;
         let same_scans = same_scans(rig);
         Ok(Self {
             settings: settings.clone(),
@@ -307,18 +309,6 @@ impl Views {
     pub fn start_jrmpc(&self) -> Result<(Em, jrmpc::CentredViews), CalibError> {
         let input = self.jrmpc_input();
         Ok(Em::start(&input.clouds, &input.means, &input.settings)?)
-    }
-
-    /// `cad`'s registration: every sensor onto fixed components sampled on each placed copy of
-    /// the target's model (about 1.75 components per point of the median view, as CADCalib
-    /// sizes them), each view cut to the points near a placed copy and off the ground. As a
-    /// [`Registration`] (each view posed as its sensor, the mixture the fixed components) so
-    /// the rest of the pipeline takes it as it takes JRMPC's.
-    pub fn register_cad(
-        &self,
-        progress: impl FnMut(&crate::cad::CadIteration) -> crate::jrmpc::Control,
-    ) -> Result<Registration, CalibError> {
-        placed::register_cad(self, progress)
     }
 
     /// The running correction per sensor from JRMPC's views' poses: the mean over frames of
@@ -473,6 +463,11 @@ fn sensor_scans(rig: &Rig, sensors: &[String]) -> Vec<Vec<[f32; 3]>> {
             own.flat_map(|v| v.points.iter().copied()).collect()
         })
         .collect()
+}
+
+/// Sensor `r`'s points over all its views (vehicle frame, cropped).
+fn reference_points(views: &[View], r: usize) -> Vec<[f32; 3]> {
+    views.iter().filter(|v| v.sensor == r).flat_map(|v| v.cloud.points.iter().copied()).collect()
 }
 
 /// For each sensor, the (reference view, sensor view) index pairs of the frames both have.
