@@ -11,13 +11,14 @@ use crate::mesh::Mesh;
 use crate::plane::Plane;
 use crate::targets::{ModelCloud, PlaceSettings, Placement, Target};
 
-/// Where the target's model stands in the reference's views (vehicle frame), on its ground
+/// Where the target's model stands in the reference's views (`reference`: each view's points,
+/// vehicle frame), on its ground
 /// (or, without one, on the vehicle's z = 0 plane): for a CAD-model target, and for `cad` with
 /// any target; empty otherwise. A model larger than the region of interest cannot be in it.
 pub(super) fn place_targets(
     target: &Target,
     stages: &Stages,
-    reference: &[[f32; 3]],
+    reference: &[&[[f32; 3]]],
     ground: Option<&Plane>,
     roi: &Aabb,
 ) -> Result<Vec<Placement>, CalibError> {
@@ -34,13 +35,13 @@ pub(super) fn place_targets(
     Ok(find_targets(&mesh, reference, ground))
 }
 
-/// Every copy of `mesh` standing in the reference's points (on `ground`, else on the vehicle's
-/// z = 0 plane).
-fn find_targets(mesh: &Mesh, reference: &[[f32; 3]], ground: Option<&Plane>) -> Vec<Placement> {
+/// Every copy of `mesh` standing in the reference's views' points (on `ground`, else on the
+/// vehicle's z = 0 plane). The views are joined only here, where a model is to be placed.
+fn find_targets(mesh: &Mesh, reference: &[&[[f32; 3]]], ground: Option<&Plane>) -> Vec<Placement> {
     let settings = PlaceSettings::default();
     let Some(model) = ModelCloud::new(mesh, &settings) else { return Vec::new() };
     let level = Plane { normal: Vector3::z(), offset: 0.0 };
-    crate::targets::place(&model, reference, ground.unwrap_or(&level), &settings)
+    crate::targets::place(&model, &reference.concat(), ground.unwrap_or(&level), &settings)
 }
 
 /// Without a ROI from the user, a target of known shape found standing in the reference's
@@ -52,7 +53,7 @@ fn find_targets(mesh: &Mesh, reference: &[[f32; 3]], ground: Option<&Plane>) -> 
 /// the region and the number of copies found.
 pub(super) fn roi_around_targets(
     target: &Target,
-    reference: &[[f32; 3]],
+    reference: &[&[[f32; 3]]],
     ground: Option<&Plane>,
     overlap: &Aabb,
 ) -> Option<(Aabb, usize)> {

@@ -465,9 +465,10 @@ fn sensor_scans(rig: &Rig, sensors: &[String]) -> Vec<Vec<[f32; 3]>> {
         .collect()
 }
 
-/// Sensor `r`'s points over all its views (vehicle frame, cropped).
-fn reference_points(views: &[View], r: usize) -> Vec<[f32; 3]> {
-    views.iter().filter(|v| v.sensor == r).flat_map(|v| v.cloud.points.iter().copied()).collect()
+/// Sensor `r`'s views' points (vehicle frame, cropped), borrowed: copied together only where a
+/// target model is placed in them.
+fn reference_points(views: &[View], r: usize) -> Vec<&[[f32; 3]]> {
+    views.iter().filter(|v| v.sensor == r).map(|v| v.cloud.points.as_slice()).collect()
 }
 
 /// For each sensor, the (reference view, sensor view) index pairs of the frames both have.
