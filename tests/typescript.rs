@@ -6,7 +6,7 @@
 
 use gmmcalib::calib::verdict::Level;
 use gmmcalib::calib::{
-    Agreement, Method, Observability, Precision, SensorEvidence, Spread, region,
+    Agreement, BevAlignment, Method, Observability, Precision, SensorEvidence, Spread, region,
 };
 use gmmcalib::report::*;
 use gmmcalib::targets::ShapeFit;
@@ -54,7 +54,7 @@ fn declarations() -> String {
         SelectionReport,
         HypothesisReport,
         LevellingReport,
-        BevReport,
+        BevAlignment,
         GlobalReport,
         OverlayReport,
         CandidateReport,

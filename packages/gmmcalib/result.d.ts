@@ -309,7 +309,7 @@ note: string | null,
 /**
  * The bird's-eye search's yaw and shift, included in `motion`.
  */
-bev: BevReport | null, 
+bev: BevAlignment | null, 
 /**
  * What to check, if anything: a bird's-eye search that found nothing to overlay, little
  * overlap, or its best at the edge of its range.
@@ -320,21 +320,23 @@ warning: string | null,
  */
 warningKind: string | null, };
 
-export type BevReport = { 
+export type BevAlignment = { 
 /**
  * Yaw about the ground normal through the sensor (rad).
  */
 yaw: number, 
 /**
- * Shift along the ground (m, vehicle frame).
+ * Shift of the sensor along the ground (m, vehicle frame).
  */
 shift: [number, number, number], 
 /**
- * Structure points on the reference's, weighted by closeness: found and unchanged.
+ * The sensor's structure points on the reference's, weighted by closeness, at the best
+ * candidate and with no change.
  */
 score: number, scoreUnchanged: number, 
 /**
- * The best overlay lies on the border of the range searched.
+ * The best candidate lies on the border of the range searched (the largest yaw or shift):
+ * the sensor may be off by more than the search covers, and the true overlay lie beyond.
  */
 atEdge: boolean, };
 

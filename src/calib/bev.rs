@@ -50,14 +50,19 @@ impl Default for BevSettings {
     }
 }
 
-/// What the search found for one sensor.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// What the search found for one sensor. The result's JSON (`levelling[].bev`) is this less the
+/// motion (the levelling's `motion` includes it) and the count of points searched with.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "camelCase")]
 pub struct BevAlignment {
     /// Yaw about the ground normal through the sensor (rad).
     pub yaw: f64,
     /// Shift of the sensor along the ground (m, vehicle frame).
+    #[cfg_attr(feature = "ts", ts(type = "[number, number, number]"))]
     pub shift: Vector3<f64>,
     /// The motion applied after levelling: the yaw about the sensor, then the shift.
+    #[serde(skip)]
     pub applied: Pose,
     /// The sensor's structure points on the reference's, weighted by closeness, at the best
     /// candidate and with no change.
@@ -67,6 +72,7 @@ pub struct BevAlignment {
     /// the sensor may be off by more than the search covers, and the true overlay lie beyond.
     pub at_edge: bool,
     /// The sensor's structure points searched with.
+    #[serde(skip)]
     pub points: usize,
 }
 

@@ -75,27 +75,12 @@ pub struct LevellingReport {
     /// Why no levelling was applied, if none was.
     pub note: Option<String>,
     /// The bird's-eye search's yaw and shift, included in `motion`.
-    pub bev: Option<BevReport>,
+    pub bev: Option<crate::calib::BevAlignment>,
     /// What to check, if anything: a bird's-eye search that found nothing to overlay, little
     /// overlap, or its best at the edge of its range.
     pub warning: Option<String>,
     /// `nothingToOverlay`, `lowOverlap` or `atEdge`, with `warning`.
     pub warning_kind: Option<&'static str>,
-}
-
-#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
-#[derive(Clone, Debug, Serialize)]
-#[serde(rename_all = "camelCase")]
-pub struct BevReport {
-    /// Yaw about the ground normal through the sensor (rad).
-    pub yaw: f64,
-    /// Shift along the ground (m, vehicle frame).
-    pub shift: [f64; 3],
-    /// Structure points on the reference's, weighted by closeness: found and unchanged.
-    pub score: f64,
-    pub score_unchanged: f64,
-    /// The best overlay lies on the border of the range searched.
-    pub at_edge: bool,
 }
 
 #[cfg_attr(feature = "ts", derive(ts_rs::TS))]
@@ -222,13 +207,7 @@ impl From<&Calibration> for Report {
                     inliers: l.inliers,
                     motion: to_row_major(&l.motion),
                     note: l.skipped.as_ref().map(ToString::to_string),
-                    bev: l.bev.map(|b| BevReport {
-                        yaw: b.yaw,
-                        shift: b.shift.into(),
-                        score: b.score,
-                        score_unchanged: b.score_unchanged,
-                        at_edge: b.at_edge,
-                    }),
+                    bev: l.bev,
                     warning: l.warning.as_ref().map(ToString::to_string),
                     warning_kind: l.warning.as_ref().map(|w| w.name()),
                 })
