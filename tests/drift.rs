@@ -1,7 +1,7 @@
 //! The drift check end to end through the native CLI: twin rigs calibrated to JSON, the stored
 //! calibration as that JSON, a tf YAML and a URDF exported from it; a sensor whose true mount
 //! turned 0.5 deg or moved 2 cm is found and named, the same rig is not; OpenCalib's road rig
-//! calibrated from two scenes five minutes apart is unchanged (issue 37).
+//! calibrated from two scenes five minutes apart is unchanged.
 
 use std::path::Path;
 use std::process::Command;

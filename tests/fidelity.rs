@@ -1,4 +1,4 @@
-//! Issue 22's fidelity rule: an approximation inside `gmm`'s EM is allowed when the calibration
+//! The fidelity rule (docs/method.md): an approximation inside `gmm`'s EM is allowed when the calibration
 //! the user receives moves by at most 0.002 deg / 0.2 mm and no verdict changes. Here on a
 //! handful of rigs: the default (the fast E-step and the convergence test of `gmm`'s JRMPC
 //! stage) against the exact path (the exact E-step for all 100 iterations); the convergence

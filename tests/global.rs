@@ -1,4 +1,4 @@
-//! The global initial alignment (issue 19) end to end: twin rigs with a sensor pitched 45 deg
+//! The global initial alignment end to end: twin rigs with a sensor pitched 45 deg
 //! and one upside down, from tape-measure nominals (any yaw, +-45 deg of roll and pitch, metres
 //! off); and the real OpenCalib road rig (`tests/fixtures/opencalib`), from its own guess and
 //! from random wrong starts.
@@ -22,7 +22,7 @@ use common::opencalib_scene;
 const D: f64 = PI / 180.0;
 
 /// A tape-measure nominal: roll and pitch off by up to 45 deg, yaw by anything (about the sensor,
-/// vehicle axes), position by up to 1 m per axis (issue 36's tape measure).
+/// vehicle axes), position by up to 1 m per axis (a tape measure's error).
 fn far_start(truth: &Pose, rng: &mut Pcg64) -> Pose {
     let rpy = [45.0 * D, 45.0 * D, 180.0 * D].map(|a| rng.random_range(-a..=a));
     let xyz = [1.0, 1.0, 1.0].map(|t| rng.random_range(-t..=t));

@@ -169,7 +169,7 @@ fn fast_estep_calibrates_as_the_dense_one() {
     // convergence test on)
     let rigs = [
         // Partial views; converges within 600 iterations (seed 6 since the miscalibration turns
-        // the sensor about itself, issue 36: seed 3 no longer converges by then).
+        // the sensor about itself: seed 3 no longer converges by then).
         (
             RigSpec { frames: 3, partial: true, seed: 6, ..RigSpec::default() },
             300,

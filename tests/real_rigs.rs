@@ -3,7 +3,7 @@
 //!
 //! OpenCalib's Hesai rig: the loops among its four PandarQT, measured and reported.
 //!
-//! The Livox Mid-100 (issue 36): three solid-state units whose driver already gives them in one
+//! The Livox Mid-100: three solid-state units whose driver already gives them in one
 //! frame, so identity is within 0.4 deg / 1 cm of MLCC's estimate; adjacent units overlap in a
 //! strip a few degrees wide. Overlap alone rewards piling one unit's cone onto another's (the
 //! global stage's candidates land 10-16 % of the points there, the right start 2-12 %); the
@@ -93,7 +93,7 @@ fn the_livox_units_keep_their_right_start() {
     }
 }
 
-/// OpenCalib's Hesai rig (issue 36's loops): a Pandar64 and four PandarQT, guesses 39-72 deg
+/// OpenCalib's Hesai rig and its loops: a Pandar64 and four PandarQT, guesses 39-72 deg
 /// off, no truth. The QTs overlap the Pandar64 and each other in narrow strips; registered to
 /// each other alone from the joint result, some pairs move 0.8 deg / 5-16 cm where the joint
 /// result claims about 0.1 deg / 1 cm: the verdict must say so, and no sensor of an open loop

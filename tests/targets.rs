@@ -1,4 +1,4 @@
-//! Targets of any shape end to end (issue 20): a CAD model placed from the data seeds `gmm`
+//! Targets of any shape end to end: a CAD model placed from the data seeds `gmm`
 //! and is what `cad` registers onto; cube, box and sphere serve `cad` as models too; the
 //! errors a user meets (no target for `cad`, a model larger than the ROI, one not found).
 

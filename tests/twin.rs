@@ -1,4 +1,4 @@
-//! Accuracy on the digital twin (issue 6): the paper preset's three cubes on flat ground, the
+//! Accuracy on the digital twin: the paper preset's three cubes on flat ground, the
 //! non-reference sensors' nominals wrong by up to +-3 deg / +-0.1 m, calibrated by `gmm`. A few
 //! seeds for CI; `gmmcalib study` prints the full distributions (docs/accuracy.md).
 

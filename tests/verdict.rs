@@ -1,4 +1,4 @@
-//! The verdict on a labelled suite (issue 18): good rigs (the twin within and beyond the spec,
+//! The verdict on a labelled suite: good rigs (the twin within and beyond the spec,
 //! 2 and 3 sensors, a nominal 40 deg / 2 m off, targets carried about between frames, each
 //! judged by its truth) must be `good`; OpenCalib's real road scenes from their own guess must
 //! not be `failed`; known-bad rigs (sensors swapped, another scene for one sensor, a region of interest holding only ground, a nominal

@@ -1,4 +1,4 @@
-// A recording of 2 GB and more in the page (issue 21): the page reads the summary and the message
+// A recording of 2 GB and more in the page: the page reads the summary and the message
 // indexes, then only the chunks of the chosen messages (File.slice in the worker), so its memory
 // stays far below the file's size. The file is written here (e2e/mcapfile.js), sparse: two
 // LiDARs of the paper twin at 1 Hz, a /tf_static with their nominals, and a camera topic of

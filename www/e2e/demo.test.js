@@ -6,10 +6,10 @@ import { mkdirSync } from 'node:fs';
 import { browserSession, loadedPoints, waitForStatus, waitForView } from './harness.js';
 import { errorOf, simulateRig } from './rigfiles.js';
 
-// Issue 6's bound for every start on the twin: within 0.1 deg and 1 cm (docs/accuracy.md, "Accuracy on
+// The bound for every start on the twin: within 0.1 deg and 1 cm (docs/accuracy.md, "Accuracy on
 // the digital twin"; the demo's seed-1 rig ends well inside it).
 const DEMO_ERROR_BOUND = { deg: 0.1, mm: 10 };
-// Issue 7: no main-thread task over 100 ms during a run. WebGL draws in a worker (viewer.js), so
+// No main-thread task over 100 ms during a run. WebGL draws in a worker (viewer.js), so
 // the page's own work is what is left: none over 50 ms in 10 runs on this 2-core machine at a
 // load of 7-8 (docs/web-app.md, "Main-thread budget"). Drawing on the page's canvas took 45-260 ms a frame
 // here (software WebGL, read back on the main thread).

@@ -1,4 +1,4 @@
-// The drift check in the page (issue 24), the way a user meets it: calibrate the demo, download
+// The drift check in the page, the way a user meets it: calibrate the demo, download
 // the result JSON, then compare stored calibrations with the result: the same one (within),
 // its tf YAML export dropped on the control (within), one with a sensor turned by 0.5 deg
 // (moved, named), other limits, malformed files (the library's error, the result kept), and a

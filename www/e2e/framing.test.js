@@ -1,4 +1,4 @@
-// Issue 39, the view on a real road rig (OpenCalib's scene 0001 from ../shared/data: three LiDARs,
+// The view on a real road rig (OpenCalib's scene 0001 from ../shared/data: three LiDARs,
 // returns out to 200 m): it opens framed on the data's robust extent, not on the outliers, every
 // preset view centres the data, focus frames everything, each sensor and the ROI; OpenCalib's folder
 // loads the devices its list names, not the stitched cloud OpenCalib leaves beside them.

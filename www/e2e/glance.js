@@ -1,4 +1,4 @@
-// Issue 39's "results at a glance", checked the same way on every real rig after its run: at
+// "Results at a glance", checked the same way on every real rig after its run: at
 // 1280x720 and 1400x900 the verdict and every sensor's extrinsic are in view with nothing
 // scrolled; each reason of the verdict is said as often as the result has it (once per sensor
 // that has it), not again in a banner and a card; a sensor-to-sensor transform equal to the

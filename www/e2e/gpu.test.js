@@ -1,4 +1,4 @@
-// Issue 22: JRMPC's E-step on the GPU (WebGPU, gpu-estep.js). Chromium runs WebGPU on
+// JRMPC's E-step on the GPU (WebGPU, gpu-estep.js). Chromium runs WebGPU on
 // SwiftShader (a software adapter, so its speed says nothing about a GPU) when started with
 // these switches and the page is a secure context (http://127.0.0.1). The demo on the GPU path
 // holds the fidelity rule against the CPU path; without an adapter, 'gpu' is refused with a
@@ -18,10 +18,10 @@ const FIDELITY = { deg: 0.002, mm: 0.2 };
 const DEMO_ERROR_BOUND = { deg: 0.1, mm: 10 };
 const DEMO = 'demo=paper&frames=2&seed=3&workers=1';
 
-async function run(session, estep, { expectError = false, method = 'gmm' } = {}) {
-  const { page, problems } = await session.open(`#${DEMO}&estep=${estep}&method=${method}`);
+async function run(session, eStepDevice, { expectError = false, method = 'gmm' } = {}) {
+  const { page, problems } = await session.open(`#${DEMO}&eStepDevice=${eStepDevice}&method=${method}`);
   await waitForStatus(page, /Calibrate next/);
-  assert.equal(await page.locator('#estep').inputValue(), estep);
+  assert.equal(await page.locator('#eStepDevice').inputValue(), eStepDevice);
   await page.getByTestId('calibrate').click();
   if (expectError) {
     await page.waitForFunction(() => !document.querySelector('[data-testid=error]').hidden, null, { timeout: 120_000 });
@@ -51,7 +51,7 @@ test('the demo with its E-step on the GPU holds the fidelity rule against the CP
   console.log(`gpu: ${gpu.status}\ncpu: ${cpu.status}`);
   assert.match(gpu.status, /, E-step on the GPU \(google swiftshader\)\.$/);
   assert.doesNotMatch(cpu.status, /GPU/);
-  assert.equal(gpu.result.estep, 'gpu');
+  assert.equal(gpu.result.eStepDevice, 'gpu');
   assert.ok(gpu.result.gpuIterations > 10 && gpu.result.gpuEStepSeconds > 0);
   const ms = (1000 * gpu.result.gpuEStepSeconds) / gpu.result.gpuIterations;
   const points = gpu.result.history.terms[0] / 400; // dense: points x K
@@ -82,7 +82,7 @@ test('the demo with its E-step on the GPU holds the fidelity rule against the CP
 test('JRMPC alone: its E-step on the GPU follows the CPU iteration by iteration', async () => {
   const gpu = await run(withGpu, 'gpu', { method: 'jrmpc' });
   const cpu = await run(withGpu, 'cpu', { method: 'jrmpc' });
-  assert.equal(gpu.result.estep, 'gpu');
+  assert.equal(gpu.result.eStepDevice, 'gpu');
   assert.equal(gpu.result.iterations, cpu.result.iterations);
   const [g, c] = [gpu.result.history.meanSigma, cpu.result.history.meanSigma];
   const gap = g.map((v, i) => Math.abs(v - c[i]) / c[i]);
@@ -98,6 +98,6 @@ test('without a WebGPU adapter, gpu is refused by name and auto runs on the CPU'
   const forced = await run(withoutGpu, 'gpu', { expectError: true });
   assert.match(forced.error, /set to run on the GPU, but (WebGPU offers no adapter here|this browser has no WebGPU).*set it to auto or cpu/);
   const auto = await run(withoutGpu, 'auto');
-  assert.equal(auto.result.estep, 'cpu');
+  assert.equal(auto.result.eStepDevice, 'cpu');
   assert.doesNotMatch(auto.status, /GPU/);
 });

@@ -1,4 +1,4 @@
-// Issue 7: "smooth with 1M+ points loaded". The OS1-128 demo preset, picked in the page, with 4
+// "Smooth with 1M+ points loaded". The OS1-128 demo preset, picked in the page, with 4
 // frames and all frames shown (about 1M points); the view is orbited by mouse for a few seconds.
 // Then a run on them and a change of colouring. Prints frame times and the longest main-thread
 // task; asserts only what must hold whatever the machine's load: every point drawn, frames

@@ -1,4 +1,4 @@
-// Issue 23, the page as a daily tool, through the paths a user takes: the answer first and in
+// The page as a daily tool, through the paths a user takes: the answer first and in
 // view at 1280x720, state that never goes stale, a layout from a laptop to a wide monitor, the
 // view's tools (sensors shown, point size, colour scales, preset views, focus, picking,
 // measuring, PNG), help on every control. Screenshots at 1280x720 and 1920x1080 land in

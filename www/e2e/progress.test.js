@@ -1,4 +1,4 @@
-// Issue 39, a long run on a real rig: the Livox Mid-100's three units (../shared/data, read at
+// A long run on a real rig: the Livox Mid-100's three units (../shared/data, read at
 // test time, never copied: GPL), dropped as the three loose files they come as, read as three
 // sensors, calibrated with no target. The library says each stage as it begins (the views
 // prepared and the result made among them) and the frame pairs take about a second here: the

@@ -1,4 +1,4 @@
-// Issue 39, GMMCalib's own samples as a new user drops them (../shared/data): the cube (two roof
+// GMMCalib's own samples as a new user drops them (../shared/data): the cube (two roof
 // LiDARs, a 0.5 m cube, config.yaml) and the chair (its CAD model chair.obj beside the scans).
 // Each loads with its config, the file table fitting the panel, calibrates, and reads at a
 // glance at 1280x720 and 1400x900 (e2e/glance.js).

@@ -1,4 +1,4 @@
-// Issue 39, the ROI on a real recording: GMMCalib's cube sample recorded as a ROS 2 rig would
+// The ROI on a real recording: GMMCalib's cube sample recorded as a ROS 2 rig would
 // record it (an MCAP, e2e/realrigs.js). With ROI auto no cube is found: the page says so in the
 // verdict and the rig panel, and offers to draw the ROI; the ROI is then a box in the view whose
 // handles are dragged by the mouse, the six numbers following, and typed numbers move the box.

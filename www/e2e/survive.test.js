@@ -1,4 +1,4 @@
-// Issue 39, work that survives, on OpenCalib's Hesai rig (five LiDARs, ../shared/data): after a
+// Work that survives, on OpenCalib's Hesai rig (five LiDARs, ../shared/data): after a
 // run the page is reloaded and the scans, the rig panel, the settings and the result come back
 // from the browser's storage (nothing leaves the machine); Clear forgets them; Copy link copies
 // the settings; the result's JSON, saved as a file, opens in a fresh page with the same verdict

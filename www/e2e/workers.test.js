@@ -1,4 +1,4 @@
-// Issue 8: JRMPC's E-step and the frame pairs' ICP shared by workers. The same demo on one
+// JRMPC's E-step and the frame pairs' ICP shared by workers. The same demo on one
 // worker and on two gives the same result, bit for bit (the M-step takes every view's
 // statistics in view order; the frame pairs' outcomes are kept in pair order).
 import { test } from 'node:test';
@@ -7,13 +7,15 @@ import { browserSession, waitForStatus } from './harness.js';
 
 const session = browserSession();
 
-async function run(workers, method = 'gmm', { extra = '', estep = null } = {}) {
+async function run(workers, method = 'gmm', { extra = '', exact = false } = {}) {
   const { page, problems } = await session.open(`#demo=paper&frames=2&seed=3&workers=${workers}&method=${method}${extra}`);
   await waitForStatus(page, /Calibrate next/);
   assert.equal(await page.locator('#workers').inputValue(), String(workers));
-  if (estep) {
-    if (!(await page.locator('#estep').isVisible())) await page.locator('#estep').locator('xpath=ancestor::details[1]/summary').click();
-    await page.locator('#estep').selectOption(estep);
+  if (exact) {
+    if (!(await page.locator('#exact').isVisible())) await page.locator('#exact').locator('xpath=ancestor::details[1]/summary').click();
+    await page.locator('#exact').check();
+    assert.ok(await page.locator('#eStepDevice').isDisabled(), 'the exact E-step runs on the CPU');
+    assert.match(page.url(), /exact=true/);
   }
   await page.getByTestId('calibrate').click();
   await waitForStatus(page, /^Done/, 180_000);
@@ -52,8 +54,8 @@ test('the exact E-step, chosen in the settings, runs in every worker and says so
   // Fewer components and iterations: the exact E-step evaluates every term in f64.
   const small = { extra: '&components=100&iterations=20' };
   const fast = await run(2, 'jrmpc', small);
-  const one = await run(1, 'jrmpc', { ...small, estep: 'exact' });
-  const two = await run(2, 'jrmpc', { ...small, estep: 'exact' });
+  const one = await run(1, 'jrmpc', { ...small, exact: true });
+  const two = await run(2, 'jrmpc', { ...small, exact: true });
   assert.match(two.status, /^Done: 20 iterations in [\d.]+ s on 2 workers, exact E-step\.$/);
   assert.equal(two.result.exact, true);
   assert.equal(fast.result.exact, false);

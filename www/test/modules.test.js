@@ -96,12 +96,12 @@ test('GMMCalib config: nested and plain lists, our keys, errors naming file and 
   assert.equal(config.initialSigma, 'prior');
   assert.equal(config.target, 'cube:0.4', "GMMCalib's target_edge is the settings' target");
   assert.equal(config.exact, undefined, 'not set');
-  // The config's settings reach the page's: `exact: true` is the E-step setting's 'exact'.
+  // The config's settings reach the page's, `exact` by its own name.
   const state = { scans: [{ sensor: 'sensor_1', points: new Float32Array(3) }], rig: { sensors: [], nominal: {}, roi: null, reference: '' }, settings: { ...DEFAULTS } };
   rebuildRig(state, parseConfig('transform_sensor_1: [0, 0, 0, 1, 2, 3]\nmethod: jrmpc\ncomponents: 50\nexact: true\n', 'c.yaml'));
-  assert.deepEqual([state.settings.method, state.settings.components, state.settings.estep], ['jrmpc', 50, 'exact']);
+  assert.deepEqual([state.settings.method, state.settings.components, state.settings.exact], ['jrmpc', 50, true]);
   rebuildRig(state, parseConfig('transform_sensor_1: [0, 0, 0, 1, 2, 3]\nexact: false\n', 'c.yaml'));
-  assert.equal(state.settings.estep, DEFAULTS.estep);
+  assert.equal(state.settings.exact, false);
   assert.throws(() => parseConfig('exact: maybe\n', 'c.yaml'), /c\.yaml: exact: expected true or false, got maybe/);
   assert.throws(() => parseConfig('transform_a: [1, 2]\n', 'c.yaml'), /c\.yaml: transform_a: expected \[roll, pitch, yaw, x, y, z\], \[x, y, z, qx, qy, qz, qw\] or a 4x4 row-major, got 2 numbers/);
   assert.throws(() => parseConfig('a: [1, 2\n', 'c.yaml'), /c\.yaml: bad YAML/);

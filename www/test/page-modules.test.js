@@ -1,4 +1,4 @@
-// Issue 39's plain modules under Node: framing the view, the ROI's handles, the default
+// Plain modules under Node: framing the view, the ROI's handles, the default
 // reference, files named as users name them, the link, a result file read back, the advice.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
@@ -102,6 +102,14 @@ test('the link: settings, the rig\'s ROI, reference and vehicle frame; a demo\'s
   assert.deepEqual(explicitSettings(`#${hash}`), { method: 'jrmpc' });
   assert.equal(hashOf({ ...settings, demo: 'paper' }, rig), 'method=jrmpc&demo=paper&frames=2&seed=3&roi=8.5%2C-3%2C-1%2C11%2C4%2C2&vehicle=base_link');
   assert.equal(readRig('#roi=1,2,3,0,5,6').roi, null, 'a box inside out is no ROI');
+  // The E-step's device and its exactness are two settings, each by its input's name.
+  const exact = hashOf({ ...DEFAULTS, eStepDevice: 'gpu', exact: true });
+  assert.equal(exact, 'eStepDevice=gpu&exact=true');
+  assert.deepEqual(explicitSettings(`#${exact}`), { eStepDevice: 'gpu', exact: true });
+  assert.deepEqual(explicitSettings('#exact=maybe'), {}, 'not a boolean');
+  // A link saved when one `estep` setting held both opens with the same choice.
+  assert.deepEqual(explicitSettings('#estep=exact'), { exact: true });
+  assert.deepEqual(explicitSettings('#estep=gpu'), { eStepDevice: 'gpu' });
 });
 
 test('a result file: the JSON of Export read back; anything else named', () => {

@@ -146,7 +146,7 @@ export function describeTime({ elapsed, left }) {
 export function describeDone(results, seconds, failures = []) {
   const r = results[0];
   const workers = r.workers > 1 ? ` on ${r.workers} workers` : '';
-  const on = r.estep === 'gpu' ? `${workers}, E-step on the GPU (${r.gpu})` : `${workers}${r.exact ? ', exact E-step' : ''}`;
+  const on = r.eStepDevice === 'gpu' ? `${workers}, E-step on the GPU (${r.gpu})` : `${workers}${r.exact ? ', exact E-step' : ''}`;
   if (failures.length) {
     const failed = failures.map((f) => f.method).join(', ');
     return `Done: ${results.length} of ${results.length + failures.length} methods in ${seconds.toFixed(1)} s${on}; ${failed} failed (see Results).`;

@@ -27,7 +27,7 @@ async function calibrateInput(state) {
     components: s.components,
     iterations: s.iterations,
     initialSigma: s.initialSigma,
-    exact: s.estep === 'exact',
+    exact: s.exact,
   };
   return { input, transfer: scans.map((v) => v.points.buffer) };
 }
@@ -64,8 +64,8 @@ export async function runCalibration(client, state, onProgress) {
   try {
     const { input, transfer } = await calibrateInput(state);
     // The exact E-step is the CPU's (f64).
-    const estep = state.settings.estep === 'exact' ? 'cpu' : state.settings.estep;
-    const outcome = await client.request('calibrate', { input, workers: workerCount(state.settings.workers), estep }, {
+    const eStepDevice = state.settings.exact ? 'cpu' : state.settings.eStepDevice;
+    const outcome = await client.request('calibrate', { input, workers: workerCount(state.settings.workers), eStepDevice }, {
       transfer,
       onProgress: (p) => onProgress({ ...run.message(p, now()), progress: p }),
     });

@@ -230,9 +230,9 @@ async function shareFramePairs(session, pool, onProgress, workers) {
 // targetless scene of one frame would only take cores from the work):
 // each method's stages as the session asks for them; with `method: 'all'`, a method whose
 // workers fail is noted as failed and the next one runs. `wasm` is the initialised module;
-// `spawn()` makes a remote worker (tests pass an in-process one). `eStep` ('cpu' | 'auto' |
+// `spawn()` makes a remote worker (tests pass an in-process one). `eStepDevice` ('cpu' | 'auto' |
 // 'gpu', gpu-estep.js) says where JRMPC's E-step runs; each EM result tells where it ran.
-export async function calibrateSharded(wasm, input, workers, onProgress, spawn = () => new RemoteWorker(), eStep = 'cpu') {
+export async function calibrateSharded(wasm, input, workers, onProgress, spawn = () => new RemoteWorker(), eStepDevice = 'cpu') {
   const session = new wasm.CalibrationSession(input);
   const remotes = [];
   let cancelled = false;
@@ -244,11 +244,11 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
   const emRan = new Map(); // method -> its E-step's path
   try {
     // The exact E-step is f64 on the CPU: the GPU's f32 one is not it.
-    if (eStep !== 'cpu' && !input.exact) {
+    if (eStepDevice !== 'cpu' && !input.exact) {
       // Loaded only when asked for: its shader comes through Vite (`?raw`), which Node's tests
       // of this module do without.
       const { GpuEStep, gpuAdapter } = await import('./gpu-estep.js');
-      const adapter = await gpuAdapter(eStep);
+      const adapter = await gpuAdapter(eStepDevice);
       if (adapter) gpu = await GpuEStep.create(adapter);
     }
     // A new worker starts only while this one yields to its event loop (Chromium), so each is
@@ -270,7 +270,7 @@ export async function calibrateSharded(wasm, input, workers, onProgress, spawn =
         else if (stage === 'jrmpc') {
           const method = session.method();
           const timing = await shareEm(wasm, session, gpu ? [] : await pool(), heed, gpu);
-          emRan.set(method, timing ? { estep: 'gpu', gpu: gpu.name, gpuEStepSeconds: timing.seconds, gpuIterations: timing.iterations } : { estep: 'cpu' });
+          emRan.set(method, timing ? { eStepDevice: 'gpu', gpu: gpu.name, gpuEStepSeconds: timing.seconds, gpuIterations: timing.iterations } : { eStepDevice: 'cpu' });
         } else if (stage === 'cad') session.registerCad(heed); // one call: fast, not shared
         else if (stage === 'framePairs') await shareFramePairs(session, pool, heed, workers);
         // The run's own steps ('views', 'finish'), taken at advance: said as they begin.

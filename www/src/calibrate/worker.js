@@ -54,9 +54,9 @@ const handlers = {
   simulate: ({ options }) => simulateRig(options),
   // `workers` > 1 shares the global stage, JRMPC's E-step and the frame pairs' ICP with that
   // many workers in all (this one included), where a worker can start workers of its own;
-  // `estep` 'auto' or 'gpu' puts the E-step on the GPU where WebGPU allows (shard-pool.js,
+  // `eStepDevice` 'auto' or 'gpu' puts the E-step on the GPU where WebGPU allows (shard-pool.js,
   // gpu-estep.js).
-  calibrate: async ({ input, workers = 1, estep = 'cpu' }, id) => {
+  calibrate: async ({ input, workers = 1, eStepDevice = 'cpu' }, id) => {
     // At most 10 progress messages a second, and always each stage's first and last: the page
     // redraws on each, and that work competes with the calculation (docs/benchmarks.md). A
     // stage that stops before its maximum (EM converged) has its last message posted when the
@@ -79,9 +79,9 @@ const handlers = {
       return true;
     };
     const shared = workers > 1 && typeof Worker === 'function';
-    if (shared || estep !== 'cpu') {
+    if (shared || eStepDevice !== 'cpu') {
       const module = await compiled;
-      return calibrateSharded(wasm, input, shared ? workers : 1, onProgress, () => new RemoteWorker(module), estep);
+      return calibrateSharded(wasm, input, shared ? workers : 1, onProgress, () => new RemoteWorker(module), eStepDevice);
     }
     const result = calibrate(input, onProgress);
     for (const r of Array.isArray(result) ? result : [result]) if (!r.error) r.workers = 1;

@@ -1,16 +1,21 @@
 // The settings panel's inputs (method, target, global alignment, components, iterations,
-// initial sigma, workers, the E-step's device; the demo's preset, seed, frames) bound to `state.settings` and the URL
+// initial sigma, workers, the E-step's device and exactness; the demo's preset, seed, frames) bound to `state.settings` and the URL
 // hash, and the target's CAD model, checked by the library.
 import { writeHash } from '../state/url.js';
 
-const SETTING_INPUTS = ['method', 'components', 'iterations', 'initialSigma', 'workers', 'estep', 'global'];
+const SETTING_INPUTS = ['method', 'components', 'iterations', 'initialSigma', 'workers', 'eStepDevice', 'exact', 'global'];
 
 // `$`: the page's elements by id; `client`: the worker client; `changed(what)`: a setting
 // changed after a run; `targetLoaded()`: a new CAD model replaces the target (the result goes);
 // `setStatus`, `showError`: the page's lines. Returns {sync, loadTargetMesh, setTarget}.
 export function initSettings({ $, state, client, changed, targetLoaded, setStatus, showError }) {
   function syncSettingsInputs() {
-    for (const key of SETTING_INPUTS) $(key).value = state.settings[key];
+    for (const key of SETTING_INPUTS) {
+      if ($(key).type === 'checkbox') $(key).checked = state.settings[key];
+      else $(key).value = state.settings[key];
+    }
+    // The exact E-step is f64 on the CPU: no device to choose.
+    $('eStepDevice').disabled = state.settings.exact;
     const [kind, size = ''] = state.settings.target.split(':');
     $('target-kind').value = kind;
     // A model's size is its own: shown, not edited.
@@ -24,12 +29,13 @@ export function initSettings({ $, state, client, changed, targetLoaded, setStatu
   for (const key of SETTING_INPUTS) {
     $(key).addEventListener('change', () => {
       const el = $(key);
-      const value = el.type === 'number' ? Number(el.value) : el.value;
+      const value = el.type === 'number' ? Number(el.value) : el.type === 'checkbox' ? el.checked : el.value;
       if (el.type === 'number' && !(Number.isFinite(value) && value > 0)) {
         el.value = state.settings[key];
         return;
       }
       state.settings[key] = value;
+      syncSettingsInputs();
       writeHash(state.settings, state.rig);
       changed('settings');
     });

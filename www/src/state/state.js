@@ -51,9 +51,7 @@ export function rebuildRig(state, config = {}) {
   for (const key of ['method', 'target', 'components', 'iterations', 'initialSigma']) if (config[key] != null) state.settings[key] = config[key];
   // `global` is on or off in the config, one of four choices on the page.
   if (config.global != null) state.settings.global = config.global ? 'on' : 'off';
-  // `exact` is a choice of the E-step setting.
-  if (config.exact === true) state.settings.estep = 'exact';
-  if (config.exact === false && state.settings.estep === 'exact') state.settings.estep = DEFAULTS.estep;
+  if (typeof config.exact === 'boolean') state.settings.exact = config.exact;
   // `refine` is a choice of the global alignment setting.
   if (config.refine === true) state.settings.global = 'refine';
   if (config.refine === false && state.settings.global === 'refine') state.settings.global = DEFAULTS.global;

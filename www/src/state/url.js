@@ -16,7 +16,8 @@ export const DEFAULTS = Object.freeze({
   global: 'auto', // global alignment first: auto (gmm only) | on | off | refine (refine only, from the nominal)
   initialSigma: library.initialSigma, // bbox | prior
   workers: 'auto', // auto | 1 | 2 | 4 | 8: workers sharing JRMPC's E-step
-  estep: 'auto', // auto | gpu | cpu | exact: where JRMPC's E-step runs (gpu-estep.js), or exact
+  eStepDevice: 'auto', // auto | gpu | cpu: where JRMPC's E-step runs (gpu-estep.js)
+  exact: library.exact, // the E-step as the paper states it (on the CPU, whatever the device)
   demo: '', // preset of a demo to load on open: '' | paper | os1-128
   frames: 4,
   seed: 1,
@@ -27,12 +28,19 @@ export const DEFAULTS = Object.freeze({
 // Keys that describe a demo, written only with `demo`.
 const DEMO_KEYS = new Set(['frames', 'seed', 'maxAngleDeg', 'maxTranslation']);
 const NUMBERS = new Set(['components', 'iterations', 'frames', 'seed', 'maxAngleDeg', 'maxTranslation']);
+const BOOLEANS = new Set(['exact']);
 
 // The settings a hash gives, only those it names (known keys, numbers checked).
 export function explicitSettings(hash = location.hash) {
   const out = {};
   for (const [key, value] of new URLSearchParams(hash.replace(/^#/, ''))) {
+    // Links saved before the device and `exact` were two settings: `estep=auto|gpu|cpu|exact`.
+    if (key === 'estep') Object.assign(out, value === 'exact' ? { exact: true } : { eStepDevice: value });
     if (!(key in DEFAULTS)) continue;
+    if (BOOLEANS.has(key)) {
+      if (value === 'true' || value === 'false') out[key] = value === 'true';
+      continue;
+    }
     const v = NUMBERS.has(key) ? Number(value) : value;
     if (NUMBERS.has(key) && !Number.isFinite(v)) continue;
     out[key] = v;
