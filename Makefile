@@ -48,7 +48,7 @@ bench: wasm
 	cargo run --release --bin bench
 	node www/bench/bench.mjs
 
-# The page in Chromium timing a calibration on 1 and 2 workers (issue 8); slow at paper scale.
+# The page in Chromium timing a calibration on 1 and 2 workers; slow at paper scale.
 bench-browser: build setup-browser
 	cd www && node bench/browser.mjs
 

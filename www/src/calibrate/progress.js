@@ -1,3 +1,4 @@
+// @ts-check
 // What the page says of a calibration: while it runs, the progress bar's share, the status line
 // and the time line (elapsed, and the time left once there is a measure of it) from the worker's
 // progress messages; then the status line for the results. Each message names its stage and
@@ -143,6 +144,10 @@ export function describeTime({ elapsed, left }) {
 }
 
 // The status line once `results` (one per method run) are in, `seconds` after the click.
+/**
+ * @param {import('../result').PageResult[]} results @param {number} seconds
+ * @param {import('../result').MethodFailure[]} [failures]
+ */
 export function describeDone(results, seconds, failures = []) {
   const r = results[0];
   const workers = r.workers > 1 ? ` on ${r.workers} workers` : '';

@@ -1,3 +1,4 @@
+// @ts-check
 // What the page advises when a run cannot give a good answer for a reason a user can fix: a
 // reference that cannot be registered (choose this sensor instead), a target shape that is not
 // in the data (set the target to none, or draw the ROI), a ROI auto that found only the clouds'
@@ -40,10 +41,11 @@ export function adviceForError(message, { scans, rig, settings }) {
 }
 
 // The library's finding that no target stands out of the reconstruction (a reason of the run).
-const noTarget = (r) => r.verdict.reasons.find((x) => x.kind === 'noTarget');
+const noTarget = (/** @type {import('../result').PageResult} */ r) => r.verdict.reasons.find((x) => x.kind === 'noTarget');
 
 // Advice for a result: a target shape given (`context.target`, as the run had it) and none
 // found. [{html, action}], empty when there is nothing to advise.
+/** @param {import('../result').PageResult} r @param {{target: string, roiAuto: boolean}} [context] */
 export function adviceForResult(r, context) {
   const missing = noTarget(r);
   if (!missing || !context || context.target === 'none' || context.target.startsWith('mesh:')) return [];
@@ -54,7 +56,7 @@ export function adviceForResult(r, context) {
   }];
 }
 
-const size = (roi) => roi.max.map((v, i) => (v - roi.min[i]).toFixed(1)).join(' × ');
+const size = (/** @type {import('../result').RoiReport} */ roi) => roi.max.map((v, i) => (v - roi.min[i]).toFixed(1)).join(' × ');
 
 const objects = (n) => `${n} object${n === 1 ? '' : 's'}`;
 
@@ -62,6 +64,7 @@ const objects = (n) => `${n} object${n === 1 ? '' : 's'}`;
 // no run). The library says where the region came from (`roi.source`): around objects of the
 // target's shape found standing in the reference's scans (`found`), which the reconstruction
 // then fits or not, or the clouds' overlap.
+/** @param {import('../result').PageResult | null} r @param {{target: string, roiAuto: boolean}} [context] */
 export function autoRoiFound(r, context) {
   if (!r || !context?.roiAuto) return null;
   const fits = r.reconstruction.fits.length;

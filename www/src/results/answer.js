@@ -1,3 +1,4 @@
+// @ts-check
 // The answer of a calibration, first in the results. One table holds every sensor's corrected
 // extrinsic T_parent_s (xyz m, rpy deg; the parent is the vehicle frame, under the name the user
 // or the recording gives it), so at 1280x720 the verdict and every extrinsic are in view
@@ -20,7 +21,12 @@ const breakable = (name) => esc(name).replace(/([_/-])/g, '$1<wbr>');
 // transform, said once.
 const SAME = 1e-8;
 
+/** @typedef {import('../result').PageResult} Result */
+/** @typedef {import('../result').SensorReport} Sensor */
+/** @typedef {Record<string, {xyz: [number, number, number], rpy: [number, number, number]}> | null} Truth */
+
 // Error of a sensor's calibrated extrinsic against the truth: deg and mm.
+/** @param {Sensor} sensor @param {Truth} truth */
 export function errorVsTruth(sensor, truth) {
   const t = truth?.[sensor.name];
   if (!t) return null;
@@ -53,6 +59,7 @@ function transformHtml(name, from, to, m, testid) {
 }
 
 // The run in one line: method, EM iterations and whether EM converged.
+/** @param {Result} r */
 export function runLine(r) {
   const em = r.iterations
     ? `, ${r.iterations} EM iterations, ${r.converged ? 'converged' : '<span class="not-converged">not converged</span> (stopped at the iteration limit; the later stages refine from there)'}`
@@ -61,9 +68,10 @@ export function runLine(r) {
 }
 
 // The reasons that set a sensor's level (not good): its card says them, and only it.
-export const concerns = (reasons) => reasons.filter((x) => x.level !== 'good');
+export const concerns = (/** @type {import('../result').ReasonReport[]} */ reasons) => reasons.filter((x) => x.level !== 'good');
 
 // A row of the table: the sensor and its level, its extrinsic's xyz and rpy, Copy.
+/** @param {Sensor} s @param {Result} r @param {string} parent */
 function extrinsicRow(s, r, parent) {
   const level = r.verdict.sensors[s.name]?.level ?? '';
   const name = `T_${parent}_${s.name}`;
@@ -74,6 +82,7 @@ function extrinsicRow(s, r, parent) {
 }
 
 // The reference's row: it keeps its nominal.
+/** @param {Sensor} s @param {string} parent @param {Truth} truth */
 function referenceRow(s, parent, truth) {
   const error = errorVsTruth(s, truth);
   return `<tr class="reference" data-testid="reference-line" data-sensor="${esc(s.name)}">
@@ -84,6 +93,7 @@ function referenceRow(s, parent, truth) {
 }
 
 // A sensor's card: its reasons, truth, T_ref_s, precision, spread.
+/** @param {Sensor} s @param {Result} r @param {{truth: Truth, parent: string, warnings: string[]}} context */
 function sensorCard(s, r, { truth, parent, warnings }) {
   const error = errorVsTruth(s, truth);
   const verdict = r.verdict.sensors[s.name];
@@ -109,6 +119,7 @@ function sensorCard(s, r, { truth, parent, warnings }) {
 
 // The reference's card, only when it has concerns of its own (a scan given twice): they belong
 // to it, and nowhere else.
+/** @param {Sensor} s @param {Result} r @param {string[]} warnings */
 function referenceCard(s, r, warnings) {
   const reasons = [...concerns(r.verdict.sensors[s.name]?.reasons ?? []).map((x) => `<li class="${x.level}">${esc(x.text)}</li>`),
     ...warnings.map((w) => `<li class="check" data-testid="warning">${esc(w)}</li>`)];
@@ -122,6 +133,10 @@ function referenceCard(s, r, warnings) {
 // The answer of result `r`: the table of extrinsics (the reference last), the run line, then a
 // card per non-reference sensor. `parent`: the vehicle frame's name; `warnings`: sensor -> lines
 // to show on its card besides its verdict's reasons.
+/**
+ * @param {Result} r
+ * @param {{truth?: Truth, parent?: string, warnings?: Record<string, string[]>}} [options]
+ */
 export function answerHtml(r, { truth = null, parent = 'vehicle', warnings = {} } = {}) {
   const reference = r.sensors.find((s) => s.name === r.reference);
   const others = r.sensors.filter((s) => s !== reference);

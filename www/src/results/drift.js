@@ -1,3 +1,4 @@
+// @ts-check
 // The drift check in the results: a stored calibration (our JSON, its tf YAML
 // export, or the exported URDF), picked or dropped on the control, compared with the current result
 // by the library (`compareCalibrations`, the same check as `gmmcalib drift`), against fixed
@@ -27,15 +28,17 @@ const CONTROLS = `
   <p class="error" data-testid="drift-error" role="alert" hidden></p>
   <div data-testid="drift-result" aria-live="polite"></div>`;
 
-const mm = (m) => (m * 1000).toFixed(1);
-const max = (v) => Math.max(...v);
+const mm = (/** @type {number} */ m) => (m * 1000).toFixed(1);
+const max = (/** @type {number[]} */ v) => Math.max(...v);
 
 // Limits and precisions read "deg / mm" (the columns say so); a per-axis one by its largest axis.
+/** @param {import('../result').LimitReport} limit */
 function limitText(limit) {
   if (limit.kind === 'fixed') return `${degrees(limit.rotation).toFixed(3)} / ${mm(limit.translation)}`;
   return `${limit.sigmas}σ: ${degrees(max(limit.rotation)).toFixed(3)} / ${mm(max(limit.position))}`;
 }
 
+/** @param {import('../result').SensorDriftReport} s */
 function sensorRow(s) {
   const precision = s.precision ? `${degrees(max(s.precision.rotation)).toFixed(4)} / ${mm(max(s.precision.position))}` : 'none';
   return `<tr data-testid="drift-sensor" data-sensor="${esc(s.name)}" data-moved="${s.moved}" class="${s.moved ? 'moved' : 'within'}">
@@ -45,6 +48,7 @@ function sensorRow(s) {
 
 // The comparison: the outcome first (the library's findings: what moved, and what changed
 // beyond the limit within both calibrations' scatter), then the table.
+/** @param {import('../result').DriftReport} report @param {string} storedName */
 function reportHtml(report, storedName) {
   const n = report.sensors.length;
   const outcome = report.passed

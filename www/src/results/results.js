@@ -1,3 +1,4 @@
+// @ts-check
 // The results panel: the verdict first (good, check or failed, with its evidence one click
 // away), then the answer (answer.js: per sensor the corrected extrinsic and the
 // sensor-to-sensor transform, with their directions, precision and spread); everything else
@@ -8,6 +9,9 @@ import { degrees, matrixFromXyzRpy, poseDifference, quaternionOf, rpyOf, xyzOf }
 import { answerHtml, concerns, errorVsTruth, esc, wireCopy } from './answer.js';
 
 export { errorVsTruth };
+
+/** @typedef {import('../result').PageResult} Result */
+/** @typedef {import('./answer.js').Truth} Truth */
 
 const IDENTITY = matrixFromXyzRpy([0, 0, 0], [0, 0, 0]);
 const f = (v, d) => v.map((x) => x.toFixed(d)).join(', ');
@@ -38,6 +42,7 @@ export const verdictTitle = (level) => VERDICT_SHORT[level] ?? level;
 // An advice of the page (panels/advice.js) with its buttons; main.js acts on their data-advice.
 export const adviceHtml = ({ html, actions = [] }) => `<p class="advice" data-testid="advice">${html}${actions.map((a) => ` <button type="button" data-advice="${esc(JSON.stringify({ what: a.what, value: a.value }))}">${esc(a.label)}</button>`).join('')}</p>`;
 
+/** @param {import('../result').ReasonReport[]} reasons */
 function reasonsHtml(reasons) {
   return `<ul>${reasons.map((r) => `<li class="${r.level}">${esc(r.text)}</li>`).join('')}</ul>`;
 }
@@ -46,10 +51,11 @@ function reasonsHtml(reasons) {
 // sensors have theirs (said on each sensor's card, not here), `advice` (html lines the page
 // adds), and the evidence that supports it folded below. Each reason is said once: a
 // concern where it belongs, a supporting finding under Evidence.
+/** @param {Result} r @param {{html: string, actions?: {label: string, what: string, value?: string}[]}[]} advice */
 function verdictHtml(r, advice = []) {
   const v = r.verdict;
   const flagged = Object.entries(v.sensors).filter(([, s]) => s.level !== 'good').map(([name]) => name);
-  const support = Object.entries(v.sensors).map(([name, s]) => [name, s.reasons.filter((x) => x.level === 'good')]).filter(([, list]) => list.length);
+  const support = Object.entries(v.sensors).map(([name, s]) => /** @type {const} */ ([name, s.reasons.filter((x) => x.level === 'good')])).filter(([, list]) => list.length);
   // A run-level finding the advice quotes (no target found) is said there only, whatever its
   // level.
   const quoted = (x) => advice.length && x.kind === 'noTarget';
@@ -67,17 +73,20 @@ function verdictHtml(r, advice = []) {
 
 // A sensor's full detail: the correction and the extrinsic as 4x4, xyz, rpy (deg and rad) and
 // quaternion.
+/** @param {import('../result').SensorReport} s @param {string} reference @param {string} parent */
 function sensorDetailHtml(s, reference, parent) {
   return `<section class="sensor"><h4>${esc(s.name)}${s.name === reference ? ' (reference)' : ''}</h4>
     <div class="poses">${poseHtml(`correction C_${esc(reference)}_${esc(s.name)}: maps ${esc(s.name)}'s nominally placed points onto ${esc(reference)}'s`, s.correction)}${poseHtml(`extrinsic T_${esc(parent)}_${esc(s.name)}: maps ${esc(s.name)}'s points into ${esc(parent)}`, s.extrinsic)}</div></section>`;
 }
 
+/** @param {string} title @param {import('../result').NoteReport[]} notes */
 function notesHtml(title, notes) {
   if (!notes.length) return '';
   return `<p>${title}:</p><ul>${notes.map((n) => `<li>${esc(n.sensor)}/${esc(n.frame)}: ${esc(n.reason)}</li>`).join('')}</ul>`;
 }
 
 // Ground levelling (gmm): per sensor, the ground found and the tilt applied, or why not.
+/** @param {import('../result').LevellingReport[]} levelling */
 function levellingHtml(levelling = []) {
   if (!levelling.length) return '';
   const row = (l) => {
@@ -92,8 +101,12 @@ function levellingHtml(levelling = []) {
 }
 
 // Which other methods agree with `r` (the library's comparison, a reason of its verdict).
-const agreeing = (r) => r.verdict.reasons.find((x) => x.kind === 'methods')?.values.agree ?? [];
+const agreeing = (/** @type {Result} */ r) => {
+  const agree = r.verdict.reasons.find((x) => x.kind === 'methods')?.values.agree;
+  return Array.isArray(agree) ? agree : [];
+};
 
+/** @param {Result[]} results @param {Truth} truth @param {import('../result').MethodFailure[]} failures */
 function comparisonHtml(results, truth, failures) {
   const head = `<tr><th>method</th><th>verdict</th><th>agrees with</th><th>sensor</th><th>xyz (m)</th><th>rpy (deg)</th><th>spread xyz (mm)</th><th>spread rpy (deg)</th>${truth ? '<th>error vs truth</th>' : ''}</tr>`;
   const body = results.flatMap((r) => r.sensors.map((s, i) => {
@@ -108,7 +121,7 @@ function comparisonHtml(results, truth, failures) {
 }
 
 // A stage's name as the selection reports it, in words.
-const stageText = (h) => ({
+const stageText = (/** @type {import('../result').HypothesisReport} */ h) => ({
   nominal: 'nominal', global: `global candidate ${h.rank + 1}`, levelled: 'levelled start',
   jrmpc: 'JRMPC', cad: 'CAD registration', refinedFromNominal: 'refined from the nominal',
   refinedFromStart: 'refined from the start', refined: 'refined', planes: 'plane adjustment',
@@ -122,6 +135,7 @@ function moved(m) {
 
 // Every stage's hypothesis per sensor, scored on the whole scans, the chosen first in the
 // summary: how the answer was decided.
+/** @param {import('../result').SelectionReport[]} selection */
 function selectionHtml(selection) {
   if (!selection.length) return '';
   const summary = selection.map((s) => {
@@ -143,6 +157,11 @@ function selectionHtml(selection) {
 // `results`: one report per method run; the first is shown in detail. `failures`: {method, error}
 // of the methods compared that failed. `parent`: the vehicle frame's name; `advice`: what the
 // page adds to the verdict ({html, actions}: what to do when no target was found).
+/**
+ * @param {HTMLElement} container @param {Result[]} results @param {Truth} truth
+ * @param {import('../result').MethodFailure[]} [failures]
+ * @param {{parent?: string, advice?: {html: string, actions?: {label: string, what: string, value?: string}[]}[]}} [options]
+ */
 export function renderResults(container, results, truth, failures = [], { parent = 'vehicle', advice = [] } = {}) {
   const r = results[0];
   const t = r.reconstruction;
@@ -156,7 +175,7 @@ export function renderResults(container, results, truth, failures = [], { parent
   const compared = results.length + failures.length > 1;
   // A bird's-eye warning the verdict already gives as a reason is not said twice.
   const said = new Set(Object.values(r.verdict.sensors).flatMap((s) => s.reasons.map((x) => x.text)));
-  const warnings = {};
+  const warnings = /** @type {Record<string, string[]>} */ ({});
   for (const l of (r.levelling ?? []).filter((l) => l.warning && !said.has(l.warning))) (warnings[l.sensor] ??= []).push(l.warning);
   container.innerHTML = `
     ${verdictHtml(r, advice)}
@@ -176,6 +195,7 @@ export function renderResults(container, results, truth, failures = [], { parent
 }
 
 // Convergence: mean sigma (m, left axis, log) and max transform change (right axis, log).
+/** @param {HTMLCanvasElement} canvas @param {import('../result').HistoryReport} history */
 export function drawConvergence(canvas, history) {
   const ctx = canvas.getContext('2d');
   const { width: w, height: h } = canvas;
