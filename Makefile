@@ -34,7 +34,7 @@ test-rust:
 	# --show-output: the accuracy tests print their error distributions.
 	cargo test -- --show-output
 	# The npm package's result types are what the Rust types declare (ts-rs, feature `ts`).
-	cargo test --features ts --test typescript
+	cargo test --features ts --test report
 
 test-wasm: setup-rust
 	cargo test --target $(WASM_TARGET)

@@ -3,7 +3,7 @@
 //!
 //! Data flows one way (docs/architecture.md): bytes ([`io`]) -> clouds ([`Cloud`]) -> views
 //! ([`calib::Views`]) -> stages ([`calib`], over the engines [`jrmpc`] and [`icp`]) ->
-//! [`calib::Calibration`] -> [`report`]. The algorithm modules know nothing of JavaScript and
+//! [`calib::Calibration`] -> [`report`] (its shape and prose) and [`export`] (every writer). The algorithm modules know nothing of JavaScript and
 //! make no prose; `wasm` is a thin adapter compiled only for `wasm32`.
 
 // Primitives.
@@ -29,6 +29,7 @@ pub mod eval;
 pub mod twin;
 // The edge.
 pub mod command;
+pub mod export;
 pub mod report;
 #[cfg(target_arch = "wasm32")]
 pub mod wasm;

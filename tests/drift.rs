@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use gmmcalib::report::ros::{Extrinsic, tf_static_yaml, urdf};
+use gmmcalib::export::ros::{Extrinsic, tf_static_yaml, urdf};
 use gmmcalib::se3::from_row_major;
 
 fn gmmcalib(dir: &Path, args: &[&str]) -> (i32, String, String) {

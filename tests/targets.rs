@@ -63,7 +63,7 @@ fn the_errors_a_user_meets_are_named() {
     assert!(e.to_string().contains("not none"), "{e}");
 
     // A chair model in millimetres: 900 m across in a ROI of a few metres.
-    let obj = gmmcalib::io::write_obj(&gmmcalib::twin::shapes::chair());
+    let obj = gmmcalib::export::write_obj(&gmmcalib::twin::shapes::chair());
     let scaled: String = obj
         .lines()
         .map(|l| match l.strip_prefix("v ") {

@@ -6,7 +6,7 @@ use gmmcalib::calib;
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::{Pose, pose_from_xyz_rpy, to_row_major, xyz_rpy};
 use gmmcalib::twin::{Miscalibration, Model, Preset, Sampling, Twin};
-use gmmcalib::wasm::{calibrate, methods, parse_cloud, parse_config, simulate_rig};
+use gmmcalib::wasm::{calibrate, exports_of, methods, parse_cloud, parse_config, simulate_rig};
 use js_sys::{Array, Error, Function, Reflect};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen_test::*;
@@ -73,6 +73,39 @@ fn calibrate_returns_the_library_result_for_the_synthetic_truth() {
     // A small rig (3 frames of 600 points, K = 150) under plain JRMPC: near the truth.
     let d = expected.sensors[1].extrinsic.inverse() * truth.truth[1].1;
     assert!(d.rotation.angle() < 3f64.to_radians() && d.translation.vector.norm() < 0.2, "{d}");
+}
+
+/// A result carries its exports, made by the library's writers for the input's vehicle frame;
+/// `exportsOf` makes them again from the result's own fields for a renamed frame: the same
+/// texts but for the frame's name, and no JSON (it names no frame).
+#[wasm_bindgen_test]
+fn a_result_carries_its_exports_and_a_renamed_frame_gets_them_again() {
+    let input = js("return { ...rig, parent: 'base_link', method: 'jrmpc' };", &small_rig());
+    let result = calibrate(input, None).map_err(JsValue::from).expect("calibrate");
+    let exports = Reflect::get(&result, &"exports".into()).unwrap();
+    let text = |v: &JsValue, key: &str| Reflect::get(v, &key.into()).unwrap().as_string();
+    assert!(text(&exports, "urdf").unwrap().contains(r#"<parent link="base_link"/>"#));
+    let json: serde_json::Value = serde_json::from_str(&text(&exports, "json").unwrap()).unwrap();
+    assert_eq!(json["reference"], "sensor_1");
+    assert!(json.get("exports").is_none(), "the JSON is the CLI's, without the exports");
+
+    let again = exports_of(js(
+        "return { parent: 'vehicle', sensors: rig.sensors, roi: rig.roi, reconstruction: rig.reconstruction };",
+        &result,
+    ))
+    .map_err(JsValue::from)
+    .expect("exportsOf");
+    assert_eq!(text(&again, "json"), None);
+    let keys = ["urdf", "ros1", "ros2", "tfYaml", "autoware", "kitti", "gmmcalibYaml", "targetPly"];
+    for key in keys {
+        let (before, after) = (text(&exports, key).unwrap(), text(&again, key).unwrap());
+        assert_eq!(before.replace("base_link", "vehicle"), after, "{key}");
+    }
+    let bad = js(
+        "return { parent: 'v', sensors: [{ name: 'a', extrinsic: [1, 2] }], roi: { min: [0, 0, 0], max: [1, 1, 1] } };",
+        &JsValue::NULL,
+    );
+    assert_eq!(error_message(exports_of(bad)), "exportsOf: a: extrinsic is not 16 finite numbers");
 }
 
 #[wasm_bindgen_test]
@@ -166,7 +199,7 @@ fn parse_cloud_reads_files_and_names_bad_ones() {
         points: vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [0.0, 0.0, 0.0]],
         intensity: Some(vec![7.0, 8.0, 9.0]),
     };
-    let bytes = gmmcalib::io::write_pcd_binary(&cloud);
+    let bytes = gmmcalib::export::write_pcd_binary(&cloud);
     let parsed = parse_cloud(&bytes, "scan.pcd").map_err(JsValue::from).unwrap();
     let read = Function::new_with_args(
         "p",

@@ -1,10 +1,10 @@
 // The gmmcalib package's types. What the library returns (the calibration's result, the drift
 // check's report) is generated from the Rust types that serialize it: ./result.d.ts (ts-rs,
-// checked by tests/typescript.rs). The inputs and the functions are written here, in the shapes
+// checked by tests/report.rs). The inputs and the functions are written here, in the shapes
 // of docs/api.md. wasm-bindgen's own declarations type both as `any`. Units: m and rad; matrices
 // are 16 numbers, row-major; `T_a_b` maps points from frame b into frame a.
 
-import type { DriftReport, LimitReport, Matrix4, MethodName, Report, ReconstructionReport } from './result.js';
+import type { DriftReport, Exports, LimitReport, Matrix4, MethodName, Report, ReconstructionReport } from './result.js';
 
 export type * from './result.js';
 
@@ -68,6 +68,8 @@ export interface CalibrationInput extends SettingsInput {
   roi?: { min: Vec3; max: Vec3 };
   /** Default: the sensor with the most points. */
   reference?: string;
+  /** The vehicle frame's name: the parent of every extrinsic in the result's exports. Default `vehicle`. */
+  parent?: string;
   targetMesh?: { name: string; bytes: Uint8Array };
   /** The former name of `global`. */
   alignGlobally?: boolean;
@@ -107,6 +109,8 @@ export type CalibrationResult = Omit<Report, 'reconstruction'> & {
     sigmas: Float32Array;
     priors: Float32Array;
   };
+  /** The result in every form it is taken away in (`json` is the CLI's --json), the input's `parent` the vehicle frame. */
+  exports: Exports;
 };
 
 /** With `method: 'all'`: a method that failed. */
@@ -226,16 +230,13 @@ export interface CommandHost {
 /** `gmmcalib calibrate|compare ...` (argv without the program's name); the exit status. */
 export function runCommand(argv: string[], host: CommandHost): number;
 
-/** With `roi`, GMMCalib's config.yaml of the extrinsics too (`gmmcalibYaml`). */
-export function rosExports(extrinsics: { parent: string; child: string; pose: Matrix4 }[], roi?: { min: Vec3; max: Vec3 }): {
-  ros1: string;
-  ros2: string;
-  tfYaml: string;
-  urdf: string;
-  autoware: string;
-  kitti: string;
-  gmmcalibYaml?: string;
-};
+/** A result's exports made again for another vehicle frame (`parent`): all but `json`, which names no frame. */
+export function exportsOf(input: {
+  parent: string;
+  sensors: { name: string; extrinsic: Matrix4 | Float64Array }[];
+  roi: { min: Vec3; max: Vec3 };
+  reconstruction?: { means: ArrayLike<number>; sigmas: ArrayLike<number>; priors: ArrayLike<number> };
+}): Exports;
 
 /** Browsers: resolves once the wasm is instantiated (the browser entry awaits it on import). */
 export default function init(input?: unknown): Promise<unknown>;

@@ -1,4 +1,4 @@
-// Generated from the Rust types by tests/typescript.rs (ts-rs): do not edit. The result of
+// Generated from the Rust types by tests/report.rs (ts-rs): do not edit. The result of
 // `calibrate` (the CLI's --json) and of the drift check. Units: m and rad; `T_a_b` maps
 // points from frame b into frame a.
 
@@ -401,3 +401,18 @@ translation: [number, number, number], distance: number,
 precision: Precision | null, limit: LimitReport, };
 
 export type LimitReport = { "kind": "fixed", rotation: number, translation: number, } | { "kind": "sigmas", sigmas: number, rotation: [number, number, number], position: [number, number, number], };
+
+export type Exports = { parent: string, 
+/**
+ * The result as `gmmcalib calibrate --json` writes it (`None` when made from the
+ * extrinsics alone: it names no frame, so a renamed parent leaves it as it was).
+ */
+json?: string, 
+/**
+ * GMMCalib's `config.yaml` with the calibrated transforms and the ROI.
+ */
+gmmcalibYaml: string, urdf: string, ros1: string, ros2: string, tfYaml: string, autoware: string, kitti: string, 
+/**
+ * The reconstructed target as PLY (`None` for a method that reconstructs nothing).
+ */
+targetPly?: string, };

@@ -3,7 +3,7 @@
 //! this extrinsic. The evidence is measured after the calibration (`evidence`), so a verdict
 //! never moves a result.
 //!
-//! The limits below were set on a labelled suite (`tests/verdict.rs`: twin rigs within and
+//! The limits below were set on a labelled suite (`tests/calib/verdict.rs`: twin rigs within and
 //! beyond the spec, and known-bad rigs) and are stated with what they catch there
 //! (docs/accuracy.md, "The verdict").
 

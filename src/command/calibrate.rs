@@ -164,8 +164,8 @@ pub(super) fn write_json(
     value: &impl serde::Serialize,
 ) -> Result<(), String> {
     let Some(path) = path else { return Ok(()) };
-    let json = serde_json::to_string_pretty(value).map_err(|e| format!("JSON: {e}"))?;
-    host.write(path, (json + "\n").as_bytes()).map_err(|e| format!("{path}: {e}"))
+    let json = crate::export::json(value).map_err(|e| format!("JSON: {e}"))?;
+    host.write(path, json.as_bytes()).map_err(|e| format!("{path}: {e}"))
 }
 
 /// The progress line: the sensors aligned globally, the views prepared, EM's iterations, the

@@ -3,10 +3,10 @@
 
 use super::{EntryKind, Host, join, read_text};
 use crate::calib::Calibration;
+use crate::export::ros::{self, Extrinsic};
 use crate::io::recording::select::Settings as Select;
 use crate::io::recording::urdf::Urdf;
 use crate::io::recording::{Recording, RecordingRig, RigRequest, storage_file};
-use crate::report::ros::{self, Extrinsic};
 
 /// What `calibrate --bag` asks of a recording.
 pub struct BagRequest<'a> {

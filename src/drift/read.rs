@@ -162,7 +162,7 @@ fn tf_yaml(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::report::ros::{Extrinsic, tf_static_yaml, urdf};
+    use crate::export::ros::{Extrinsic, tf_static_yaml, urdf};
     use crate::se3::pose_from_xyz_rpy;
 
     fn exported() -> Vec<Extrinsic> {

@@ -1,5 +1,6 @@
-//! Point-cloud readers and writers: bytes in, values out. No filesystem access here, so the same
-//! code serves the CLI and the browser (where files arrive as `ArrayBuffer`s).
+//! Point-cloud readers: bytes in, values out (the writers are `export`'s). No filesystem
+//! access here, so the same code serves the CLI and the browser (where files arrive as
+//! `ArrayBuffer`s).
 //!
 //! Formats: PCD v0.6/v0.7 (`ascii`, `binary`, `binary_compressed`), PLY (`ascii`,
 //! `binary_little_endian`, `binary_big_endian`) and KITTI `.bin` (f32 x, y, z, intensity).
@@ -21,17 +22,11 @@ mod pcd;
 mod ply;
 pub mod recording;
 mod text;
-mod write;
 
 use std::fmt;
 
 use crate::cloud::Cloud;
 use crate::se3::Pose;
-
-pub use write::{
-    ConfigTransform, gmmcalib_config, write_obj, write_pcd_binary, write_pcd_binary_compressed,
-    write_pcd_binary_organized, write_ply_binary,
-};
 
 /// The on-disk encoding a cloud was read from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

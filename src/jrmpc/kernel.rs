@@ -7,9 +7,9 @@
 //!
 //! Exponents are f64, the exps f32 (four lanes where f64 has two, and a degree-6 polynomial
 //! where f64 needs 10), the sums f64. The f32 exp's relative error of about 1e-7 per term moves
-//! the calibrations of tests/jrmpc.rs by at most 8e-6 rad against the exact dense path (the
-//! bound is 1e-4). Distances in f32 as well would be faster still, but moved them by up to
-//! 5e-4 rad: an f32 coordinate's rounding, a few sigma from the cell centre, shifts a narrow
+//! the calibrations of tests/jrmpc/registration.rs by at most 8e-6 rad against the exact dense
+//! path (the bound is 1e-4). Distances in f32 as well would be faster still, but moved them by
+//! up to 5e-4 rad: an f32 coordinate's rounding, a few sigma from the cell centre, shifts a narrow
 //! component's exponent systematically for every point of the cell. With the sums in f32 too
 //! (1.45x in wasm), plain `jrmpc`'s twin studies moved 0.15 deg and more (docs/benchmarks.md).
 

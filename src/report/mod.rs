@@ -1,10 +1,10 @@
 //! The edge where results meet people and programs: the JSON shape (`gmmcalib calibrate
 //! --json`, the wasm `calibrate`, the page), the CLI's text, and every sentence made from the
-//! calibration's typed notes. Compute code returns typed data; prose is made here.
+//! calibration's typed notes. Compute code returns typed data; prose is made here. The files
+//! a result is written as are `export`'s.
 
 mod drift;
 mod json;
-pub mod ros;
 mod sentences;
 mod text;
 

@@ -10,6 +10,7 @@ use wasm_bindgen::prelude::*;
 use super::{Roi, XyzRpy, to_js};
 use crate::calib::{self, Calibration, Method, MethodOutcome, Rig, Scan, SettingsInput};
 use crate::cloud::Aabb;
+use crate::export::Exports;
 use crate::jrmpc::Control;
 use crate::report::Report;
 use crate::se3::{Pose, pose_from_xyz_rpy, to_row_major};
@@ -41,6 +42,9 @@ pub(super) struct CalibrateInput {
     /// Absent: around the targets found where the clouds overlap, else that overlap.
     roi: Option<Roi>,
     reference: Option<String>,
+    /// The vehicle frame's name, the parent of every extrinsic in the exports (default
+    /// `vehicle`).
+    parent: Option<String>,
     /// The file of a `mesh` target.
     target_mesh: Option<MeshInput>,
     /// The settings, under the keys every door shares.
@@ -113,26 +117,31 @@ fn pose_of(name: &str, p: &XyzRpy) -> Result<Pose, JsError> {
 /// runs after every EM iteration and frame pair; returning `false` cancels the run.
 #[wasm_bindgen]
 pub fn calibrate(input: JsValue, on_progress: Option<Function>) -> Result<JsValue, JsError> {
-    let (rig, settings, methods) = rig_and_settings(input)?;
+    let (rig, settings, methods, parent) = rig_and_settings(input)?;
     let sensors = rig.sensors();
     let mut run = calib::Run::new(std::borrow::Cow::Owned(rig), &settings, &methods);
     let mut sink = ProgressSink::new(on_progress, ProgressShape::new(sensors, &run));
     run.drive(1, &mut |method, p| sink.send(method, p));
     sink.error()?;
-    outcomes(run.into_outcomes(), methods.len() > 1)
+    outcomes(run.into_outcomes(), methods.len() > 1, &parent)
 }
 
 /// The result of a run's `outcomes`: one report (or its error), or when `compared` an array of
-/// every method's report or `{method, error}`.
-pub(super) fn outcomes(outcomes: Vec<MethodOutcome>, compared: bool) -> Result<JsValue, JsError> {
+/// every method's report or `{method, error}`; each report with its exports, `parent` naming
+/// the vehicle frame.
+pub(super) fn outcomes(
+    outcomes: Vec<MethodOutcome>,
+    compared: bool,
+    parent: &str,
+) -> Result<JsValue, JsError> {
     if !compared {
         let (_, outcome) = outcomes.into_iter().next().ok_or_else(internal)?;
-        return output(&outcome.map_err(|e| JsError::new(&e.to_string()))?);
+        return output(&outcome.map_err(|e| JsError::new(&e.to_string()))?, parent);
     }
     let array = Array::new();
     for (method, outcome) in outcomes {
         let value = match outcome {
-            Ok(c) => output(&c)?,
+            Ok(c) => output(&c, parent)?,
             Err(e) => {
                 let failed = js_sys::Object::new();
                 Reflect::set(&failed, &"method".into(), &method.name().into())
@@ -164,10 +173,10 @@ fn settings_key_error(input: &JsValue) -> Option<String> {
     })
 }
 
-/// The rig, the settings and the methods `input` describes.
+/// The rig, the settings, the methods and the vehicle frame's name `input` describes.
 pub(super) fn rig_and_settings(
     input: JsValue,
-) -> Result<(Rig, calib::Settings, Vec<Method>), JsError> {
+) -> Result<(Rig, calib::Settings, Vec<Method>, String), JsError> {
     let input: CalibrateInput = serde_wasm_bindgen::from_value(input.clone()).map_err(|e| {
         let problem = settings_key_error(&input).unwrap_or_else(|| e.to_string());
         JsError::new(&format!("invalid calibrate input: {problem}"))
@@ -212,7 +221,8 @@ pub(super) fn rig_and_settings(
         .map_err(error)?;
     let mut settings = calib::Settings::default();
     let methods = input_settings.apply(&mut settings).map_err(error)?;
-    Ok((rig, settings, methods))
+    let parent = input.parent.unwrap_or_else(|| "vehicle".into());
+    Ok((rig, settings, methods, parent))
 }
 
 /// What JS sees of the library's progress: the sensors' names and each method's plan.
@@ -289,10 +299,12 @@ impl ProgressSink {
 }
 
 /// The library's [`Report`], with the reconstruction's bulk arrays as `Float32Array`s for
-/// transfer.
-fn output(c: &Calibration) -> Result<JsValue, JsError> {
+/// transfer, and its [`Exports`] (`exports`), `parent` naming the vehicle frame.
+fn output(c: &Calibration, parent: &str) -> Result<JsValue, JsError> {
     let report = Report::from(c);
     let value = to_js(&report)?;
+    Reflect::set(&value, &"exports".into(), &to_js(&Exports::of(c, parent))?)
+        .map_err(|_| internal())?;
     let t = &report.reconstruction;
     let reconstruction = Reflect::get(&value, &"reconstruction".into()).map_err(|_| internal())?;
     for (key, values) in [("means", &t.means), ("sigmas", &t.sigmas), ("priors", &t.priors)] {

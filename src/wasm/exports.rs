@@ -1,74 +1,77 @@
-//! `rosExports(extrinsics, roi?)`: one calibration's extrinsics in ROS's own terms, made by the
-//! library's writers (`report::ros`), which the CLI's `--export` prints too; with the ROI, also
-//! GMMCalib's config.yaml (`io::gmmcalib_config`, which `gmmcalib simulate` writes too).
+//! `exportsOf(input)`: one result's exports made again for a renamed vehicle frame, by the
+//! writers `calibrate` used for the result's own `exports` (`export::Exports`).
 
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 use wasm_bindgen::prelude::*;
 
-use super::{Roi, options_or_default, to_js};
-use crate::io::{ConfigTransform, gmmcalib_config};
-use crate::report::ros::{self, Extrinsic};
+use super::{Roi, to_js};
+use crate::calib::Reconstruction;
+use crate::export::Exports;
 
 #[derive(Deserialize)]
-struct ExtrinsicInput {
-    parent: String,
-    child: String,
-    /// `T_parent_child`, row-major 4x4.
-    pose: Vec<f64>,
-}
-
-#[derive(Serialize)]
 #[serde(rename_all = "camelCase")]
-struct ExportsOutput {
-    ros1: String,
-    ros2: String,
-    tf_yaml: String,
-    urdf: String,
-    autoware: String,
-    kitti: String,
-    /// With a ROI: GMMCalib's config.yaml of the extrinsics.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    gmmcalib_yaml: Option<String>,
+struct ExportsInput {
+    parent: String,
+    sensors: Vec<SensorInput>,
+    roi: Roi,
+    reconstruction: Option<TargetInput>,
 }
 
-/// Every ROS export of `extrinsics` (`[{parent, child, pose}]`, `pose` = `T_parent_child`
-/// row-major 4x4): `{ros1, ros2, tfYaml, urdf, autoware, kitti}`, each stating its direction;
-/// with `roi` (`{min, max}`, m), `gmmcalibYaml` too.
-#[wasm_bindgen(js_name = rosExports)]
-pub fn ros_exports(extrinsics: JsValue, roi: JsValue) -> Result<JsValue, JsError> {
-    let roi: Option<Roi> = options_or_default(roi, "rosExports roi")?;
-    let input: Vec<ExtrinsicInput> = options_or_default(extrinsics, "rosExports")?;
-    let extrinsics = input
-        .into_iter()
-        .map(|e| {
-            let pose = <[f64; 16]>::try_from(e.pose.as_slice())
+#[derive(Deserialize)]
+struct SensorInput {
+    name: String,
+    /// `T_parent_sensor`, row-major 4x4.
+    extrinsic: Vec<f64>,
+}
+
+/// The reconstructed target, flat: `means` as x, y, z per component.
+#[derive(Deserialize)]
+struct TargetInput {
+    means: Vec<f64>,
+    sigmas: Vec<f64>,
+    priors: Vec<f64>,
+}
+
+/// A result's exports that name frames (`export::Exports` without `json`), for `input = {
+/// parent, sensors: [{ name, extrinsic }], roi: { min, max }, reconstruction?: { means, sigmas,
+/// priors } }`: a result's own fields, with the new parent.
+#[wasm_bindgen(js_name = exportsOf)]
+pub fn exports_of(input: JsValue) -> Result<JsValue, JsError> {
+    let input: ExportsInput = serde_wasm_bindgen::from_value(input)
+        .map_err(|e| JsError::new(&format!("invalid exportsOf input: {e}")))?;
+    let sensors = (input.sensors.into_iter())
+        .map(|s| {
+            let pose = <[f64; 16]>::try_from(s.extrinsic.as_slice())
                 .ok()
                 .filter(|m| m.iter().all(|x| x.is_finite()))
                 .map(|m| crate::se3::from_row_major(&m))
                 .ok_or_else(|| {
-                    JsError::new(&format!("{}: pose is not 16 finite numbers", e.child))
+                    JsError::new(&format!(
+                        "exportsOf: {}: extrinsic is not 16 finite numbers",
+                        s.name
+                    ))
                 })?;
-            Ok(Extrinsic { parent: e.parent, child: e.child, pose })
+            Ok((s.name, pose))
         })
         .collect::<Result<Vec<_>, JsError>>()?;
-    to_js(&ExportsOutput {
-        ros1: ros::ros1_static_transform_publisher(&extrinsics),
-        ros2: ros::ros2_static_transform_publisher(&extrinsics),
-        tf_yaml: ros::tf_static_yaml(&extrinsics),
-        urdf: ros::urdf(&extrinsics),
-        autoware: ros::autoware_calibration(&extrinsics),
-        kitti: ros::kitti_tr(&extrinsics),
-        gmmcalib_yaml: roi.map(|roi| {
-            let transforms: Vec<ConfigTransform> = extrinsics
-                .iter()
-                .map(|e| {
-                    let (xyz, rpy) = crate::se3::xyz_rpy(&e.pose);
-                    let note = format!("{} -> {}", e.child, e.parent);
-                    ConfigTransform { sensor: e.child.clone(), xyz, rpy, note }
-                })
-                .collect();
-            let roi = crate::cloud::Aabb::new(roi.min, roi.max);
-            gmmcalib_config("gmmcalib: calibrated extrinsics", &transforms, None, &roi)
-        }),
-    })
+    let target = match input.reconstruction {
+        Some(t) => Some(target_of(t)?),
+        None => None,
+    };
+    let roi = crate::cloud::Aabb::new(input.roi.min, input.roi.max);
+    to_js(&Exports::new(&input.parent, &sensors, &roi, target.as_ref()))
+}
+
+fn target_of(t: TargetInput) -> Result<Reconstruction, JsError> {
+    let k = t.sigmas.len();
+    if t.means.len() != 3 * k || t.priors.len() != k {
+        return Err(JsError::new(&format!(
+            "exportsOf: reconstruction has {} means values, {k} sigmas and {} priors (expected 3 \
+             means values per sigma and one prior each)",
+            t.means.len(),
+            t.priors.len()
+        )));
+    }
+    let means = t.means.chunks_exact(3).map(|m| [m[0], m[1], m[2]]).collect();
+    Ok(Reconstruction { means, sigmas: t.sigmas, priors: t.priors, ..Default::default() })
 }

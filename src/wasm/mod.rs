@@ -26,7 +26,7 @@ pub use calibrate::{calibrate, methods};
 pub use command::run_command;
 pub use config::{parse_config, parse_open_calib};
 pub use drift::compare_calibrations;
-pub use exports::ros_exports;
+pub use exports::exports_of;
 pub use files::{parse_cloud, parse_mesh};
 pub use recording::RecordingFile;
 pub use session::{CalibrationSession, JrmpcShard, align_global, align_pairs};

@@ -32,6 +32,8 @@ pub struct CalibrationSession {
     /// What JS sees of the run's progress.
     shape: ProgressShape,
     compared: bool,
+    /// The vehicle frame's name, for the exports.
+    parent: String,
 }
 
 #[wasm_bindgen]
@@ -40,11 +42,11 @@ impl CalibrationSession {
     /// its first method.
     #[wasm_bindgen(constructor)]
     pub fn new(input: JsValue) -> Result<CalibrationSession, JsError> {
-        let (rig, settings, methods) = rig_and_settings(input)?;
+        let (rig, settings, methods, parent) = rig_and_settings(input)?;
         let sensors = rig.sensors();
         let run = Run::new(Cow::Owned(rig), &settings, &methods);
         let shape = ProgressShape::new(sensors, &run);
-        Ok(Self { run: Some(run), shape, compared: methods.len() > 1 })
+        Ok(Self { run: Some(run), shape, compared: methods.len() > 1, parent })
     }
 
     /// `"global"`, `"views"`, `"jrmpc"`, `"framePairs"`, `"cad"`, `"finish"` (the names progress
@@ -291,7 +293,7 @@ impl CalibrationSession {
             return Err(JsError::new("the session has not finished"));
         }
         let run = self.run.take().ok_or_else(finished)?;
-        outcomes(run.into_outcomes(), self.compared)
+        outcomes(run.into_outcomes(), self.compared, &self.parent)
     }
 }
 

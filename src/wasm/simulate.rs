@@ -90,7 +90,7 @@ pub fn simulate_rig(options: JsValue) -> Result<JsValue, JsError> {
             _ => "none".into(),
         },
         target_obj: match model.target() {
-            Target::Mesh(m) => Some(crate::io::write_obj(&m.mesh)),
+            Target::Mesh(m) => Some(crate::export::write_obj(&m.mesh)),
             _ => None,
         },
     })

@@ -107,5 +107,16 @@ test('the cube sample as an MCAP: ROI auto finds no cube and says so; the ROI dr
   assert.doesNotMatch(yaml, /transform_\//);
   assert.match(await page.locator('[data-export=urdf] pre').textContent(), /<parent link="base_link"\/>\s*<child link="lidar_1"\/>/);
   await glance(page, 'recording-cube-mcap');
+
+  // The vehicle frame renamed after the run: the library writes the exports again for it; the
+  // JSON names no frame and stays as it was.
+  const json = await page.locator('[data-export=json] pre').textContent();
+  await page.locator('#rig-panel').evaluate((d) => (d.open = true));
+  await page.getByLabel('vehicle frame name').fill('chassis');
+  await page.getByLabel('vehicle frame name').press('Enter');
+  await page.waitForFunction(() => /<parent link="chassis"\/>/.test(document.querySelector('[data-export=urdf] pre').textContent));
+  assert.match(await page.locator('[data-export=yaml] pre').textContent(), /^transform_lidar_1: {2}# lidar_1 -> chassis\n/m);
+  assert.match(await page.locator('[data-export=ply] pre').textContent(), /\(chassis frame, m\)/);
+  assert.equal(await page.locator('[data-export=json] pre').textContent(), json);
   assert.deepEqual(problems, []);
 });

@@ -9,7 +9,7 @@ import { fromDrop, fromInput } from './files/files.js';
 import { renderFiles } from './files/filelist.js';
 import { renderRig, showRoi } from './panels/rig.js';
 import { drawConvergence, renderResults, verdictTitle } from './results/results.js';
-import { exportsOf, renderExports, resultJson } from './results/exports.js';
+import { exportItems, exportTexts, renderExports, resultJson } from './results/exports.js';
 import { targetBounds } from './view/target.js';
 import { writeHash } from './state/url.js';
 import { describeDone, describeTime } from './calibrate/progress.js';
@@ -366,8 +366,8 @@ async function renderOutcome(results, failures, json) {
   if (state.results !== results) return;
   $('convergence-box').hidden = results[0].history.meanSigma.length < 2;
   drawConvergence($('convergence'), results[0].history);
-  const ros = (extrinsics, roi) => client.request('exports', { extrinsics, roi });
-  const items = await exportsOf(results[0], { roi: state.rig.roi ?? results[0].roi, parent }, ros);
+  const remake = (input) => client.request('exports', input);
+  const items = exportItems(await exportTexts(results[0], parent, remake));
   if (state.results !== results) return;
   renderExports($('exports'), items);
   // The drift check compares what the JSON export holds.

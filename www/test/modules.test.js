@@ -4,9 +4,9 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { groupNameless, natural, placeAll, splitNameless } from '../src/files/files.js';
 import { readFileSync } from 'node:fs';
-import { initSync, parseConfig, placeScans, rosExports } from '../pkg/gmmcalib.js';
+import { exportsOf, initSync, parseConfig, placeScans } from '../pkg/gmmcalib.js';
 import { inverse, matrixFromXyzRpy, multiply, quaternionOf, rpyOf, xyzOf } from '../src/transforms.js';
-import { exportsOf, resultJson, targetPly } from '../src/results/exports.js';
+import { exportItems, exportTexts, resultJson } from '../src/results/exports.js';
 import { DEFAULTS, readHash } from '../src/state/url.js';
 import { rebuildRig } from '../src/state/state.js';
 import { MIN_MEASURED, RunProgress, StageClock, describeDone, describeProgress, describeTime } from '../src/calibrate/progress.js';
@@ -120,16 +120,26 @@ test('pose maths: rpy and quaternion of a matrix, inverse', () => {
   assert.ok(close(quaternionOf(matrixFromXyzRpy([0, 0, 0], [Math.PI, 0, 0])), [1, 0, 0, 0]));
 });
 
-test('exports: YAML round trip, the ROS forms from the library, PLY, JSON with plain arrays', async () => {
+test('exports: the result\'s own texts, the library\'s again for a renamed frame (YAML round trip, ROS forms, PLY)', async () => {
   const extrinsic = matrixFromXyzRpy([2.3, -0.6, 1.6], [-0.35, 0.01, -0.02]);
+  const roi = { min: [1, -2, -0.5], max: [3, 2, 1] };
   const result = {
     sensors: [{ name: 'a', extrinsic: matrixFromXyzRpy([0, 0, 1], [0, 0, 0]) }, { name: 'b_frame', extrinsic }],
     reconstruction: { means: new Float32Array([1, 2, 3, 4, 5, 6]), sigmas: new Float32Array([0.1, 0.2]), priors: new Float32Array([0.5, 0]) },
+    roi: { ...roi, source: 'given' },
+    exports: { parent: 'vehicle', json: '{ "the": "CLI\'s" }\n', urdf: 'as made' },
   };
-  const roi = { min: [1, -2, -0.5], max: [3, 2, 1] };
-  const items = await exportsOf(result, { roi, parent: 'base_link' }, async (e, r) => rosExports(e, r));
+  const remade = [];
+  const remake = async (input) => (remade.push(input.parent), exportsOf(input));
+  // The frame named at the run: the result's own texts, nothing made again.
+  assert.equal((await exportTexts(result, 'vehicle', remake)).urdf, 'as made');
+  assert.deepEqual(remade, []);
+  // A renamed frame: the library's writers again; the JSON (no frame in it) as it was.
+  const items = exportItems(await exportTexts(result, 'base_link', remake));
+  assert.deepEqual(remade, ['base_link']);
   const text = (key) => items.find((i) => i.key === key).text;
-  // GMMCalib's YAML, from the library's writer, reads back to the same extrinsics and ROI.
+  assert.equal(text('json'), result.exports.json);
+  // GMMCalib's YAML reads back to the same extrinsics and ROI.
   const back = parseConfig(text('yaml'), 'out.yaml');
   const b = back.nominal.b_frame;
   assert.ok(close(matrixFromXyzRpy(b.xyz, b.rpy), extrinsic, 1e-12));
@@ -141,10 +151,13 @@ test('exports: YAML round trip, the ROS forms from the library, PLY, JSON with p
   assert.ok(joint && close(joint[1].split(' ').map(Number), [2.3, -0.6, 1.6], 1e-12) && close(joint[2].split(' ').map(Number), [-0.35, 0.01, -0.02], 1e-12), text('urdf'));
   assert.match(text('ros2'), /^ros2 run tf2_ros static_transform_publisher --x 2\.3 --y -0\.6 --z 1\.6 --qx \S+ --qy \S+ --qz \S+ --qw \S+ --frame-id base_link --child-frame-id b_frame$/m);
   assert.match(text('ros1'), /static_transform_publisher 2\.3 -0\.6 1\.6 \S+ \S+ \S+ base_link b_frame$/m);
-  const ply = targetPly(result.reconstruction);
-  assert.match(ply, /element vertex 1\n/);
-  assert.match(ply, /end_header\n1 2 3 0\.1000000015 0\.5\n$/);
-  assert.deepEqual(JSON.parse(resultJson(result)).reconstruction.means, [1, 2, 3, 4, 5, 6]);
+  // The components holding data, as the f32 the file declares.
+  assert.match(text('ply'), /\(base_link frame, m\)\nelement vertex 1\n/);
+  assert.match(text('ply'), /end_header\n1 2 3 0\.1 0\.5\n$/);
+  // The JSON view: typed arrays as plain arrays, the exports left to their panel.
+  const view = JSON.parse(resultJson(result));
+  assert.deepEqual(view.reconstruction.means, [1, 2, 3, 4, 5, 6]);
+  assert.equal(view.exports, undefined);
 });
 
 test('URL hash: known keys only, numbers checked, defaults otherwise', () => {

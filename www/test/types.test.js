@@ -1,5 +1,5 @@
 // The page's modules that read a result (marked `// @ts-check`) type-check against the npm
-// package's declarations, which tests/typescript.rs generates from the Rust types: a result
+// package's declarations, which tests/report.rs generates from the Rust types: a result
 // field renamed in Rust and not in the page fails here.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';

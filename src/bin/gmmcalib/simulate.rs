@@ -10,7 +10,7 @@
 use std::fs;
 use std::path::Path;
 
-use gmmcalib::io::{
+use gmmcalib::export::{
     ConfigTransform, gmmcalib_config, write_obj, write_pcd_binary, write_pcd_binary_organized,
 };
 use gmmcalib::se3::{Pose, to_row_major};
@@ -101,9 +101,9 @@ pub fn write(files: &TwinFiles, args: &TwinArgs, dir: &Path) -> Result<(), Strin
             })
             .collect(),
     };
-    let json = serde_json::to_string_pretty(&truth).map_err(|e| format!("JSON: {e}"))?;
+    let json = gmmcalib::export::json(&truth).map_err(|e| format!("JSON: {e}"))?;
     let path = dir.join("truth.json");
-    fs::write(&path, json + "\n").map_err(|e| fail(&path, e))
+    fs::write(&path, json).map_err(|e| fail(&path, e))
 }
 
 /// GMMCalib's config (the library's writer): the nominals as the numbers the layout reads back,

@@ -19,6 +19,7 @@ async function calibrateInput(state) {
     nominal: Object.fromEntries(state.rig.sensors.map((n) => [n, state.rig.nominal[n]])),
     roi: state.rig.roi,
     reference: state.rig.reference,
+    parent: state.rig.parent,
     method: s.method,
     target: s.target,
     targetMesh: s.target.startsWith('mesh:') ? meshInput(state.targetMesh) : undefined,

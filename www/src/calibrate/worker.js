@@ -5,7 +5,7 @@ import init, * as wasm from '../../pkg/gmmcalib.js';
 import wasmUrl from '../../pkg/gmmcalib_bg.wasm?url';
 import { RemoteWorker, calibrateSharded } from './shard-pool.js';
 
-const { calibrate, compareCalibrations, methods, parseCloud, parseConfig, parseMesh, parseOpenCalib, placeScans, rosExports, simulateRig, RecordingFile } = wasm;
+const { calibrate, compareCalibrations, methods, parseCloud, parseConfig, parseMesh, parseOpenCalib, placeScans, exportsOf, simulateRig, RecordingFile } = wasm;
 
 // Open recordings by id. A recording is read where it lies: FileReaderSync on slices of the
 // File, so a multi-gigabyte file is never in memory; only its index and the chosen chunks are.
@@ -28,7 +28,7 @@ const handlers = {
   parse: ({ bytes, name }) => parseCloud(new Uint8Array(bytes), name),
   config: ({ text, name }) => parseConfig(text, name),
   mesh: ({ bytes, name }) => parseMesh(new Uint8Array(bytes), name),
-  exports: ({ extrinsics, roi }) => rosExports(extrinsics, roi),
+  exports: (input) => exportsOf(input),
   compare: ({ stored, storedName, current, currentName, tolerance }) => compareCalibrations(stored, storedName, current, currentName, tolerance),
   opencalib: ({ paths, pathsName, guess, guessName }) => parseOpenCalib(paths, pathsName, guess ?? null, guessName ?? null),
   layout: ({ paths }) => placeScans(paths),

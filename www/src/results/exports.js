@@ -1,34 +1,50 @@
-// Exports of one calibration result (the report shape): text generators, and the panel that
-// offers each with copy and download. Every extrinsic is T_parent_child: `vehicle` (the frame
-// the nominal extrinsics and ROI are given in) is the parent, each sensor the child.
+// @ts-check
+// Exports of one calibration result. The library writes every text (the result's `exports`,
+// made by `calibrate` for the vehicle frame named at the run); this module titles them and
+// offers each with copy and download. Every extrinsic is T_parent_child: `parent` (the frame
+// the nominal extrinsics and ROI are given in) is the parent, each sensor the child of its name.
 
-const num = (x) => String(+x.toPrecision(10));
+/** @typedef {import('../result').PageResult} PageResult */
+/** @typedef {import('../result').Exports} Exports */
+/** @typedef {{ key: string, title: string, direction: string, file: string, text: string }} ExportItem */
 
-// The result as JSON, typed arrays as plain arrays.
-export const resultJson = (result) =>
-  JSON.stringify(result, (_, v) => (ArrayBuffer.isView(v) ? Array.from(v) : v), 2);
+// The JSON view's text: the outcomes as the page holds them, typed arrays as plain arrays, each
+// result's exports left to the export panel.
+export const resultJson = (/** @type {unknown} */ value) =>
+  JSON.stringify(value, (key, v) => (key === 'exports' ? undefined : ArrayBuffer.isView(v) ? Array.from(/** @type {Float32Array} */ (v)) : v), 2);
 
-// The reconstructed target as ASCII PLY: components holding data, with sigma and prior.
-export function targetPly({ means, sigmas, priors }) {
-  const used = [];
-  for (let k = 0; k < sigmas.length; k++) if (priors[k] > 0) used.push(k);
-  const header = ['ply', 'format ascii 1.0', 'comment gmmcalib reconstructed target (vehicle frame, m)',
-    `element vertex ${used.length}`, 'property float x', 'property float y', 'property float z',
-    'property float sigma', 'property float prior', 'end_header'];
-  const body = used.map((k) => [means[3 * k], means[3 * k + 1], means[3 * k + 2], sigmas[k], priors[k]].map(num).join(' '));
-  return `${[...header, ...body].join('\n')}\n`;
+// The texts of `result` for `parent`: its own, or, for a frame renamed since the run, the
+// library's again (`remake`: the worker's `exports`); the JSON names no frame and stays.
+/**
+ * @param {PageResult} result
+ * @param {string} parent
+ * @param {(input: object) => Promise<Exports>} remake
+ * @returns {Promise<Exports>}
+ */
+export async function exportTexts(result, parent, remake) {
+  const made = result.exports;
+  if (made?.parent === parent) return made;
+  const { means, sigmas, priors } = result.reconstruction;
+  const again = await remake({
+    parent,
+    sensors: result.sensors.map((s) => ({ name: s.name, extrinsic: Array.from(s.extrinsic) })),
+    roi: { min: result.roi.min, max: result.roi.max },
+    reconstruction: priors.length ? { means: Array.from(means), sigmas: Array.from(sigmas), priors: Array.from(priors) } : undefined,
+  });
+  // A result opened from a file, or kept from before results carried their JSON: the page's copy.
+  return { ...again, json: made?.json ?? resultJson(result) };
 }
 
-// Every export of `result`. The ROS forms and GMMCalib's YAML come from the library's writers
-// (`ros`: the worker's `exports` request, given [{parent, child, pose}] and the ROI), as the
-// CLI's --export and `gmmcalib simulate` write them.
-// `parent`: the vehicle frame's name (a recording's base frame, or the name the user gave it);
-// each sensor is the child of its own name (a recording's frame id), in every export alike.
-export async function exportsOf(result, { roi, parent = 'vehicle' }, ros) {
-  const texts = await ros(result.sensors.map((s) => ({ parent, child: s.name, pose: Array.from(s.extrinsic) })), roi);
+// The export panel's items: each text with its title, its direction and its file name.
+/**
+ * @param {Exports} texts
+ * @returns {ExportItem[]}
+ */
+export function exportItems(texts) {
+  const parent = texts.parent;
   const direction = `T_${parent}_sensor: maps each sensor's points into ${parent} (parent ${parent}, child the sensor)`;
   const out = [
-    { key: 'json', title: 'JSON (everything)', direction: `as the CLI's --json; matrices row-major T_${parent}_sensor / C_ref_s / T_ref_s`, file: 'gmmcalib-result.json', text: resultJson(result) },
+    { key: 'json', title: 'JSON (everything)', direction: `the CLI's --json, byte for byte; matrices row-major T_${parent}_sensor / C_ref_s / T_ref_s`, file: 'gmmcalib-result.json', text: texts.json },
     { key: 'yaml', title: 'GMMCalib YAML', direction: `transform_<sensor>: sensor -> ${parent}`, file: 'config-calibrated.yaml', text: texts.gmmcalibYaml },
     { key: 'urdf', title: 'URDF origins', direction, file: 'extrinsics.urdf.xml', text: texts.urdf },
     { key: 'ros2', title: 'ROS 2 static_transform_publisher', direction: `--frame-id ${parent} (parent), --child-frame-id the sensor`, file: 'static_transforms.sh', text: texts.ros2 },
@@ -37,13 +53,17 @@ export async function exportsOf(result, { roi, parent = 'vehicle' }, ros) {
     { key: 'autoware', title: 'Autoware sensor_kit_calibration.yaml', direction, file: 'sensor_kit_calibration.yaml', text: texts.autoware },
     { key: 'kitti', title: 'KITTI Tr (3x4)', direction, file: 'calib_tr.txt', text: texts.kitti },
   ];
-  if (result.reconstruction.priors.length) {
-    out.push({ key: 'ply', title: 'Reconstructed target (PLY)', direction: `points in ${parent} (where the reference sees the target)`, file: 'target.ply', text: targetPly(result.reconstruction) });
+  if (texts.targetPly) {
+    out.push({ key: 'ply', title: 'Reconstructed target (PLY)', direction: `points in ${parent} (where the reference sees the target)`, file: 'target.ply', text: texts.targetPly });
   }
   return out;
 }
 
 // The export panel: one block per export with copy and download.
+/**
+ * @param {HTMLElement} container
+ * @param {ExportItem[]} items
+ */
 export function renderExports(container, items) {
   container.replaceChildren();
   for (const item of items) {
@@ -73,6 +93,10 @@ export function renderExports(container, items) {
   }
 }
 
+/**
+ * @param {string} label
+ * @param {() => unknown} onClick
+ */
 function button(label, onClick) {
   const b = document.createElement('button');
   b.type = 'button';

@@ -35,8 +35,8 @@ pub fn run(a: &ExperimentArgs) -> Result<(), String> {
         let path = a.out.join(name);
         fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))
     };
-    let json = serde_json::to_string_pretty(&summary).map_err(|e| format!("JSON: {e}"))?;
-    write("summary.json", json + "\n")?;
+    let json = gmmcalib::export::json(&summary).map_err(|e| format!("JSON: {e}"))?;
+    write("summary.json", json)?;
     write("trials.csv", tables::csv(&methods, &trials))?;
     write("table.md", tables::table(a, &methods, &trials))?;
     plots::distance_boxes(&a.out.join("distance_error.svg"), &methods, &trials)?;

@@ -15,9 +15,7 @@ use nalgebra::{Translation3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
-mod common;
-
-use common::opencalib_scene;
+use crate::common::opencalib_scene;
 
 const D: f64 = PI / 180.0;
 

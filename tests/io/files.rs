@@ -4,10 +4,10 @@
 use std::time::{Duration, Instant};
 
 use gmmcalib::Cloud;
-use gmmcalib::io::{
-    Format, Offset, ParsedCloud, ReadOptions, parse_cloud, parse_cloud_with, write_pcd_binary,
-    write_pcd_binary_compressed, write_pcd_binary_organized, write_ply_binary,
+use gmmcalib::export::{
+    write_pcd_binary, write_pcd_binary_compressed, write_pcd_binary_organized, write_ply_binary,
 };
+use gmmcalib::io::{Format, Offset, ParsedCloud, ReadOptions, parse_cloud, parse_cloud_with};
 
 fn fixture(name: &str) -> Vec<u8> {
     let path = format!("{}/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"));

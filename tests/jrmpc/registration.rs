@@ -1,8 +1,7 @@
 //! JRMPC on its own: exact recovery of known transforms, the convergence test, and degenerate
 //! input.
 
-mod common;
-
+use crate::common;
 use gmmcalib::jrmpc::{self, Control, EmSettings, JrmpcError};
 use gmmcalib::se3::{Pose, pose_from_xyz_rpy};
 use gmmcalib::targets::cube_surface;
@@ -162,7 +161,7 @@ fn weak_data_never_produces_nan() {
 /// to 5e-4 rad, which is why the exponents stay f64.
 #[test]
 fn fast_estep_calibrates_as_the_dense_one() {
-    use common::{RigSpec, generate};
+    use crate::common::{RigSpec, generate};
     use gmmcalib::calib::{self, InitialSigma, Method};
 
     // (rig, K, mixture started at the prior's size (else the bounding box), max iterations,

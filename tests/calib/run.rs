@@ -2,11 +2,9 @@
 //! the stages it goes through and reports, the steps a driver may take elsewhere and record,
 //! and what a cancel or a failure elsewhere does to the methods under way and after.
 
-mod common;
-
 use std::borrow::Cow;
 
-use common::{RigSpec, generate, rig_of};
+use crate::common::{RigSpec, generate, rig_of};
 use gmmcalib::calib::{self, CalibError, Rig, Scan, Settings, Stage, Stages};
 use gmmcalib::jrmpc::{Control, Shards};
 use gmmcalib::twin::Preset;

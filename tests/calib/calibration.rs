@@ -1,8 +1,7 @@
 //! The calibration pipeline on synthetic rigs with known truth, and its input checks.
 
-mod common;
-
-use common::{RigSpec, for_seeds, generate, median, rig_of, run, worst_error};
+use crate::common;
+use crate::common::{RigSpec, for_seeds, generate, median, rig_of, run, worst_error};
 use gmmcalib::calib::{self, CalibError, Settings, Stages};
 use gmmcalib::jrmpc::Control;
 

@@ -7,7 +7,8 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use gmmcalib::Cloud;
 use gmmcalib::cloud::is_valid_point;
-use gmmcalib::io::{parse_cloud, write_pcd_binary, write_pcd_binary_compressed, write_ply_binary};
+use gmmcalib::export::{write_pcd_binary, write_pcd_binary_compressed, write_ply_binary};
+use gmmcalib::io::parse_cloud;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 

@@ -7,8 +7,6 @@
 //! must be `check` or `failed`. The confusion table and what caught each bad case print with
 //! `--nocapture` (docs/accuracy.md, "The verdict").
 
-mod common;
-
 use gmmcalib::calib::{self, Calibration, Level, Rig, Scan, Settings};
 use gmmcalib::cloud::Aabb;
 use gmmcalib::jrmpc::Control;
@@ -16,7 +14,7 @@ use gmmcalib::se3::pose_from_xyz_rpy;
 use gmmcalib::targets::Target;
 use gmmcalib::twin::{Miscalibration, Model, OrientedBox, Preset, Twin};
 
-use common::{for_seeds, opencalib_scene};
+use crate::common::{for_seeds, opencalib_scene};
 
 /// A case: its name, whether it is good, and the rig with its truth (when it has one).
 /// What a case's verdict must be: `good`, not `good`, or (real scans whose reference cannot
@@ -201,7 +199,7 @@ fn cases() -> Vec<Case> {
     });
 
     // Real scans without truth: OpenCalib's road rig from its own guess, each scene on its own
-    // (usable: the two scenes agree to 0.2 deg / 2 cm, tests/global.rs, while OpenCalib's own
+    // (usable: the two scenes agree to 0.2 deg / 2 cm, tests/calib/global.rs, while OpenCalib's own
     // answers for them differ by 0.21 deg / 5.5 cm, so no reference says `good` or `check`;
     // 0002's side LiDARs read `check` as their grounds lie 5-14 mm / 0.16-0.18 deg from the reference's); and the same guess taken as it is, the
     // global stage off (bad: the side LiDARs' grounds are 45 deg off, nothing overlaps).

@@ -1,13 +1,14 @@
 //! The npm package's TypeScript types of what the library returns (the calibration's JSON, the
 //! drift check's), generated from the Rust types that serialize it: `packages/gmmcalib/result.d.ts`
 //! must be what these types declare. After changing a result type, write it again with
-//! `GMMCALIB_WRITE_TYPES=1 cargo test --features ts --test typescript`.
+//! `GMMCALIB_WRITE_TYPES=1 cargo test --features ts --test report`.
 #![cfg(feature = "ts")]
 
 use gmmcalib::calib::verdict::Level;
 use gmmcalib::calib::{
     Agreement, BevAlignment, Method, Observability, Precision, SensorEvidence, Spread, region,
 };
+use gmmcalib::export::Exports;
 use gmmcalib::report::*;
 use gmmcalib::targets::ShapeFit;
 use ts_rs::{Config, TS};
@@ -18,8 +19,8 @@ fn declarations() -> String {
     // JSON numbers, whatever their width in Rust; 16-number matrices as arrays, not tuples.
     let cfg = Config::new().with_large_int("number").with_array_tuple_limit(4);
     let mut out = String::from(
-        "// Generated from the Rust types by tests/typescript.rs (ts-rs): do not edit. The result of\n\
-         // `calibrate` (the CLI's --json) and of the drift check. Units: m and rad; `T_a_b` maps\n\
+        "// Generated from the Rust types by tests/report.rs (ts-rs): do not edit. The result of\n\
+         // `calibrate` (the CLI's --json), its exports and the drift check. Units: m and rad; `T_a_b` maps\n\
          // points from frame b into frame a.\n\n\
          /** 16 numbers, a row-major 4x4 rigid transform. */\nexport type Matrix4 = number[];\n",
     );
@@ -64,6 +65,7 @@ fn declarations() -> String {
         DriftReport,
         SensorDriftReport,
         LimitReport,
+        Exports,
     );
     out
 }
@@ -78,7 +80,7 @@ fn the_packages_result_types_are_the_rust_types() {
     assert!(
         written == text,
         "{FILE} is not what the Rust types declare; write it again with \
-         GMMCALIB_WRITE_TYPES=1 cargo test --features ts --test typescript"
+         GMMCALIB_WRITE_TYPES=1 cargo test --features ts --test report"
     );
 }
 

@@ -5,13 +5,11 @@
 
 #![cfg(not(target_arch = "wasm32"))]
 
-mod common;
-
 use std::fs;
 use std::path::Path;
 use std::process::Command;
 
-use common::TempDir;
+use crate::common::TempDir;
 use gmmcalib::io::parse_cloud;
 use gmmcalib::se3::{Pose, from_row_major, pose_from_xyz_rpy};
 use gmmcalib::twin::Preset;

@@ -12,7 +12,7 @@ use std::process::{Command, Output};
 
 use common::{RigSpec, TempDir, generate};
 use gmmcalib::calib::{self, Method, Rig, Scan, Settings};
-use gmmcalib::io::{write_pcd_binary, write_ply_binary};
+use gmmcalib::export::{Exports, write_pcd_binary, write_ply_binary};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::{Pose, from_row_major, pose_from_xyz_rpy, xyz_rpy};
 use gmmcalib::twin::Twin;
@@ -122,11 +122,14 @@ fn calibrates_a_gmmcalib_folder_like_the_library() {
     assert!(stdout.contains("method jrmpc, reference sensor_1"), "{stdout}");
     assert!(stdout.contains("sensor_3") && stdout.contains("target at "), "{stdout}");
 
-    let json: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
+    let text = fs::read_to_string(&json_path).unwrap();
+    let json: Value = serde_json::from_str(&text).unwrap();
     assert_eq!(json["method"], "jrmpc");
     assert_eq!(json["reference"], "sensor_1");
     let settings = Settings { method: Method::Jrmpc, ..Settings::default() };
     let lib = calib::calibrate(&rig_as_read(&rig), &settings, |_| Control::Continue).unwrap();
+    // The page's JSON export is the library's, and the CLI's byte for byte.
+    assert!(Exports::of(&lib, "vehicle").json.as_deref() == Some(text.as_str()));
     assert_eq!(json["iterations"].as_u64(), Some(lib.iterations as u64));
     assert_eq!(json["converged"].as_bool(), Some(lib.converged));
     let sensors = json["sensors"].as_array().unwrap();

@@ -1,10 +1,11 @@
-//! Writers: PCD (`binary`, `binary_compressed`) and PLY (`binary_little_endian`), f32 x, y, z
-//! and intensity when the cloud has one. The readers return exactly the written values (bit for
-//! bit) for every valid point; points the readers treat as missing returns (NaN/inf, exact zero)
-//! are written as given and dropped again on reading.
+//! Cloud and mesh writers: PCD (`binary`, `binary_compressed`) and PLY
+//! (`binary_little_endian`), f32 x, y, z and intensity when the cloud has one; OBJ for a mesh.
+//! The readers (`io`) return exactly the written values (bit for bit) for every valid point;
+//! points the readers treat as missing returns (NaN/inf, exact zero) are written as given and
+//! dropped again on reading.
 
-use super::lzf;
 use crate::cloud::Cloud;
+use crate::io::lzf;
 
 /// The intensity to write: present only when it has one value per point.
 fn intensity_of(cloud: &Cloud) -> Option<&[f32]> {
@@ -111,45 +112,4 @@ pub fn write_ply_binary(cloud: &Cloud) -> Vec<u8> {
     let mut out = header.into_bytes();
     out.extend_from_slice(&point_major(cloud, intensity));
     out
-}
-
-/// One sensor's transform in GMMCalib's `config.yaml`: `T_vehicle_sensor` as the numbers the
-/// file holds, and a note for its comment.
-pub struct ConfigTransform {
-    pub sensor: String,
-    /// m.
-    pub xyz: [f64; 3],
-    /// Roll, pitch, yaw (rad), about the fixed x, y, z axes.
-    pub rpy: [f64; 3],
-    pub note: String,
-}
-
-/// GMMCalib's `config.yaml`: `number_of_sensors`, `transform_<sensor>: - [roll, pitch, yaw, x,
-/// y, z]` per sensor, our `reference` key when given, and the ROI as `min_bound` / `max_bound`;
-/// `comment` (lines) first. Numbers as the shortest text that reads back to the same f64, so
-/// `config::Config` reads the file back bit for bit. The page's export and `gmmcalib simulate`
-/// both write it here.
-pub fn gmmcalib_config(
-    comment: &str,
-    transforms: &[ConfigTransform],
-    reference: Option<&str>,
-    roi: &crate::cloud::Aabb,
-) -> String {
-    let list = |v: &[f64]| v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ");
-    let mut yaml: String = comment.lines().map(|l| format!("# {l}\n")).collect();
-    yaml += &format!("number_of_sensors: {}\n", transforms.len());
-    for t in transforms {
-        let values = [t.rpy[0], t.rpy[1], t.rpy[2], t.xyz[0], t.xyz[1], t.xyz[2]];
-        yaml += &format!(
-            "transform_{}:  # {}\n  - [{}]  # [roll, pitch, yaw (rad), x, y, z (m)]\n",
-            t.sensor,
-            t.note,
-            list(&values)
-        );
-    }
-    if let Some(name) = reference {
-        yaml += &format!("reference: {name}\n");
-    }
-    yaml += &format!("min_bound:\n  - [{}]\n", list(&roi.min));
-    yaml + &format!("max_bound:\n  - [{}]\n", list(&roi.max))
 }

@@ -2,15 +2,13 @@
 //! non-reference sensors' nominals wrong by up to +-3 deg / +-0.1 m, calibrated by `gmm`. A few
 //! seeds for CI; `gmmcalib study` prints the full distributions (docs/accuracy.md).
 
-mod common;
-
 use gmmcalib::calib::{self, Method, Rig, Scan};
 use gmmcalib::eval::{self, SensorError};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::Pose;
 use gmmcalib::twin::{Miscalibration, Model, Preset, Twin, expected_correction};
 
-use common::for_seeds;
+use crate::common::for_seeds;
 
 /// Rotation (deg) and translation (m) of an error.
 fn deg_m(d: &Pose) -> (f64, f64) {
