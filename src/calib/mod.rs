@@ -15,7 +15,7 @@
 //!
 //! The method is resolved once into the [`Stages`] that run; [`Run`] is the state machine
 //! that runs them, for one method or several compared, driven natively ([`calibrate`],
-//! [`compare`]) or by the page's workers.
+//! [`calibrate_each`]) or by the page's workers.
 
 mod average;
 mod bev;
@@ -91,7 +91,7 @@ pub fn calibrate(
 
 /// Calibrates `rig` by each of `methods` on the same scans: every method's outcome, in
 /// order. A method that fails is a finding like any other: the others still run.
-pub fn compare(
+pub fn calibrate_each(
     rig: &Rig,
     settings: &Settings,
     methods: &[Method],

@@ -116,7 +116,7 @@ pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
 
     // 3. Calibrate by each method on the same scans; when comparing, a method that fails
     // is a finding like any other.
-    let outcomes = calib::compare(&rig, &settings, &methods, |method, p| {
+    let outcomes = calib::calibrate_each(&rig, &settings, &methods, |method, p| {
         host.progress(&progress_line(method, p));
         Control::Continue
     });

@@ -4,7 +4,7 @@
 use super::{EntryKind, Host, join, read_text};
 use crate::calib::Calibration;
 use crate::export::ros::{self, Extrinsic};
-use crate::io::recording::select::Settings as Select;
+use crate::io::recording::instants::InstantSettings;
 use crate::io::recording::urdf::Urdf;
 use crate::io::recording::{Recording, RecordingRig, RigRequest, storage_file};
 
@@ -64,7 +64,7 @@ pub fn rig(host: &mut dyn Host, path: &str, req: &BagRequest) -> Result<BagRig, 
         topics: req.topics.map(|list| list.split(',').map(|s| s.trim().to_string()).collect()),
         reference: req.reference.map(str::to_string),
         base_frame: req.base_frame.to_string(),
-        select: Select { frames: req.frames, ..Select::default() },
+        instants: InstantSettings { frames: req.frames, ..InstantSettings::default() },
         urdf: urdf.as_ref(),
     };
     let rig = rec.rig(&request).map_err(|e| format!("{label}: {e}"))?;

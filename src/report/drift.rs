@@ -1,4 +1,4 @@
-//! The drift check's words and JSON: `gmmcalib compare`'s table, the findings it names on
+//! The drift check's words and JSON: `gmmcalib drift`'s table, the findings it names on
 //! stderr, and the shape `--json` and the wasm `compareCalibrations` give.
 
 use serde::Serialize;
@@ -106,7 +106,7 @@ fn limit_words(limit: &Limit) -> String {
     }
 }
 
-/// The table `gmmcalib compare` prints: one line per sensor, then the outcome.
+/// The table `gmmcalib drift` prints: one line per sensor, then the outcome.
 pub fn drift_table(d: &Drift, stored: &str) -> String {
     let mut out = format!("drift since {stored}, relative to {}:\n", d.reference);
     for s in &d.sensors {

@@ -1,4 +1,4 @@
-//! `runCommand(argv, host)`: the shared command line (`gmmcalib calibrate`, `compare`) for the
+//! `runCommand(argv, host)`: the shared command line (`gmmcalib calibrate`, `drift`) for the
 //! Node command (`packages/gmmcalib/bin/gmmcalib.js`). `host` is a JS object giving files and
 //! output; every member forwards to [`Host`]. Returns the exit status.
 

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use wasm_bindgen::prelude::*;
 
 use super::{XyzRpy, to_js};
-use crate::io::recording::select::Settings as Select;
+use crate::io::recording::instants::InstantSettings;
 use crate::io::recording::{Kind, ReadAt, Recording, RigRequest};
 
 /// The page's reader: a JS function returning the bytes at an offset.
@@ -147,16 +147,16 @@ impl RecordingFile {
     /// The rig `options` ({topics, reference, baseFrame, frames, toleranceMs}) ask for.
     pub fn rig(&mut self, options: JsValue) -> Result<JsValue, JsError> {
         let o: RigOptions = super::options_or_default(options, "rig")?;
-        let mut select = Select::default();
-        select.frames = o.frames.unwrap_or(select.frames);
+        let mut instants = InstantSettings::default();
+        instants.frames = o.frames.unwrap_or(instants.frames);
         if let Some(ms) = o.tolerance_ms.filter(|ms| ms.is_finite() && *ms >= 0.0) {
-            select.tolerance_ns = (ms * 1e6) as u64;
+            instants.tolerance_ns = (ms * 1e6) as u64;
         }
         let request = RigRequest {
             topics: o.topics,
             reference: o.reference,
             base_frame: o.base_frame.unwrap_or_else(|| "base_link".into()),
-            select,
+            instants,
             urdf: None,
         };
         let label = self.recording.file().to_string();

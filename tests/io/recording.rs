@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use gmmcalib::calib::{self, Method, Rig, Scan, Settings};
 use gmmcalib::config::Config;
 use gmmcalib::io::parse_cloud;
-use gmmcalib::io::recording::select::Settings as Select;
+use gmmcalib::io::recording::instants::InstantSettings;
 use gmmcalib::io::recording::{Container, Kind, Recording, RecordingError, Tree, nominals};
 use gmmcalib::jrmpc::Control;
 use gmmcalib::se3::from_row_major;
@@ -175,7 +175,7 @@ fn recording_calibrates_as_pcd_folders() {
     for file in ["calib_zstd.mcap", "calib_bz2.bag", "livox.mcap", "livox.bag"] {
         let mut rec = open(file);
         let topics = ["/front_left/points", "/front_right/points"].map(|t| rec.topic(t).unwrap());
-        let chosen = rec.choose(&topics, topics[0], &Select::default()).unwrap();
+        let chosen = rec.choose(&topics, topics[0], &InstantSettings::default()).unwrap();
         assert_eq!(chosen.picks.len(), 3);
         let dropped = if file.starts_with("livox") { 2 } else { 0 };
         assert!(chosen.scans.iter().all(|s| s.cloud.dropped == dropped), "{file}");
@@ -475,8 +475,8 @@ fn instants_pair_by_header_stamps_not_log_times() {
         let mut rec = open(file);
         let topic = |n: &str| rec.topic(n).unwrap();
         let (a, b, c) = (topic("/a/points"), topic("/b/points"), topic("/c/points"));
-        let select = Select { frames: 5, tolerance_ns: 20_000_000 };
-        let chosen = rec.choose(&[a, b, c], a, &select).unwrap_or_else(|e| panic!("{e}"));
+        let instants = InstantSettings { frames: 5, tolerance_ns: 20_000_000 };
+        let chosen = rec.choose(&[a, b, c], a, &instants).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(chosen.picks.len(), 5, "{file}");
         for p in &chosen.picks {
             assert_eq!(

@@ -1,6 +1,6 @@
 //! The scans to calibrate from: [`Recording::choose`] pairs the topics' messages by the
-//! sensors' own stamps (`header.stamp`), picks the instants ([`select::pick`]), decodes the
-//! chosen messages and compares the reference's consecutive scans ([`select::motion`]);
+//! sensors' own stamps (`header.stamp`), picks the instants ([`instants::pick`]), decodes the
+//! chosen messages and compares the reference's consecutive scans ([`instants::motion`]);
 //! [`nominals`] resolves each topic's frame in a transform tree.
 //!
 //! Stamps are inside the messages, and reading every message's would read most of the file, so
@@ -10,7 +10,7 @@
 //! the offsets reported; where one is beyond the tolerance, its neighbours are tried, and the
 //! instant is dropped when none is within it. A zero stamp falls back to the log time.
 
-use super::select::{self, Motion, Pick, Settings};
+use super::instants::{self, InstantSettings, Motion, Pick};
 use super::tf::{Tree, TreeError};
 use super::{PointCloud, Recording, RecordingError, pointcloud2};
 use crate::se3::Pose;
@@ -77,7 +77,7 @@ impl Recording {
         &mut self,
         topics: &[usize],
         reference: usize,
-        settings: &Settings,
+        settings: &InstantSettings,
     ) -> Result<Chosen, RecordingError> {
         let others: Vec<usize> = topics.iter().copied().filter(|&t| t != reference).collect();
         let mut estimated = Vec::with_capacity(topics.len());
@@ -89,7 +89,7 @@ impl Recording {
         let estimated: Vec<Vec<u64>> = estimated;
         let mut picks = Vec::new();
         let mut clouds: Vec<Vec<(usize, PointCloud)>> = vec![Vec::new(); topics.len()];
-        'instant: for mut pick in select::pick(&estimated[0], &estimated[1..], settings) {
+        'instant: for mut pick in instants::pick(&estimated[0], &estimated[1..], settings) {
             let cloud = self.point_cloud(reference, pick.reference)?;
             let at = if cloud.stamp_ns == 0 { pick.reference_ns as i64 } else { cloud.stamp_ns };
             let mut found = vec![(pick.reference, cloud)];
@@ -124,7 +124,7 @@ impl Recording {
             .filter(|s| &s.topic == name)
             .map(|s| s.cloud.cloud.points.as_slice())
             .collect();
-        let motion = select::motion(&reference_scans);
+        let motion = instants::motion(&reference_scans);
         Ok(Chosen { topics: topics.to_vec(), reference, picks, scans, motion })
     }
 
@@ -135,7 +135,7 @@ impl Recording {
         topic: usize,
         m: usize,
         at: i64,
-        settings: &Settings,
+        settings: &InstantSettings,
     ) -> Result<Option<(usize, i64)>, RecordingError> {
         self.load(topic)?;
         let n = self.entries[topic].len();

@@ -2,7 +2,7 @@
 //! [`ReadAt`] so only the summary, the index and the chunks holding the chosen messages are
 //! ever read; `sensor_msgs/PointCloud2` and Livox's `CustomMsg` into [`Cloud`](crate::Cloud)s and
 //! `tf2_msgs/TFMessage` into a transform [`Tree`]; the instants to calibrate from
-//! ([`select`]); nominal extrinsics from `/tf_static` or a URDF ([`urdf`]).
+//! ([`instants`]); nominal extrinsics from `/tf_static` or a URDF ([`urdf`]).
 //!
 //! Every failure is a [`RecordingError`] naming the file, the topic, the message's index in
 //! its topic and what is wrong. Damage that leaves the rest readable (a truncated tail, a
@@ -16,11 +16,11 @@ mod db3;
 mod error;
 mod folder;
 mod index;
+pub mod instants;
 mod livox;
 mod mcap;
 mod pointcloud2;
 mod rig;
-pub mod select;
 mod source;
 mod tf;
 pub mod urdf;

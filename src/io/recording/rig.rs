@@ -4,7 +4,7 @@
 //! named by its topic's frame id, the name the tf tree, the URDF and every export give it (a
 //! topic's name where its frame id is empty or another chosen topic's too).
 
-use super::select::{Motion, Pick, Settings as Select};
+use super::instants::{InstantSettings, Motion, Pick};
 use super::tf::{Tree, TreeError};
 use super::urdf::Urdf;
 use super::{Recording, RecordingError, nominals};
@@ -20,7 +20,7 @@ pub struct RigRequest<'a> {
     pub reference: Option<String>,
     /// The frame the nominals are expressed in, when the tree has it; else the tree's root.
     pub base_frame: String,
-    pub select: Select,
+    pub instants: InstantSettings,
     /// Nominals from this URDF instead of `/tf_static`.
     pub urdf: Option<&'a Urdf>,
 }
@@ -31,7 +31,7 @@ impl Default for RigRequest<'_> {
             topics: None,
             reference: None,
             base_frame: "base_link".into(),
-            select: Select::default(),
+            instants: InstantSettings::default(),
             urdf: None,
         }
     }
@@ -155,9 +155,9 @@ impl Recording {
             .position(|n| *n == reference)
             .map(|i| topics[i])
             .ok_or_else(|| RigError::ReferenceNotChosen(reference.clone()))?;
-        let chosen = self.choose(&topics, r, &req.select).map_err(RigError::Recording)?;
+        let chosen = self.choose(&topics, r, &req.instants).map_err(RigError::Recording)?;
         if chosen.picks.is_empty() {
-            let tolerance_ns = req.select.tolerance_ns;
+            let tolerance_ns = req.instants.tolerance_ns;
             return Err(RigError::NoInstant { reference, tolerance_ns });
         }
         let mut frames: Vec<(String, String)> = Vec::new();

@@ -11,14 +11,14 @@ use std::collections::HashSet;
 
 /// How instants are picked.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Settings {
+pub struct InstantSettings {
     /// Instants wanted; fewer when fewer qualify.
     pub frames: usize,
     /// Largest |offset| between a topic's message and the reference's (ns).
     pub tolerance_ns: u64,
 }
 
-impl Default for Settings {
+impl Default for InstantSettings {
     fn default() -> Self {
         Self { frames: 10, tolerance_ns: 20_000_000 }
     }
@@ -38,7 +38,7 @@ pub struct Pick {
 /// Picks up to `settings.frames` instants from `reference`'s message times where every topic
 /// in `others` has a message within the tolerance, spread evenly over those that qualify
 /// (first and last included). Times must be sorted.
-pub fn pick(reference: &[u64], others: &[Vec<u64>], settings: &Settings) -> Vec<Pick> {
+pub fn pick(reference: &[u64], others: &[Vec<u64>], settings: &InstantSettings) -> Vec<Pick> {
     let candidates: Vec<Pick> = reference
         .iter()
         .enumerate()
@@ -120,12 +120,13 @@ mod tests {
             .map(|t| t + 5_000_000)
             .filter(|t| !(900_000_000..1_200_000_000).contains(t))
             .collect();
-        let picks = pick(&reference, &[other], &Settings { frames: 4, tolerance_ns: 20_000_000 });
+        let picks =
+            pick(&reference, &[other], &InstantSettings { frames: 4, tolerance_ns: 20_000_000 });
         let chosen: Vec<usize> = picks.iter().map(|p| p.reference).collect();
         // 18 qualify (9, 10 and 11 do not): candidates 0, 5.67, 11.33 and 17 rounded.
         assert_eq!(chosen, [0, 6, 14, 20]);
         assert!(picks.iter().all(|p| p.others[0].1 == 5_000_000));
-        let none = pick(&reference, &[vec![50_000_000_000]], &Settings::default());
+        let none = pick(&reference, &[vec![50_000_000_000]], &InstantSettings::default());
         assert!(none.is_empty());
     }
 
