@@ -1,0 +1,63 @@
+//! The joint plane adjustment of the chosen hypotheses: one motion per sensor on every frame,
+//! itself a hypothesis, after which the selection runs again.
+
+use nalgebra::Vector3;
+
+use super::super::Precision;
+use super::super::notes::Note;
+use super::super::planes;
+use super::super::select::{Hypothesis, Source};
+use super::super::views::Views;
+use super::hypotheses::Hypotheses;
+
+/// The adjustment's notes, and per sensor its precision where it stands for the chosen (the
+/// score cannot tell the two apart); nothing when the method has no plane adjustment.
+pub(super) fn adjust_chosen(
+    views: &Views,
+    clouds: &[&[[f32; 3]]],
+    hypotheses: &mut Hypotheses,
+) -> (Vec<Note>, Vec<Option<Precision>>) {
+    let n = views.sensors.len();
+    let mut precision = vec![None; n];
+    let mut notes = Vec::new();
+    let Some(plane_settings) = &views.stages.planes else { return (notes, precision) };
+    // The clouds are pre-aligned: each sensor sits at its levelled nominal.
+    let origins: Vec<Vector3<f64>> =
+        views.pre_aligned.iter().map(|p| p.translation.vector).collect();
+    let ground = views.reference_ground().map(|(plane, _)| plane);
+    let mut adjusted = hypotheses.chosen_frames();
+    let adjustments = planes::adjust(
+        clouds,
+        &origins,
+        &views.pairs,
+        views.reference,
+        &mut adjusted,
+        ground,
+        plane_settings,
+    );
+    let mut planes_at = vec![None; n];
+    for a in &adjustments {
+        if a.accepted {
+            let s = a.sensor;
+            let parent = hypotheses.chosen[s];
+            let correction = a.motion * hypotheses.list[s][parent].correction;
+            let hypothesis = Hypothesis::new(Source::Planes, correction, Some(parent));
+            planes_at[s] = Some((hypotheses.push(s, hypothesis, adjusted[s].clone()), a.precision));
+        }
+        let kind = a.note(plane_settings.max_departure);
+        notes.push(Note { sensor: views.sensors[a.sensor].clone(), frame: None, kind });
+    }
+    if planes_at.iter().any(Option::is_some) {
+        hypotheses.choose(views);
+        for (s, at_planes) in planes_at.into_iter().enumerate() {
+            let Some((h, p)) = at_planes else { continue };
+            let chosen = hypotheses.chosen[s];
+            let at = |k: usize| hypotheses.list[s][k].correction * views.nominals[s];
+            let resolution = views.scenes.resolution(s);
+            if h == chosen || views.scenes.apart(s, &at(h), &at(chosen)) <= resolution {
+                precision[s] = p;
+            }
+        }
+    }
+    (notes, precision)
+}
