@@ -168,11 +168,12 @@ pub struct Settings {
 pub struct EmProfile {
     /// The convergence test (rad or m per iteration; [`jrmpc::EmSettings::tolerance`]); 0 runs
     /// every iteration. Inside `gmm`, JRMPC only finds the basin and the refinement and plane
-    /// adjustment set the accuracy, so it stops early (1e-4; figures in docs/benchmarks.md).
+    /// adjustment set the accuracy, so it stops early (1e-4; figures in
+    /// docs/lab/benchmarks-log.md).
     pub tolerance: f64,
     /// Multi-resolution EM ([`jrmpc::EmSettings::multiresolution`]): the wide iterations take
     /// each view's points merged in cubes. Off inside `gmm`: on a board trial started beyond
-    /// the spec it lands 0.25 deg off where the exact path does not (docs/benchmarks.md).
+    /// the spec it lands 0.25 deg off where the exact path does not (docs/lab/benchmarks-log.md).
     pub multiresolution: bool,
 }
 

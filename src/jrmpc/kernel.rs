@@ -11,7 +11,8 @@
 //! path (the bound is 1e-4). Distances in f32 as well would be faster still, but moved them by
 //! up to 5e-4 rad: an f32 coordinate's rounding, a few sigma from the cell centre, shifts a narrow
 //! component's exponent systematically for every point of the cell. With the sums in f32 too
-//! (1.45x in wasm), plain `jrmpc`'s twin studies moved 0.15 deg and more (docs/benchmarks.md).
+//! (1.45x in wasm), plain `jrmpc`'s twin studies moved 0.15 deg and more
+//! (docs/lab/benchmarks-log.md).
 
 /// Elements per chunk of the lane sums; blocks are padded to a multiple of it.
 pub const LANES: usize = 4;
@@ -36,7 +37,7 @@ const TINY: f64 = 1e-280;
 /// `P` of degree 4, minimax for relative error on `|r| <= 1.01 ln2 / 2` (the margin covers the
 /// range reduction's rounding): 3e-9 before rounding, far below f32's 6e-8, so in f32 it is as
 /// accurate as Cephes' degree-5 `P` (both at most 8e-8, mean error below 2e-9). The step saved
-/// made the sample job 9 % faster in wasm and 3 % natively (docs/benchmarks.md).
+/// made the sample job 9 % faster in wasm and 3 % natively (docs/lab/benchmarks-log.md).
 #[inline(always)]
 pub fn exp_neg_f32(x: f32) -> f32 {
     const MAGIC: f32 = 12_582_912.0; // 1.5 * 2^23

@@ -1,10 +1,10 @@
-//! The fidelity rule (docs/method.md): an approximation inside `gmm`'s EM is allowed when the calibration
-//! the user receives moves by at most 0.002 deg / 0.2 mm and no verdict changes. Here on a
-//! handful of rigs: the default (the fast E-step and the convergence test of `gmm`'s JRMPC
-//! stage) against the exact path (the exact E-step for all 100 iterations); the convergence
-//! test (`Settings::gmm_em`) against all 100 iterations; and multi-resolution EM
-//! (`Settings::gmm_em`, off by default) against every point every iteration. The
-//! full studies are in docs/benchmarks.md.
+//! The fidelity rule (docs/method.md): an approximation inside `gmm`'s EM is allowed when the
+//! calibration the user receives moves by at most 0.002 deg / 0.2 mm and no verdict changes. Here
+//! on a handful of rigs: the default (the fast E-step and the convergence test of `gmm`'s JRMPC
+//! stage) against the exact path (the exact E-step for all 100 iterations); the convergence test
+//! (`Settings::gmm_em`) against all 100 iterations; and multi-resolution EM (`Settings::gmm_em`,
+//! off by default) against every point every iteration. The full studies are in
+//! docs/lab/benchmarks-log.md.
 
 #![cfg(not(target_arch = "wasm32"))]
 

@@ -58,7 +58,7 @@ const handlers = {
   // gpu-estep.js).
   calibrate: async ({ input, workers = 1, eStepDevice = 'cpu' }, id) => {
     // At most 10 progress messages a second, and always each stage's first and last: the page
-    // redraws on each, and that work competes with the calculation (docs/benchmarks.md). A
+    // redraws on each, and that work competes with the calculation (docs/lab/benchmarks-log.md). A
     // stage that stops before its maximum (EM converged) has its last message posted when the
     // next stage begins.
     let postedAt = -Infinity;
