@@ -11,6 +11,9 @@ const sigma: number | undefined = result.sensors[1]?.precision?.rotation[2];
 // The result's types are generated from the Rust ones (result.d.ts): a level is one of three.
 const level: 'good' | 'check' | 'failed' = result.verdict.level;
 const means: Float32Array = result.reconstruction.means;
+// Every export the result carries, written by the library (json is the CLI's --json).
+const urdf: string = result.exports.urdf;
+const ply: string | undefined = result.exports.targetPly;
 // @ts-expect-error a level that does not exist
 const wrong: typeof result.verdict.level = 'fine';
 const all = calibrate({ scans: rig.scans, nominal: rig.nominal, method: 'all' });
@@ -26,4 +29,4 @@ calibrate({ scans: [], nominal: {}, method: 'ndt' });
 // A folder's files placed as the CLI and the page place them.
 const layout: Layout = placeScans(['up/100.pcd', 'down/100.03.pcd']);
 const sensors: string[] = layout.scans.map((s) => s.sensor);
-console.log(sigma, level, means.length, wrong, moved, sensors, layout.pairings.join('; '));
+console.log(sigma, level, means.length, urdf, ply, wrong, moved, sensors, layout.pairings.join('; '));
