@@ -1,5 +1,5 @@
 // Generated from the Rust types by tests/report.rs (ts-rs): do not edit. The result of
-// `calibrate` (the CLI's --json) and of the drift check. Units: m and rad; `T_a_b` maps
+// `calibrate` (the CLI's --json), its exports and the drift check. Units: m and rad; `T_a_b` maps
 // points from frame b into frame a.
 
 /** 16 numbers, a row-major 4x4 rigid transform. */
@@ -404,7 +404,7 @@ export type LimitReport = { "kind": "fixed", rotation: number, translation: numb
 
 export type Exports = { parent: string, 
 /**
- * The result as `gmmcalib calibrate --json` writes it (`None` when made from the
+ * The result as `gmmcalib calibrate --json` writes it (absent when made from the
  * extrinsics alone: it names no frame, so a renamed parent leaves it as it was).
  */
 json?: string, 
@@ -413,6 +413,6 @@ json?: string,
  */
 gmmcalibYaml: string, urdf: string, ros1: string, ros2: string, tfYaml: string, autoware: string, kitti: string, 
 /**
- * The reconstructed target as PLY (`None` for a method that reconstructs nothing).
+ * The reconstructed target as PLY (absent for a method that reconstructs nothing).
  */
 targetPly?: string, };

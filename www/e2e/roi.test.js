@@ -118,5 +118,9 @@ test('the cube sample as an MCAP: ROI auto finds no cube and says so; the ROI dr
   assert.match(await page.locator('[data-export=yaml] pre').textContent(), /^transform_lidar_1: {2}# lidar_1 -> chassis\n/m);
   assert.match(await page.locator('[data-export=ply] pre').textContent(), /\(chassis frame, m\)/);
   assert.equal(await page.locator('[data-export=json] pre').textContent(), json);
+  await page.locator('#export-box').evaluate((d) => (d.open = true));
+  await page.locator('[data-export=urdf]').evaluate((d) => (d.open = true));
+  await page.locator('[data-export=urdf]').scrollIntoViewIfNeeded();
+  await page.screenshot({ path: `${SHOTS}/exports-renamed-frame-1280x720.png` });
   assert.deepEqual(problems, []);
 });
