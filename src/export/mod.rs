@@ -8,8 +8,6 @@ mod gmmcalib;
 pub mod ros;
 mod target;
 
-use serde::Serialize;
-
 pub use clouds::{
     write_obj, write_pcd_binary, write_pcd_binary_compressed, write_pcd_binary_organized,
     write_ply_binary,
@@ -17,6 +15,8 @@ pub use clouds::{
 pub use gmmcalib::{ConfigTransform, gmmcalib_config};
 pub use ros::Extrinsic;
 pub use target::target_ply;
+
+use serde::Serialize;
 
 use crate::calib::{Calibration, Reconstruction};
 use crate::cloud::Aabb;
