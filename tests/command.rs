@@ -14,6 +14,7 @@ use common::{RigSpec, TempDir, generate};
 use gmmcalib::calib::{self, Method, Rig, Scan, Settings};
 use gmmcalib::export::{Exports, write_pcd_binary, write_ply_binary};
 use gmmcalib::jrmpc::Control;
+use gmmcalib::report::Report;
 use gmmcalib::se3::{Pose, from_row_major, pose_from_xyz_rpy, xyz_rpy};
 use gmmcalib::twin::Twin;
 use serde_json::Value;
@@ -129,7 +130,7 @@ fn calibrates_a_gmmcalib_folder_like_the_library() {
     let settings = Settings { method: Method::Jrmpc, ..Settings::default() };
     let lib = calib::calibrate(&rig_as_read(&rig), &settings, |_| Control::Continue).unwrap();
     // The page's JSON export is the library's, and the CLI's byte for byte.
-    assert!(Exports::of(&lib, "vehicle").json.as_deref() == Some(text.as_str()));
+    assert!(Exports::of(&Report::from(&lib), "vehicle").json.as_deref() == Some(text.as_str()));
     assert_eq!(json["iterations"].as_u64(), Some(lib.iterations as u64));
     assert_eq!(json["converged"].as_bool(), Some(lib.converged));
     let sensors = json["sensors"].as_array().unwrap();

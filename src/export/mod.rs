@@ -14,14 +14,13 @@ pub use clouds::{
 };
 pub use gmmcalib::{ConfigTransform, gmmcalib_config};
 pub use ros::Extrinsic;
-pub use target::target_ply;
+pub use target::{Target, target_ply};
 
 use serde::Serialize;
 
-use crate::calib::{Calibration, Reconstruction};
 use crate::cloud::Aabb;
 use crate::report::Report;
-use crate::se3::{Pose, from_row_major, to_row_major};
+use crate::se3::{Pose, from_row_major};
 
 /// Every JSON the tool writes (a result, a comparison, a drift report, a twin's truth): pretty,
 /// with a final newline.
@@ -57,26 +56,24 @@ pub struct Exports {
 }
 
 impl Exports {
-    /// Every export of `c`, with `parent` the vehicle frame's name.
-    pub fn of(c: &Calibration, parent: &str) -> Self {
-        // Of the 16 numbers the result reports, as a renamed frame's exports are made (from a
-        // result's fields): the two differ in the frame's name alone, not in the last digit.
-        let sensors: Vec<(String, Pose)> = (c.sensors.iter())
-            .map(|s| (s.name.clone(), from_row_major(&to_row_major(&s.extrinsic))))
+    /// Every export of `report`, with `parent` the vehicle frame's name: made from the numbers
+    /// the result reports, as a renamed frame's exports are (`exportsOf`), so the two differ in
+    /// the frame's name alone.
+    pub fn of(report: &Report, parent: &str) -> Self {
+        let sensors: Vec<(String, Pose)> = (report.sensors.iter())
+            .map(|s| (s.name.clone(), from_row_major(&s.extrinsic)))
             .collect();
+        let roi = Aabb::new(report.roi.min, report.roi.max);
+        let r = &report.reconstruction;
+        let target = Target { means: &r.means, sigmas: &r.sigmas, priors: &r.priors };
         // serde_json writes a report whole (NaN as null, no map keys that are not strings).
-        let json = json(&Report::from(c)).ok();
-        Self { json, ..Self::new(parent, &sensors, &c.roi, Some(&c.reconstruction)) }
+        let json = json(report).ok();
+        Self { json, ..Self::new(parent, &sensors, &roi, target) }
     }
 
     /// The exports that name frames: of each sensor's `T_parent_sensor`, the ROI and the target.
     /// What a renamed parent changes.
-    pub fn new(
-        parent: &str,
-        sensors: &[(String, Pose)],
-        roi: &Aabb,
-        target: Option<&Reconstruction>,
-    ) -> Self {
+    pub fn new(parent: &str, sensors: &[(String, Pose)], roi: &Aabb, target: Target) -> Self {
         let extrinsics: Vec<Extrinsic> = (sensors.iter())
             .map(|(name, pose)| Extrinsic {
                 parent: parent.into(),
@@ -107,7 +104,7 @@ impl Exports {
             tf_yaml: ros::tf_static_yaml(&extrinsics),
             autoware: ros::autoware_calibration(&extrinsics),
             kitti: ros::kitti_tr(&extrinsics),
-            target_ply: target.and_then(|t| target_ply(t, parent)),
+            target_ply: target_ply(target, parent),
         }
     }
 }

@@ -303,7 +303,7 @@ impl ProgressSink {
 fn output(c: &Calibration, parent: &str) -> Result<JsValue, JsError> {
     let report = Report::from(c);
     let value = to_js(&report)?;
-    Reflect::set(&value, &"exports".into(), &to_js(&Exports::of(c, parent))?)
+    Reflect::set(&value, &"exports".into(), &to_js(&Exports::of(&report, parent))?)
         .map_err(|_| internal())?;
     let t = &report.reconstruction;
     let reconstruction = Reflect::get(&value, &"reconstruction".into()).map_err(|_| internal())?;

@@ -5,8 +5,7 @@ use serde::Deserialize;
 use wasm_bindgen::prelude::*;
 
 use super::{Roi, to_js};
-use crate::calib::Reconstruction;
-use crate::export::Exports;
+use crate::export::{Exports, Target};
 
 #[derive(Deserialize)]
 #[serde(rename_all = "camelCase")]
@@ -25,7 +24,7 @@ struct SensorInput {
 }
 
 /// The reconstructed target, flat: `means` as x, y, z per component.
-#[derive(Deserialize)]
+#[derive(Default, Deserialize)]
 struct TargetInput {
     means: Vec<f64>,
     sigmas: Vec<f64>,
@@ -54,15 +53,7 @@ pub fn exports_of(input: JsValue) -> Result<JsValue, JsError> {
             Ok((s.name, pose))
         })
         .collect::<Result<Vec<_>, JsError>>()?;
-    let target = match input.reconstruction {
-        Some(t) => Some(target_of(t)?),
-        None => None,
-    };
-    let roi = crate::cloud::Aabb::new(input.roi.min, input.roi.max);
-    to_js(&Exports::new(&input.parent, &sensors, &roi, target.as_ref()))
-}
-
-fn target_of(t: TargetInput) -> Result<Reconstruction, JsError> {
+    let t = input.reconstruction.unwrap_or_default();
     let k = t.sigmas.len();
     if t.means.len() != 3 * k || t.priors.len() != k {
         return Err(JsError::new(&format!(
@@ -72,6 +63,7 @@ fn target_of(t: TargetInput) -> Result<Reconstruction, JsError> {
             t.priors.len()
         )));
     }
-    let means = t.means.chunks_exact(3).map(|m| [m[0], m[1], m[2]]).collect();
-    Ok(Reconstruction { means, sigmas: t.sigmas, priors: t.priors, ..Default::default() })
+    let target = Target { means: &t.means, sigmas: &t.sigmas, priors: &t.priors };
+    let roi = crate::cloud::Aabb::new(input.roi.min, input.roi.max);
+    to_js(&Exports::new(&input.parent, &sensors, &roi, target))
 }

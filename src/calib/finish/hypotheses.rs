@@ -33,7 +33,7 @@ impl Hypotheses {
         let frames = (0..views.sensors.len())
             .map(|s| {
                 let undo = views.levelled[s].inverse();
-                let constant = |c: Pose| views.per_pair(|_| c).swap_remove(s);
+                let constant = |c: Pose| views.pairs[s].iter().map(|&pair| (pair, c)).collect();
                 list[s].iter().map(|h| constant(h.correction * undo)).collect()
             })
             .collect();

@@ -24,13 +24,8 @@ export const resultJson = (/** @type {unknown} */ value) =>
 export async function exportTexts(result, parent, remake) {
   const made = result.exports;
   if (made?.parent === parent) return made;
-  const { means, sigmas, priors } = result.reconstruction;
-  const again = await remake({
-    parent,
-    sensors: result.sensors.map((s) => ({ name: s.name, extrinsic: Array.from(s.extrinsic) })),
-    roi: { min: result.roi.min, max: result.roi.max },
-    reconstruction: priors.length ? { means: Array.from(means), sigmas: Array.from(sigmas), priors: Array.from(priors) } : undefined,
-  });
+  const { sensors, roi, reconstruction } = result;
+  const again = await remake({ parent, sensors, roi, reconstruction });
   // A result opened from a file, or kept from before results carried their JSON: the page's copy.
   return { ...again, json: made?.json ?? resultJson(result) };
 }
