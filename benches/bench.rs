@@ -97,10 +97,9 @@ mod native {
         ];
         for (name, rig, target, methods) in &cases {
             for &method in *methods {
-                let settings =
-                    calib::Settings { method, target: target.clone(), ..Default::default() };
+                let settings = calib::Settings { target: target.clone(), ..Default::default() };
                 let (result, wall, cpu) =
-                    timed(|| calib::calibrate(rig, &settings, |_| Control::Continue));
+                    timed(|| calib::calibrate(rig, method, &settings, |_| Control::Continue));
                 let iterations = result.as_ref().map_or(0, |r| r.iterations);
                 println!(
                     "{} {name}: {wall:.2} s [{cpu:.2} s CPU], {iterations} iterations",
@@ -113,7 +112,7 @@ mod native {
         let settings =
             calib::Settings { target: gmmcalib::targets::Target::None, ..Default::default() };
         let (result, wall, cpu) =
-            timed(|| calib::calibrate(&rig, &settings, |_| Control::Continue));
+            timed(|| calib::calibrate(&rig, calib::Method::Gmm, &settings, |_| Control::Continue));
         let verdict = result.map_or("error".into(), |r| format!("{:?}", r.verdict.level));
         println!(
             "gmm OpenCalib 0001, target none: {wall:.2} s [{cpu:.2} s CPU], verdict {verdict}"
@@ -202,16 +201,12 @@ mod native {
         let rig = jrmpc::rig(job);
         // Every point (the default) on 1 and 2 threads, then multi-resolution EM on 1.
         for (threads, multiresolution) in [(1, false), (2, false), (1, true)] {
-            let mut settings = calib::Settings {
-                method: calib::Method::Gmm,
-                components: job.components,
-                ..Default::default()
-            };
+            let mut settings = calib::Settings { components: job.components, ..Default::default() };
             settings.jrmpc.threads = threads;
             settings.gmm_em.multiresolution = multiresolution;
             let started = Instant::now();
             let mut em_ended = started;
-            let result = calib::calibrate(&rig, &settings, |p| {
+            let result = calib::calibrate(&rig, calib::Method::Gmm, &settings, |p| {
                 if p.mean_sigma > 0.0 {
                     em_ended = Instant::now();
                 }
@@ -240,13 +235,12 @@ mod native {
     fn icp_per_pair(points_per_view: usize) {
         let frames = if points_per_view > 10_000 { 1 } else { 5 };
         let rig = jrmpc::sampled(frames, points_per_view, 2);
-        for method in ["p2p", "p2l", "gicp"] {
-            let settings =
-                calib::Settings { method: method.parse().expect("method"), ..Default::default() };
+        for name in ["p2p", "p2l", "gicp"] {
+            let (method, settings) = (name.parse().expect("method"), calib::Settings::default());
             let started = Instant::now();
-            calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibration");
+            calib::calibrate(&rig, method, &settings, |_| Control::Continue).expect("calibration");
             let ms = started.elapsed().as_secs_f64() * 1e3 / frames as f64;
-            println!("{method:<5} per pair, {points_per_view:>5}-point views {ms:>9.1} ms");
+            println!("{name:<5} per pair, {points_per_view:>5}-point views {ms:>9.1} ms");
         }
     }
 }

@@ -53,16 +53,13 @@ pub fn sampled(frames: usize, points_per_view: usize, seed: u64) -> Rig {
 /// Calibrates `rig` with JRMPC for exactly `iterations` (the convergence test off, like the
 /// reference), on the fast E-step or the dense reference, with the views on `threads`.
 pub fn run(job: &Job, rig: &Rig, dense: bool, iterations: usize, threads: usize) -> Outcome {
-    let mut settings = calib::Settings {
-        method: calib::Method::Jrmpc,
-        components: job.components,
-        ..Default::default()
-    };
+    let mut settings = calib::Settings { components: job.components, ..Default::default() };
     settings.jrmpc.tolerance = 0.0;
     settings.jrmpc.max_iterations = iterations;
     settings.jrmpc.exact = dense;
     settings.jrmpc.threads = threads;
-    let result = calib::calibrate(rig, &settings, |_| Control::Continue).expect("calibration");
+    let result = calib::calibrate(rig, calib::Method::Jrmpc, &settings, |_| Control::Continue)
+        .expect("calibration");
     Outcome {
         points: rig.scans.iter().map(|v| v.points.len()).sum(),
         iterations: result.iterations,

@@ -21,7 +21,8 @@ fn main() {
         }
         for name in ["0001", "0002"] {
             let run = |rig: &Rig| {
-                calib::calibrate(rig, &settings, |_| Control::Continue).expect("calibration")
+                calib::calibrate(rig, calib::Method::Gmm, &settings, |_| Control::Continue)
+                    .expect("calibration")
             };
             let base = run(&scene(name));
             let mut cells = Vec::new();

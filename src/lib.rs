@@ -8,6 +8,7 @@
 
 // Primitives.
 pub mod cloud;
+pub mod lzf;
 pub mod mesh;
 pub mod plane;
 pub mod se3;

@@ -127,8 +127,9 @@ fn calibrates_a_gmmcalib_folder_like_the_library() {
     let json: Value = serde_json::from_str(&text).unwrap();
     assert_eq!(json["method"], "jrmpc");
     assert_eq!(json["reference"], "sensor_1");
-    let settings = Settings { method: Method::Jrmpc, ..Settings::default() };
-    let lib = calib::calibrate(&rig_as_read(&rig), &settings, |_| Control::Continue).unwrap();
+    let settings = Settings::default();
+    let lib = calib::calibrate(&rig_as_read(&rig), Method::Jrmpc, &settings, |_| Control::Continue)
+        .unwrap();
     // The page's JSON export is the library's, and the CLI's byte for byte.
     assert!(Exports::of(&Report::from(&lib), "vehicle").json.as_deref() == Some(text.as_str()));
     assert_eq!(json["iterations"].as_u64(), Some(lib.iterations as u64));

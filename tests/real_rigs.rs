@@ -58,7 +58,8 @@ fn the_livox_units_keep_their_right_start() {
     let nominal = ["L0", "L1", "L2"].map(|u| (u.to_string(), Pose::identity())).to_vec();
     let rig = Rig { scans, nominal, roi: None, reference: Some("L0".into()) };
     let settings = calib::Settings { target: Target::None, ..Default::default() };
-    let result = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
+    let result =
+        calib::calibrate(&rig, calib::Method::Gmm, &settings, |_| Control::Continue).unwrap();
 
     let mlcc: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("mlcc_estimate.json")).unwrap())
@@ -117,7 +118,8 @@ fn the_hesai_rig_reports_the_loops_it_cannot_close() {
         .collect();
     let rig = Rig { scans, nominal, roi: None, reference: Some("p64".into()) };
     let settings = calib::Settings { target: Target::None, ..Default::default() };
-    let result = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
+    let result =
+        calib::calibrate(&rig, calib::Method::Gmm, &settings, |_| Control::Continue).unwrap();
     let mut open = 0;
     for v in &result.verdict.sensors {
         for r in &v.reasons {

@@ -49,7 +49,8 @@ fn calibrate_returns_the_library_result_for_the_synthetic_truth() {
         initial_sigma: calib::InitialSigma::TargetSize,
         ..calib::Settings::default()
     };
-    let expected = calib::calibrate(&lib_rig, &settings, |_| Control::Continue).unwrap();
+    let expected =
+        calib::calibrate(&lib_rig, calib::Method::Gmm, &settings, |_| Control::Continue).unwrap();
 
     let read = Function::new_with_args(
         "result",

@@ -2,7 +2,7 @@
 //! and compressing any bytes round-trips.
 #![no_main]
 
-use gmmcalib::io::lzf;
+use gmmcalib::lzf;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

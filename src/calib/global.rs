@@ -417,7 +417,9 @@ mod tests {
         let draw = crate::twin::Miscalibration::default();
         let sampled = crate::twin::Model::Sampled(crate::twin::Sampling::default());
         let rig = crate::twin::Twin::new(&sampled, 1, 1, &draw).rig();
-        let refused = crate::calib::calibrate(&rig, &settings, |_| crate::jrmpc::Control::Continue);
+        let refused = crate::calib::calibrate(&rig, Default::default(), &settings, |_| {
+            crate::jrmpc::Control::Continue
+        });
         assert!(refused.unwrap_err().to_string().contains("correlate's cells are too small"));
     }
 

@@ -72,7 +72,7 @@ impl SettingsInput {
         let s = Settings::default();
         let target = TargetChoice::Shape(s.target.clone());
         SettingsInput {
-            method: Some(Methods(vec![s.method])),
+            method: Some(Methods(vec![Method::default()])),
             target: Some(target),
             target_edge: None,
             components: Some(s.components),
@@ -130,8 +130,8 @@ impl SettingsInput {
         Ok(())
     }
 
-    /// Sets what this input sets on `settings`, and returns the methods to run (the first is
-    /// `settings.method`). Errors name the key.
+    /// Sets what this input sets on `settings`, and returns the methods to run (`gmm` when it
+    /// names none). Errors name the key.
     pub fn apply(&self, settings: &mut Settings) -> Result<Vec<Method>, String> {
         let positive = |key: &str, n: Option<usize>| match n {
             Some(0) => Err(format!("{key}: expected a positive integer, got 0")),
@@ -139,9 +139,8 @@ impl SettingsInput {
         };
         let methods = match &self.method {
             Some(Methods(list)) if !list.is_empty() => list.clone(),
-            _ => vec![settings.method],
+            _ => vec![Method::default()],
         };
-        settings.method = methods[0];
         match self.target_choice() {
             Some(TargetChoice::Shape(t)) => {
                 settings.target = t.checked().map_err(|e| format!("target: {e}"))?;

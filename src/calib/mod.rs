@@ -76,14 +76,15 @@ use std::borrow::Cow;
 
 use crate::jrmpc::Control;
 
-/// Calibrates every sensor of `rig` to the reference sensor by `settings.method`; `progress`
-/// sees every EM iteration and frame pair, and may stop the run.
+/// Calibrates every sensor of `rig` to the reference sensor by `method`; `progress` sees every
+/// EM iteration and frame pair, and may stop the run.
 pub fn calibrate(
     rig: &Rig,
+    method: Method,
     settings: &Settings,
     mut progress: impl FnMut(&Progress) -> Control,
 ) -> Result<Calibration, CalibError> {
-    let mut run = Run::new(Cow::Borrowed(rig), settings, &[settings.method]);
+    let mut run = Run::new(Cow::Borrowed(rig), settings, &[method]);
     run.drive(settings.jrmpc.threads, &mut |_, p| progress(p));
     let (_, outcome) = run.into_outcomes().pop().expect("a run of one method has its outcome");
     outcome

@@ -117,8 +117,7 @@ impl<'r> Run<'r> {
     /// not run: one an earlier method runs with the same settings (taken from it), or one
     /// that found nothing to align (known once the method started).
     pub fn plan(&self, index: usize) -> Vec<Stage> {
-        let stages =
-            |i: usize| Stages::of(&Settings { method: self.methods[i], ..self.settings.clone() });
+        let stages = |i: usize| Stages::of(self.methods[i], &self.settings);
         let of = stages(index);
         let mut plan = of.plan();
         let taken = (0..index).any(|j| stages(j).global == of.global);
@@ -478,14 +477,14 @@ impl<'r> Run<'r> {
     /// stage, when it asks for one that has not run yet, else its views' step.
     fn start(&mut self, index: usize) {
         let Some(&method) = self.methods.get(index) else { return };
-        let settings = Settings { method, ..self.settings.clone() };
-        let wanted = Stages::of(&settings).global;
+        let settings = &self.settings;
+        let wanted = Stages::of(method, settings).global;
         let alignments = match (&wanted, &self.aligned) {
             (None, _) => Vec::new(),
             (Some(wanted), Some((settings, alignments))) if settings == wanted => {
                 alignments.clone()
             }
-            (Some(_), _) => match Views::global_stage(&self.rig, &settings) {
+            (Some(_), _) => match Views::global_stage(&self.rig, method, settings) {
                 // Nothing to align (the reference shows no ground): no stage to drive.
                 Ok(Some(stage)) if stage.pending().is_empty() => {
                     self.nothing_to_align.push(index);
@@ -514,11 +513,10 @@ impl<'r> Run<'r> {
     /// has none), and its first stage.
     fn begin(&mut self, index: usize, alignments: Vec<GlobalAlignment>) {
         let method = self.methods[index];
-        let settings = Settings { method, ..self.settings.clone() };
         self.left_out = LeftOut::default();
         let views = loop {
             let (rig, kept) = self.left_out.rig(&self.rig, &alignments);
-            match Views::with_global(&rig, &settings, kept) {
+            match Views::with_global(&rig, method, &self.settings, kept) {
                 // A sensor none of whose points lie in the region at its start is left out,
                 // and the others calibrated; its verdict says so.
                 Err(CalibError::OutsideOverlap(name) | CalibError::NoPointsInRoi(name))

@@ -1,6 +1,7 @@
-//! What the user chooses: the method, the target and how wide the mixture starts, and the
-//! settings of every stage. Every default number lives here or in the stage it belongs to.
-//! [`Stages::of`] resolves the method, once, into the stages that run.
+//! What the user chooses: the method ([`Method`]; a run's list of them is the only place one is
+//! kept), the target and how wide the mixture starts, and the settings of every stage. Every
+//! default number lives here or in the stage it belongs to. [`Stages::of`] resolves a method
+//! under the settings, once, into the stages that run.
 
 use std::str::FromStr;
 
@@ -61,6 +62,13 @@ impl Method {
     }
 }
 
+impl Default for Method {
+    /// `gmm`, the product's.
+    fn default() -> Self {
+        Method::Gmm
+    }
+}
+
 impl FromStr for Method {
     type Err = CalibError;
 
@@ -116,7 +124,6 @@ impl InitialSigma {
 /// Calibration settings; every default number lives here or in the settings of its stage.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
-    pub method: Method,
     pub target: Target,
     /// Number of mixture components K (GMMCalib: about 400).
     pub components: usize,
@@ -187,7 +194,6 @@ impl Default for EmProfile {
 impl Default for Settings {
     fn default() -> Self {
         Self {
-            method: Method::Gmm,
             target: Target::default(),
             components: 400,
             seed: 0,
@@ -255,8 +261,8 @@ pub struct Stages {
 }
 
 impl Stages {
-    pub fn of(settings: &Settings) -> Self {
-        let method = settings.method;
+    /// What `method` runs under `settings`.
+    pub fn of(method: Method, settings: &Settings) -> Self {
         let refine = settings.refine_only;
         // `cad` places its model on the reference's ground, as `gmm` levels onto it.
         let level =

@@ -12,7 +12,7 @@ use super::region::{self, RoiSource};
 use super::result::Levelling;
 use super::rig::sensor_seed;
 use super::select::{self, FrameScans, Hypothesis, Scenes, Source};
-use super::settings::{InitialSigma, Settings, Stages};
+use super::settings::{InitialSigma, Method, Settings, Stages};
 use super::{CalibError, Rig};
 use crate::cloud::{Aabb, Cloud, is_valid_point};
 use crate::jrmpc::{self, Em, Registration};
@@ -78,19 +78,23 @@ pub struct JrmpcInput<'a> {
 }
 
 impl Views {
-    /// Levels, searches, crops and pairs `rig`'s scans as `settings` ask.
-    pub fn new(rig: &Rig, settings: &Settings) -> Result<Self, CalibError> {
-        let global =
-            Self::global_stage(rig, settings)?.map_or_else(Vec::new, |g| g.into_alignments());
-        Self::with_global(rig, settings, global)
+    /// Levels, searches, crops and pairs `rig`'s scans as `method` under `settings` asks.
+    pub fn new(rig: &Rig, method: Method, settings: &Settings) -> Result<Self, CalibError> {
+        let global = Self::global_stage(rig, method, settings)?
+            .map_or_else(Vec::new, |g| g.into_alignments());
+        Self::with_global(rig, method, settings, global)
     }
 
-    /// The global stage `settings` ask for on `rig`, its reference's ground found; `None` when
-    /// they ask for none.
-    pub fn global_stage(rig: &Rig, settings: &Settings) -> Result<Option<GlobalStage>, CalibError> {
+    /// The global stage `method` under `settings` asks for on `rig`, its reference's ground
+    /// found; `None` when it asks for none.
+    pub fn global_stage(
+        rig: &Rig,
+        method: Method,
+        settings: &Settings,
+    ) -> Result<Option<GlobalStage>, CalibError> {
         let (sensors, r) = rig.checked()?;
         settings.check()?;
-        let Some(global_settings) = Stages::of(settings).global else { return Ok(None) };
+        let Some(global_settings) = Stages::of(method, settings).global else { return Ok(None) };
         let nominals: Vec<Pose> = sensors.iter().map(|s| rig.nominal_of(s)).collect();
         let seeds: Vec<u64> = (0..sensors.len())
             .map(|s| if s == r { settings.seed } else { sensor_seed(settings.seed, &sensors, s) })
@@ -104,12 +108,13 @@ impl Views {
     /// were its nominal.
     pub fn with_global(
         rig: &Rig,
+        method: Method,
         settings: &Settings,
         global: Vec<GlobalAlignment>,
     ) -> Result<Self, CalibError> {
         let (sensors, r) = rig.checked()?;
         settings.check()?;
-        let stages = Stages::of(settings);
+        let stages = Stages::of(method, settings);
         let nominals: Vec<Pose> = sensors.iter().map(|s| rig.nominal_of(s)).collect();
         let threads = settings.jrmpc.threads;
 
@@ -551,7 +556,7 @@ mod tests {
     fn a_folded_jrmpc_result_loses_the_selection() {
         let twin = Twin::new(&Model::RayCast(Preset::paper()), 2, 1, &Miscalibration::default());
         let settings = Settings { align_globally: Some(false), ..Settings::default() };
-        let views = Views::new(&twin.rig(), &settings).expect("views");
+        let views = Views::new(&twin.rig(), Method::Gmm, &settings).expect("views");
         let folded = turned(&views, std::f64::consts::PI);
         let mut pairs = views.frame_pairs(Some(&folded)).expect("gmm pairs");
         let count = pairs.pairs().len();
@@ -573,9 +578,9 @@ mod tests {
         let mut rig = twin.rig();
         rig.roi = None;
         let settings = Settings { align_globally: Some(false), ..Settings::default() };
-        let roi = *Views::new(&rig, &settings).expect("views").roi();
+        let roi = *Views::new(&rig, Method::Gmm, &settings).expect("views").roi();
         let none = Settings { target: Target::None, ..settings };
-        let overlap = *Views::new(&rig, &none).expect("views").roi();
+        let overlap = *Views::new(&rig, Method::Gmm, &none).expect("views").roi();
         eprintln!("around the targets {roi:?}, overlap {overlap:?}");
         let cubes = [[12.3, -1.5], [12.3, 0.0], [12.3, 1.5], [18.3, 0.0]];
         assert!(cubes.iter().all(|c| roi.contains([c[0], c[1], 0.25])), "{roi:?}");

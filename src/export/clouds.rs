@@ -5,7 +5,7 @@
 //! dropped again on reading.
 
 use crate::cloud::Cloud;
-use crate::io::lzf;
+use crate::lzf;
 
 /// The intensity to write: present only when it has one value per point.
 fn intensity_of(cloud: &Cloud) -> Option<&[f32]> {

@@ -15,7 +15,6 @@
 
 mod decode;
 mod kitti;
-pub mod lzf;
 pub mod mesh;
 pub mod opencalib;
 mod pcd;

@@ -15,7 +15,8 @@ use std::borrow::Cow;
 
 use super::decode::{Builder, Column, Endian, decode_columns};
 use super::text::{TextLines, parse_f32, tokenize};
-use super::{Decoded, Fault, Format, lzf};
+use super::{Decoded, Fault, Format};
+use crate::lzf;
 use header::{Header, offset_of, parse_header, record_size};
 
 /// Reads a PCD file.

@@ -1,6 +1,12 @@
 //! One result shape for programs: what `gmmcalib calibrate --json` writes and what the wasm
 //! `calibrate` returns (docs/api.md). camelCase keys; matrices as 16 numbers, row-major; m and
 //! rad. Notes carry their kind and their sentence.
+//!
+//! A `*Report` type here exists only where the JSON differs from the domain type: poses as 16
+//! numbers with xyz / rpy beside them, notes and reasons with their sentences and named values,
+//! the mixture's means flat, the EM history as columns, the global stage's candidates without
+//! the motion each implies (their yaw and shift say it). Everything else serializes itself
+//! (`ShapeFit`, `Spread`, `Precision`, `SensorEvidence`, `BevAlignment`, `RoiSource`, `Level`).
 
 use std::collections::BTreeMap;
 

@@ -91,7 +91,7 @@ pub fn methods() -> Result<JsValue, JsError> {
     let list: Vec<MethodInfo> = Method::ALL
         .iter()
         .map(|&method| {
-            let stages = calib::Stages::of(&calib::Settings { method, ..Default::default() });
+            let stages = calib::Stages::of(method, &calib::Settings::default());
             MethodInfo {
                 name: method.name(),
                 label: method.label(),

@@ -16,12 +16,9 @@ fn full_views(
 ) -> Vec<(f64, f64)> {
     for_seeds(seeds, |seed| {
         let spec = RigSpec { seed, sensors, ..RigSpec::default() };
-        let settings = Settings {
-            method,
-            initial_sigma: calib::InitialSigma::TargetSize,
-            ..Settings::default()
-        };
-        let (result, truth) = run(&spec, &settings);
+        let settings =
+            Settings { initial_sigma: calib::InitialSigma::TargetSize, ..Settings::default() };
+        let (result, truth) = run(&spec, method, &settings);
         worst_error(&result, &truth)
     })
 }
@@ -51,7 +48,7 @@ fn no_ground_is_reported_not_fatal() {
     let spec = RigSpec { seed: 1, ..RigSpec::default() };
     let settings =
         Settings { initial_sigma: calib::InitialSigma::TargetSize, ..Settings::default() };
-    let (result, _) = run(&spec, &settings);
+    let (result, _) = run(&spec, calib::Method::Gmm, &settings);
     assert_eq!(result.levelling.len(), 2);
     for l in &result.levelling {
         assert_eq!(l.ground, None);
@@ -60,8 +57,7 @@ fn no_ground_is_reported_not_fatal() {
         assert!(note.is_some_and(|n| n.contains("no ground plane")), "{l:?}");
     }
     // The paper's methods run as published: no levelling unless asked.
-    let plain = Settings { method: calib::Method::Jrmpc, ..settings };
-    assert!(!Stages::of(&plain).level);
+    assert!(!Stages::of(calib::Method::Jrmpc, &settings).level);
 }
 
 /// Realistic partial views (only the faces each sensor sees, 80% ground), plain JRMPC.
@@ -71,8 +67,7 @@ fn no_ground_is_reported_not_fatal() {
 fn partial_views_median_within_one_degree_and_ten_centimetres() {
     let errors = for_seeds(1..=20, |seed| {
         let spec = RigSpec { seed, partial: true, ..RigSpec::default() };
-        let settings = Settings { method: calib::Method::Jrmpc, ..Settings::default() };
-        let (result, truth) = run(&spec, &settings);
+        let (result, truth) = run(&spec, calib::Method::Jrmpc, &Settings::default());
         worst_error(&result, &truth)
     });
     let (mut deg, mut m): (Vec<f64>, Vec<f64>) = errors.iter().copied().unzip();
@@ -105,7 +100,8 @@ fn three_sensors_with_missing_frames() {
     // A ROI that holds only the cube: start the mixture at the prior's size.
     let settings =
         Settings { initial_sigma: calib::InitialSigma::TargetSize, ..Settings::default() };
-    let result = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
+    let result =
+        calib::calibrate(&rig, calib::Method::Gmm, &settings, |_| Control::Continue).unwrap();
     assert_eq!(result.reference, "sensor_1");
     let names: Vec<_> = result.sensors.iter().map(|s| s.name.as_str()).collect();
     assert_eq!(names, ["sensor_1", "sensor_2", "sensor_3"]);
@@ -142,7 +138,8 @@ fn choosing_another_reference() {
     rig.reference = Some("sensor_2".into());
     let settings =
         Settings { initial_sigma: calib::InitialSigma::TargetSize, ..Settings::default() };
-    let result = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
+    let result =
+        calib::calibrate(&rig, calib::Method::Gmm, &settings, |_| Control::Continue).unwrap();
     assert_eq!(result.reference, "sensor_2");
     let s2 = result.sensors.iter().find(|s| s.name == "sensor_2").unwrap();
     assert!(s2.correction.rotation.angle() < 1e-12, "the reference keeps its nominal");
@@ -153,8 +150,9 @@ fn bad_rigs_are_typed_errors() {
     let spec = RigSpec { frames: 2, points_per_view: 300, ..RigSpec::default() };
     let truth = generate(&spec);
     let settings = Settings::default();
-    let calibrate =
-        |rig: &calib::Rig| calib::calibrate(rig, &settings, |_| Control::Continue).err();
+    let calibrate = |rig: &calib::Rig| {
+        calib::calibrate(rig, calib::Method::Gmm, &settings, |_| Control::Continue).err()
+    };
 
     let mut rig = rig_of(&truth);
     rig.scans.retain(|v| v.sensor == "sensor_1");
@@ -214,7 +212,7 @@ fn threads_change_nothing_but_the_time() {
         let mut settings = Settings::default();
         settings.jrmpc.threads = threads;
         let mut seen = Vec::new();
-        let result = calib::calibrate(&rig, &settings, |p| {
+        let result = calib::calibrate(&rig, calib::Method::Gmm, &settings, |p| {
             seen.push((p.iteration, p.max_iterations, p.corrections.to_vec()));
             Control::Continue
         })
@@ -258,7 +256,7 @@ fn a_sensor_outside_the_overlap_found_is_left_out_and_named_with_what_to_do() {
         ..Settings::default()
     };
     let mut seen = Vec::new();
-    let c = calib::calibrate(&rig, &settings, |p| {
+    let c = calib::calibrate(&rig, calib::Method::Gmm, &settings, |p| {
         seen.push(p.corrections.len());
         Control::Continue
     })
@@ -286,7 +284,7 @@ fn a_sensor_outside_the_overlap_found_is_left_out_and_named_with_what_to_do() {
 
     // Two sensors: nothing left to calibrate without it, and nothing the two share.
     rig.scans.retain(|v| v.sensor != rig.nominal[1].0);
-    let error = calib::calibrate(&rig, &settings, |_| Control::Continue).err();
+    let error = calib::calibrate(&rig, calib::Method::Gmm, &settings, |_| Control::Continue).err();
     assert_eq!(error, Some(CalibError::NoOverlap));
     assert!(error.unwrap().to_string().contains("give a ROI, or nominals that place the sensors"));
 }

@@ -74,7 +74,10 @@ fn twin_rig_with_steep_and_upside_down_sensors_calibrates_from_tape_measure_nomi
             roi: Some(preset.roi),
             reference: Some(preset.sensors[0].name.clone()),
         };
-        let result = calib::calibrate(&rig, &calib::Settings::default(), |_| Control::Continue)
+        let result =
+            calib::calibrate(&rig, calib::Method::Gmm, &calib::Settings::default(), |_| {
+                Control::Continue
+            })
             .expect("calibration");
         for (i, truth) in preset.sensors.iter().enumerate().skip(1) {
             let global = &result.global[i];
@@ -96,7 +99,7 @@ fn twin_rig_with_steep_and_upside_down_sensors_calibrates_from_tape_measure_nomi
         }
         // Without the global stage the same start is lost.
         let local = calib::Settings { align_globally: Some(false), ..Default::default() };
-        let today = calib::calibrate(&rig, &local, |_| Control::Continue);
+        let today = calib::calibrate(&rig, calib::Method::Gmm, &local, |_| Control::Continue);
         let lost = today.map_or(true, |r| {
             let e = r.sensors[1].correction.inverse()
                 * expected_correction(&preset.sensors[1].mount, &nominal[1].1);
@@ -120,8 +123,10 @@ fn apart(a: &Pose, b: &Pose) -> (f64, f64) {
 fn opencalib_scenes_calibrate_from_their_own_guess_and_agree() {
     let calibrate = |scene| {
         let result =
-            calib::calibrate(&opencalib_scene(scene), &targetless(), |_| Control::Continue)
-                .expect("calibration");
+            calib::calibrate(&opencalib_scene(scene), calib::Method::Gmm, &targetless(), |_| {
+                Control::Continue
+            })
+            .expect("calibration");
         // Good or check, never failed: 0002's right LiDAR is `check` since its ground lies
         // 13 mm from the reference's where both see it (median of 50 patches), evidence the
         // registration did not optimise; OpenCalib's own answers for the two scenes differ by
@@ -146,7 +151,8 @@ fn opencalib_scenes_calibrate_from_their_own_guess_and_agree() {
 fn opencalib_from_random_wrong_starts_ends_at_the_same_extrinsic() {
     let rig = opencalib_scene("0001");
     let settings = targetless();
-    let own = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("own guess");
+    let own = calib::calibrate(&rig, calib::Method::Gmm, &settings, |_| Control::Continue)
+        .expect("own guess");
     let mut rng = Pcg64::seed_from_u64(19);
     let mut worst = (0.0f64, 0.0f64);
     for start in 0..6 {
@@ -164,7 +170,8 @@ fn opencalib_from_random_wrong_starts_ends_at_the_same_extrinsic() {
             })
             .collect();
         let wrong = Rig { nominal, ..rig.clone() };
-        let result = calib::calibrate(&wrong, &settings, |_| Control::Continue).expect("start");
+        let result = calib::calibrate(&wrong, calib::Method::Gmm, &settings, |_| Control::Continue)
+            .expect("start");
         for (a, b) in own.sensors.iter().zip(&result.sensors).skip(1) {
             let (deg, mm) = apart(&a.extrinsic, &b.extrinsic);
             worst = (worst.0.max(deg), worst.1.max(mm));
@@ -186,10 +193,11 @@ fn opencalib_from_random_wrong_starts_ends_at_the_same_extrinsic() {
 fn the_global_stage_gives_the_same_calibration_however_its_sensors_are_shared() {
     let rig = opencalib_scene("0001");
     let settings = targetless();
-    let one_thread = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibrate");
+    let one_thread = calib::calibrate(&rig, calib::Method::Gmm, &settings, |_| Control::Continue)
+        .expect("calibrate");
     let expected = format!("{one_thread:?}");
 
-    let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[settings.method]);
+    let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[calib::Method::Gmm]);
     assert_eq!(run.stage(), Some(calib::Stage::Global));
     // The progress counts the sensors aligned; each one's correction is its alignment's motion.
     let progress = |run: &calib::Run| {
@@ -222,7 +230,8 @@ fn the_global_stage_gives_the_same_calibration_however_its_sensors_are_shared() 
         jrmpc: gmmcalib::jrmpc::EmSettings { threads: 2, ..settings.jrmpc.clone() },
         ..settings
     };
-    let two = calib::calibrate(&rig, &threaded, |_| Control::Continue).expect("two threads");
+    let two = calib::calibrate(&rig, calib::Method::Gmm, &threaded, |_| Control::Continue)
+        .expect("two threads");
     assert_eq!(format!("{two:?}"), expected);
 }
 

@@ -18,27 +18,28 @@ fn a_run_reports_the_stages_its_plan_names_in_order() {
     let twin = Twin::new(&Model::RayCast(Preset::paper_roof()), 1, 2, &Miscalibration::default());
     let rig = twin.rig();
     let sensors = rig.sensors().len();
-    for method in ["gmm", "jrmpc", "gicp"] {
-        let settings = Settings { method: method.parse().unwrap(), ..Settings::default() };
-        let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[settings.method]);
+    let settings = Settings::default();
+    for name in ["gmm", "jrmpc", "gicp"] {
+        let method = name.parse().unwrap();
+        let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[method]);
         let plan = run.plan(0);
-        assert_eq!(plan, Stages::of(&settings).plan());
+        assert_eq!(plan, Stages::of(method, &settings).plan());
         let mut seen: Vec<Stage> = Vec::new();
         run.drive(1, &mut |_, p| {
             if seen.last() != Some(&p.stage) {
                 seen.push(p.stage);
             }
-            assert_eq!(p.corrections.len(), sensors, "{method}: a correction per sensor");
+            assert_eq!(p.corrections.len(), sensors, "{name}: a correction per sensor");
             Control::Continue
         });
-        assert_eq!(seen, plan, "{method}");
-        assert!(run.into_outcomes()[0].1.is_ok(), "{method}");
+        assert_eq!(seen, plan, "{name}");
+        assert!(run.into_outcomes()[0].1.is_ok(), "{name}");
     }
-    let gmm = Stages::of(&Settings::default()).plan();
+    let gmm = Stages::of(calib::Method::Gmm, &settings).plan();
     assert_eq!(gmm, [Stage::Global, Stage::Views, Stage::Jrmpc, Stage::FramePairs, Stage::Finish]);
     let none = Settings { target: gmmcalib::targets::Target::None, ..Settings::default() };
     assert_eq!(
-        Stages::of(&none).plan(),
+        Stages::of(calib::Method::Gmm, &none).plan(),
         [Stage::Global, Stage::Views, Stage::FramePairs, Stage::Finish],
         "gmm runs no JRMPC on a whole scene"
     );
@@ -50,10 +51,11 @@ fn a_run_reports_the_stages_its_plan_names_in_order() {
 fn frame_pairs_recorded_in_any_order_calibrate_alike() {
     let spec = RigSpec { sensors: 3, frames: 4, seed: 6, ..RigSpec::default() };
     let rig = rig_of(&generate(&spec));
-    let settings = Settings { method: "gicp".parse().unwrap(), ..Settings::default() };
-    let direct = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibration");
+    let settings = Settings::default();
+    let direct =
+        calib::calibrate(&rig, gicp(), &settings, |_| Control::Continue).expect("calibration");
 
-    let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[settings.method]);
+    let mut run = calib::Run::new(Cow::Borrowed(&rig), &settings, &[gicp()]);
     assert_eq!(run.stage(), Some(Stage::Views), "the run prepares the views first");
     run.advance();
     assert_eq!(run.stage(), Some(Stage::FramePairs), "gicp registers frame pairs");
@@ -185,8 +187,8 @@ fn a_run_stepped_by_hand_follows_each_plan_and_calibrates_as_calibrate() {
     assert_eq!(outcomes.len(), methods.len());
     for ((method, outcome), expected) in outcomes.iter().zip(methods) {
         assert_eq!(*method, expected);
-        let settings = Settings { method: expected, ..settings.clone() };
-        let direct = calib::calibrate(&rig, &settings, |_| Control::Continue).expect("calibrate");
+        let direct =
+            calib::calibrate(&rig, expected, &settings, |_| Control::Continue).expect("calibrate");
         let stepped = outcome.as_ref().expect("calibration");
         for (a, b) in direct.sensors.iter().zip(&stepped.sensors) {
             assert_eq!((a.name.as_str(), a.correction), (b.name.as_str(), b.correction));
@@ -212,8 +214,8 @@ fn a_method_failed_elsewhere_ends_with_its_error_and_the_next_runs() {
         }
         other => panic!("{other:?}"),
     }
-    let alone = Settings { method: gicp(), ..settings };
-    let direct = calib::calibrate(&rig, &alone, |_| Control::Continue).expect("calibrate");
+    let direct =
+        calib::calibrate(&rig, gicp(), &settings, |_| Control::Continue).expect("calibrate");
     let (_, gicp) = &outcomes[1];
     let gicp = gicp.as_ref().expect("gicp calibrates");
     assert!(!gicp.cancelled);

@@ -251,7 +251,8 @@ fn the_verdict_separates_good_rigs_from_known_bad_ones() {
     let outcomes = for_seeds(0..=(cases.len() as u64 - 1), |i| {
         let c = &cases[i as usize];
         let clock = std::time::Instant::now();
-        let result = calib::calibrate(&c.rig, &c.settings, |_| Control::Continue);
+        let result =
+            calib::calibrate(&c.rig, calib::Method::Gmm, &c.settings, |_| Control::Continue);
         (result, clock.elapsed().as_secs_f64())
     });
     let mut wrong = Vec::new();

@@ -71,10 +71,14 @@ pub fn worst_error(result: &Calibration, truth: &Twin) -> (f64, f64) {
         .fold((0.0, 0.0), |(a, t), (da, dt)| (f64::max(a, da), f64::max(t, dt)))
 }
 
-pub fn run(spec: &RigSpec, settings: &calib::Settings) -> (Calibration, Twin) {
+pub fn run(
+    spec: &RigSpec,
+    method: calib::Method,
+    settings: &calib::Settings,
+) -> (Calibration, Twin) {
     let truth = generate(spec);
-    let result =
-        calib::calibrate(&rig_of(&truth), settings, |_| Control::Continue).expect("calibration");
+    let result = calib::calibrate(&rig_of(&truth), method, settings, |_| Control::Continue)
+        .expect("calibration");
     (result, truth)
 }
 

@@ -139,12 +139,10 @@ fn tf_static_resolves_to_the_nominals() {
     }
 }
 
+const P2P: Method = Method::Icp(gmmcalib::icp::Metric::PointToPoint);
+
 fn settings() -> Settings {
-    let mut s = Settings {
-        method: Method::Icp(gmmcalib::icp::Metric::PointToPoint),
-        ..Settings::default()
-    };
-    s.align_globally = Some(false);
+    let mut s = Settings { align_globally: Some(false), ..Settings::default() };
     s.jrmpc.threads = 1;
     s
 }
@@ -171,7 +169,7 @@ fn recording_calibrates_as_pcd_folders() {
         }
     }
     let folder = Rig { scans, nominal: config.nominal_poses(), roi: config.roi, reference: None };
-    let from_pcd = calib::calibrate(&folder, &settings(), |_| Control::Continue).unwrap();
+    let from_pcd = calib::calibrate(&folder, P2P, &settings(), |_| Control::Continue).unwrap();
     for file in ["calib_zstd.mcap", "calib_bz2.bag", "livox.mcap", "livox.bag"] {
         let mut rec = open(file);
         let topics = ["/front_left/points", "/front_right/points"].map(|t| rec.topic(t).unwrap());
@@ -197,7 +195,7 @@ fn recording_calibrates_as_pcd_folders() {
         let mut nominal = nominals(&tree, "base_link", &frames).unwrap();
         nominal.dedup_by(|a, b| a.0 == b.0);
         let rig = Rig { scans, nominal, roi: config.roi, reference: None };
-        let from_bag = calib::calibrate(&rig, &settings(), |_| Control::Continue).unwrap();
+        let from_bag = calib::calibrate(&rig, P2P, &settings(), |_| Control::Continue).unwrap();
         for (a, b) in from_pcd.sensors.iter().zip(&from_bag.sensors) {
             let d = a.extrinsic.inverse() * b.extrinsic;
             assert!(

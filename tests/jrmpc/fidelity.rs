@@ -55,7 +55,8 @@ fn holds_the_rule(
     let mut pairs = Vec::new();
     for (rig_name, rig) in rigs() {
         let run = |settings: &Settings| {
-            calib::calibrate(&rig, settings, |_| Control::Continue).expect("calibration")
+            calib::calibrate(&rig, calib::Method::Gmm, settings, |_| Control::Continue)
+                .expect("calibration")
         };
         let (a, b) = (run(exact), run(approximate));
         assert_eq!(

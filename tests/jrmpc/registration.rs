@@ -191,7 +191,6 @@ fn fast_estep_calibrates_as_the_dense_one() {
         let synthetic = generate(&spec);
         let rig = common::rig_of(&synthetic);
         let mut settings = calib::Settings {
-            method: Method::Jrmpc,
             components,
             initial_sigma: if prior_size {
                 InitialSigma::TargetSize
@@ -204,9 +203,10 @@ fn fast_estep_calibrates_as_the_dense_one() {
         if !converge {
             settings.jrmpc.tolerance = 0.0;
         }
-        let fast = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
+        let fast = calib::calibrate(&rig, Method::Jrmpc, &settings, |_| Control::Continue).unwrap();
         settings.jrmpc.exact = true;
-        let dense = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
+        let dense =
+            calib::calibrate(&rig, Method::Jrmpc, &settings, |_| Control::Continue).unwrap();
         assert!(
             fast.iterations.abs_diff(dense.iterations) <= 1,
             "rig {n}: {} iterations fast, {} dense",

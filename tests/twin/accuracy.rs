@@ -20,8 +20,8 @@ fn deg_m(d: &Pose) -> (f64, f64) {
 fn trial(frames: usize, seed: u64, start: u64, settings: &calib::Settings) -> Vec<SensorError> {
     let draw = Miscalibration { seed: Some(seed * 1000 + start), ..Miscalibration::default() };
     let twin = Twin::new(&Model::RayCast(Preset::paper()), frames, seed, &draw);
-    let result =
-        calib::calibrate(&twin.rig(), settings, |_| Control::Continue).expect("calibration");
+    let result = calib::calibrate(&twin.rig(), calib::Method::Gmm, settings, |_| Control::Continue)
+        .expect("calibration");
     eval::sensor_errors(&twin, &result).into_iter().map(|e| e.expect("a result")).collect()
 }
 
@@ -126,13 +126,8 @@ fn levelling_puts_each_ground_on_the_reference_ground() {
     // Pitch and roll errors large enough to move the ground 10 m ahead by half a metre.
     let error = gmmcalib::se3::pose_from_xyz_rpy([0.05, -0.08, 0.1], [0.04, -0.05, 0.03]);
     let (rig, nominal) = rig_with_error(2, 7, error);
-    let settings = calib::Settings {
-        method: Method::Jrmpc,
-        level_ground: Some(true),
-        bev: None,
-        ..Default::default()
-    };
-    let result = calib::calibrate(&rig, &settings, |_| Control::Continue).unwrap();
+    let settings = calib::Settings { level_ground: Some(true), bev: None, ..Default::default() };
+    let result = calib::calibrate(&rig, Method::Jrmpc, &settings, |_| Control::Continue).unwrap();
     let [reference, other] = &result.levelling[..] else { panic!("{:?}", result.levelling) };
     assert_eq!(reference.motion, Pose::identity());
     let ground = reference.ground.expect("reference ground");
@@ -157,7 +152,7 @@ fn bev_search_catches_a_yaw_beyond_jrmpc_reach() {
     // The local search on its own: with the global stage (gmm's default) the yaw is gone
     // before the bird's-eye search starts.
     let local = calib::Settings { align_globally: Some(false), ..Default::default() };
-    let result = calib::calibrate(&rig, &local, |_| Control::Continue).unwrap();
+    let result = calib::calibrate(&rig, calib::Method::Gmm, &local, |_| Control::Continue).unwrap();
     let bev = result.levelling[1].bev.expect("a bird's-eye alignment");
     println!("bev: {:.2} deg, shift {:?}", bev.yaw.to_degrees(), bev.shift);
     assert!((bev.yaw + 0.14).abs() < 1f64.to_radians(), "{bev:?}");

@@ -44,6 +44,7 @@ pub fn run(a: &StudyArgs) -> Result<(), String> {
             }
         }
     }
+    let method = a.method.parse::<Method>().map_err(|e| e.to_string())?;
     let mut settings = settings(a)?;
     // The scene's own target unless the flag names another.
     if a.target.is_none() {
@@ -66,7 +67,7 @@ pub fn run(a: &StudyArgs) -> Result<(), String> {
                 seed: Some(seed * 1000 + start),
             };
             // A calibration that fails is a finding of the study, not the end of it.
-            Ok(trial(&model, a.frames, seed, &draw, &settings, a.notes, a.jitter))
+            Ok(trial(&model, a.frames, seed, &draw, (method, &settings), a.notes, a.jitter))
         },
     )?;
     let mut done = Vec::new();
@@ -95,10 +96,7 @@ pub fn run(a: &StudyArgs) -> Result<(), String> {
 
 /// The settings the flags make.
 fn settings(a: &StudyArgs) -> Result<Settings, String> {
-    let mut settings = Settings {
-        method: a.method.parse::<Method>().map_err(|e| e.to_string())?,
-        ..Default::default()
-    };
+    let mut settings = Settings::default();
     if let Some(k) = a.components {
         settings.components = k;
     }
@@ -125,13 +123,14 @@ fn settings(a: &StudyArgs) -> Result<Settings, String> {
     Ok(settings)
 }
 
-/// One trial: `frames` scans of `model` from `seed`, nominals drawn by `draw`, calibrated.
+/// One trial: `frames` scans of `model` from `seed`, nominals drawn by `draw`, calibrated by
+/// `method` under `settings`.
 fn trial(
     model: &Model,
     frames: usize,
     seed: u64,
     draw: &Miscalibration,
-    settings: &Settings,
+    (method, settings): (Method, &Settings),
     notes: bool,
     jitter_ulps: u32,
 ) -> Result<Trial, String> {
@@ -141,7 +140,7 @@ fn trial(
         eval::jitter(&mut rig, jitter_ulps, twin::derive_seed(draw.seed.unwrap_or(seed), 1));
     }
     let clock = Instant::now();
-    let result = gmmcalib::calib::calibrate(&rig, settings, |_| Control::Continue)
+    let result = gmmcalib::calib::calibrate(&rig, method, settings, |_| Control::Continue)
         .map_err(|e| format!("seed {seed}: {e}"))?;
     let micros = clock.elapsed().as_micros();
     let errors = eval::sensor_errors(&twin, &result)

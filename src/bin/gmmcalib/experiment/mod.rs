@@ -86,9 +86,8 @@ fn run_trial(a: &ExperimentArgs, methods: &[Method], index: usize) -> Result<Tri
     let rig = files.rig();
     let mut runs = Vec::new();
     for (m, method) in methods.iter().enumerate() {
-        let settings = Settings { method: *method, ..Settings::default() };
         let started = Instant::now();
-        let result = calib::calibrate(&rig, &settings, |_| Control::Continue);
+        let result = calib::calibrate(&rig, *method, &Settings::default(), |_| Control::Continue);
         let seconds = started.elapsed().as_secs_f64();
         for (s, folder) in files.folders.iter().enumerate().skip(1) {
             let outcome = match &result {

@@ -1,4 +1,5 @@
-//! LZF (Marc Lehmann's liblzf format), the compression inside PCD `binary_compressed`.
+//! LZF (Marc Lehmann's liblzf format), the compression inside PCD `binary_compressed`: a
+//! codec below both `io` (which decompresses) and `export` (which compresses).
 //!
 //! A stream is a sequence of runs, each introduced by a control byte `c`:
 //! - `c < 32`: a literal run; the next `c + 1` bytes are copied to the output.
