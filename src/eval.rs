@@ -259,6 +259,25 @@ pub fn precision_rms<'a>(
     (claimed.len(), axes)
 }
 
+/// How often the one-sigma precision claimed covers the error: per axis (as in
+/// [`precision_rms`]) the share of the errors that carry a claim whose error is within it; and
+/// how many carry one. An honest one-sigma covers about 68 % of normal errors.
+pub fn precision_coverage<'a>(
+    errors: impl IntoIterator<Item = &'a SensorError>,
+) -> (usize, [f64; 6]) {
+    let claimed: Vec<(&SensorError, Precision)> =
+        errors.into_iter().filter_map(|e| Some((e, e.precision?))).collect();
+    let n = claimed.len().max(1) as f64;
+    let axes = std::array::from_fn(|i| {
+        let within = |(e, p): &&(&SensorError, Precision)| match i {
+            0..3 => e.rotation[i].abs() <= p.rotation[i],
+            _ => e.position[i - 3].abs() <= p.position[i - 3],
+        };
+        claimed.iter().filter(within).count() as f64 / n
+    });
+    (claimed.len(), axes)
+}
+
 /// Summary statistics of a sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stats {
@@ -325,6 +344,26 @@ pub fn jitter(rig: &mut Rig, ulps: u32, seed: u64) {
 mod tests {
     use super::*;
     use crate::se3::pose_from_xyz_rpy;
+
+    /// Coverage counts, per axis, the errors within their own claim; errors without a claim
+    /// are left out.
+    #[test]
+    fn coverage_counts_the_errors_within_their_claim() {
+        let error = |rotation: [f64; 3], position: [f64; 3], claim: Option<f64>| SensorError {
+            error: Pose::identity(),
+            rotation: rotation.into(),
+            position: position.into(),
+            precision: claim.map(|c| Precision { rotation: [c; 3], position: [c; 3] }),
+        };
+        let errors = [
+            error([0.5, 2.0, 0.0], [0.1, 1.5, -3.0], Some(1.0)),
+            error([-1.5, 0.2, 0.9], [-0.1, 0.5, 1.0], Some(1.0)),
+            error([9.0; 3], [9.0; 3], None),
+        ];
+        let (claimed, axes) = precision_coverage(&errors);
+        assert_eq!(claimed, 2);
+        assert_eq!(axes, [0.5, 0.5, 1.0, 1.0, 0.5, 0.5]);
+    }
 
     /// Each non-zero coordinate moves by exactly `ulps` ulps, up or down; zero stays; the same
     /// seed moves them the same way.

@@ -37,18 +37,19 @@ pub(super) struct SensorInputs<'a> {
     pub neighbour: Option<(String, f64)>,
 }
 
-/// Judges one sensor.
-pub(super) fn judge_sensor(inputs: SensorInputs, others: &[&SensorResult]) -> SensorVerdict {
+/// Judges one sensor among `others`, each with the share of this sensor's points beside its
+/// surfaces at the result.
+pub(super) fn judge_sensor(inputs: SensorInputs, others: &[(&SensorResult, f64)]) -> SensorVerdict {
     let mut reasons = Vec::new();
     let mut say = |level: Level, kind: ReasonKind| reasons.push(Reason { level, kind });
     let result = inputs.result;
     if let Some(other) = inputs.same_scans {
         say(Level::Failed, ReasonKind::SameScans { other });
     }
-    for other in others {
+    for &(other, shared) in others {
         let d = other.extrinsic.inverse() * result.extrinsic;
         let (angle, distance) = (d.rotation.angle(), d.translation.vector.norm());
-        if distance < SAME_PLACE.0 && angle < SAME_PLACE.1 {
+        if distance < SAME_PLACE.0 && angle < SAME_PLACE.1 && shared >= SAME_VIEW {
             let other = other.name.clone();
             say(Level::Failed, ReasonKind::SamePlace { other, angle, distance });
         }

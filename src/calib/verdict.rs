@@ -53,8 +53,14 @@ pub const AMBIGUOUS: f64 = 0.95;
 /// A global overlay scoring at least this share supports a result far from the nominal
 /// (OpenCalib's side LiDARs: 0.86-0.93).
 pub const SUPPORTED_OVERLAY: f64 = 0.5;
-/// Two sensors closer than this (m) and turned less than this (rad) are one sensor.
+/// Two sensors closer than this (m) and turned less than this (rad) are one sensor, when they
+/// see one view (`SAME_VIEW`).
 pub const SAME_PLACE: (f64, f64) = (0.01, 0.1 * std::f64::consts::PI / 180.0);
+/// The share of a sensor's points beside another's surfaces from which two sensors at one
+/// place see one view: one sensor given twice, or its frames taken for sensors. Units whose
+/// driver gives their clouds in one frame (a Livox Mid-100's three) share a place and look
+/// different ways, overlapping in a strip.
+pub const SAME_VIEW: f64 = 0.5;
 /// A fitted target whose size is off by more than this share, or whose RMS exceeds this share
 /// of its size, fits badly.
 pub const TARGET_SIZE_OFF: f64 = 0.2;

@@ -193,6 +193,17 @@ fn report(jobs: &[(u64, u64)], trials: &[Trial], poses: bool) {
     for line in precision_check(&errors) {
         println!("{line}");
     }
+    // Coverage over the results a user would take (not `failed`): the wrong ones fail.
+    let taken: Vec<&SensorError> =
+        (trials.iter().filter(|t| t.verdict != Level::Failed)).flat_map(|t| &t.errors).collect();
+    let (claimed, shares) = eval::precision_coverage(taken.iter().copied());
+    let percent = |s: &[f64]| s.iter().map(|v| format!("{:.0}", v * 1e2)).collect::<Vec<_>>();
+    println!(
+        "one-sigma coverage over the {claimed} results not failed (honest: about 68 %): \
+         rotation x y z {} %, position x y z {} %",
+        percent(&shares[..3]).join(" "),
+        percent(&shares[3..]).join(" ")
+    );
     // Per error: |roll, pitch, yaw| (deg) and |x, y, z| (mm).
     let axes: Vec<[f64; 6]> = errors
         .iter()

@@ -93,7 +93,10 @@ pub(super) fn judge(
             let pairs = &frame_pairs[s];
             sensor_evidence(name, pairs, clouds, &surfaces, &before, &after, ground.as_ref())
         });
-        let others: Vec<&SensorResult> = results.iter().filter(|o| o.name != *name).collect();
+        let others: Vec<(&SensorResult, f64)> = (results.iter().enumerate())
+            .filter(|(_, o)| o.name != *name)
+            .map(|(o, other)| (other, scenes.overlap_with(s, o, &placed)))
+            .collect();
         let level = views.levelling.get(s);
         let mut v = judge::judge_sensor(
             SensorInputs {

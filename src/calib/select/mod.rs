@@ -20,7 +20,12 @@
 //!    first: when the scans cannot tell two placements apart, the user's guess stands; else the
 //!    best's family;
 //! 4. within the family, the latest stage: a refinement the scans cannot tell from its start is
-//!    still the better-founded estimate.
+//!    still the better-founded estimate. In the nominal's family, though, only a move from the
+//!    nominal that the scans support: one closer than the score resolves, or one that lands
+//!    better on the structure the sensor shares with the others at both places
+//!    ([`Scenes::score_shared`]). A move that only brings more of the scans into overlap (a
+//!    slide along a corridor's walls, where solid-state units see little else) is no evidence
+//!    against the user's guess: the nominal stands.
 //!
 //! So a result never scores worse than its nominal, and when nothing beats the nominal the
 //! nominal is the answer.
@@ -69,6 +74,9 @@ pub struct SelectSettings {
     /// The farthest (m) a hypothesis may move a sensor from its nominal position: what a tape
     /// measure or a drawing gets wrong at worst (±1 m per axis is 1.7 m).
     pub position_tolerance: f64,
+    /// Two placements are compared on the structure both share when that is at least this
+    /// share of the larger one's overlap; else on the whole scans.
+    pub shared_overlap: f64,
 }
 
 impl Default for SelectSettings {
@@ -87,6 +95,8 @@ impl Default for SelectSettings {
             // One-sided 97.7 %: a convention, not a value fitted to any rig.
             z: 2.0,
             position_tolerance: 2.0,
+            // Most of what either end overlaps: a convention, as `z`.
+            shared_overlap: 0.5,
         }
     }
 }
@@ -199,9 +209,15 @@ impl SensorSelection {
     }
 }
 
-/// The hypothesis the rule picks (see the module's doc); `hypotheses[0]` is the nominal, and
-/// `same(a, b)` says two hypotheses are one placement to the score.
-pub fn choose(hypotheses: &[Hypothesis], z: f64, same: impl Fn(usize, usize) -> bool) -> usize {
+/// The hypothesis the rule picks (see the module's doc); `hypotheses[0]` is the nominal,
+/// `same(a, b)` says two hypotheses are one placement to the score, and `better(h, 0)` that `h`
+/// lands better than the nominal on what both placements see.
+pub fn choose(
+    hypotheses: &[Hypothesis],
+    z: f64,
+    same: impl Fn(usize, usize) -> bool,
+    better: impl Fn(usize, usize) -> bool,
+) -> usize {
     let Some(nominal) = hypotheses.first() else { return 0 };
     let value = |h: usize| hypotheses[h].score.value();
     let allowed = |h: &usize| *h == 0 || hypotheses[*h].plausible;
@@ -218,14 +234,19 @@ pub fn choose(hypotheses: &[Hypothesis], z: f64, same: impl Fn(usize, usize) -> 
         .collect();
     let family =
         if tied.iter().any(|&h| root(hypotheses, h) == 0) { 0 } else { root(hypotheses, best) };
-    tied.into_iter()
-        .filter(|&h| root(hypotheses, h) == family)
-        .max_by(|&a, &b| {
-            let key = |h: usize| (hypotheses[h].source, value(h));
-            let ((sa, va), (sb, vb)) = (key(a), key(b));
-            sa.cmp(&sb).then(va.total_cmp(&vb)).then(b.cmp(&a))
-        })
-        .unwrap_or(0)
+    // The nominal's family: a move the score resolves must land better on what both places
+    // see. A global candidate is a point of the search's grid, no guess of the user's: its
+    // refinement needs no more than to tie it.
+    let supported = |h: usize| family != 0 || h == 0 || same(0, h) || better(h, 0);
+    let mut members: Vec<usize> =
+        tied.into_iter().filter(|&h| root(hypotheses, h) == family).collect();
+    members.sort_by(|&a, &b| {
+        let key = |h: usize| (hypotheses[h].source, value(h));
+        let ((sa, va), (sb, vb)) = (key(a), key(b));
+        sb.cmp(&sa).then(vb.total_cmp(&va)).then(a.cmp(&b))
+    });
+    let root_stands = allowed(&family) && value(family) >= nominal.score.value();
+    members.into_iter().find(|&h| supported(h)).unwrap_or(if root_stands { family } else { 0 })
 }
 
 /// Chooses each non-reference sensor's hypothesis by [`choose`], each scored on `scenes`
@@ -265,7 +286,24 @@ pub(crate) fn choose_all(
             let at: Vec<Pose> = hypotheses[s].iter().map(|h| h.correction * nominals[s]).collect();
             let resolution = scenes.resolution(s);
             let same = |a: usize, b: usize| scenes.apart(s, &at[a], &at[b]) <= resolution;
-            chosen[s] = choose(&hypotheses[s], settings.z, same);
+            let placed = |h: usize| {
+                let mut all = poses.clone();
+                all[s] = at[h];
+                all
+            };
+            let own = &hypotheses[s];
+            let better = |h: usize, other: usize| {
+                let [mine, theirs] = scenes.score_shared(s, &placed(h), &placed(other));
+                let overlap = |x: &SensorScore| x.overlapping.iter().sum::<f64>();
+                let larger = overlap(&own[h].score).max(overlap(&own[other].score));
+                // Placements that share little of what each sees: the whole scans judge them.
+                if mine.total.iter().sum::<f64>() >= settings.shared_overlap * larger {
+                    mine.beats(&theirs, settings.z)
+                } else {
+                    own[h].score.beats(&own[other].score, settings.z)
+                }
+            };
+            chosen[s] = choose(own, settings.z, same, better);
             for (h, pose) in hypotheses[s].iter_mut().zip(&at) {
                 h.apart = scenes.apart(s, pose, &at[chosen[s]]);
             }
@@ -324,6 +362,11 @@ mod tests {
         }
     }
 
+    /// A move judged on the hypotheses' own scores.
+    fn beats(h: &[Hypothesis]) -> impl Fn(usize, usize) -> bool + '_ {
+        |child, parent| h[child].score.beats(&h[parent].score, 2.0)
+    }
+
     /// Blocks scoring `level` each, with block-to-block variation whose pattern `seed` sets.
     fn blocks(level: f64, seed: usize) -> Vec<f64> {
         (0..20).map(|b| level + 0.05 * ((b * 7 + seed * 3) % 5) as f64).collect()
@@ -340,11 +383,11 @@ mod tests {
         ];
         // The refinement ties the global candidate and is later; the plane adjustment scores
         // below the nominal.
-        assert_eq!(choose(&h, 2.0, |_, _| false), 3);
+        assert_eq!(choose(&h, 2.0, |_, _| false, beats(&h)), 3);
         // Out of the position tolerance, the refinement gives way to the rest.
         let mut far = h.to_vec();
         far[3].plausible = false;
-        assert_eq!(choose(&far, 2.0, |_, _| false), 1);
+        assert_eq!(choose(&far, 2.0, |_, _| false, beats(&far)), 1);
     }
 
     #[test]
@@ -354,11 +397,18 @@ mod tests {
             hypothesis(Source::Global { rank: 0 }, None, &blocks(2.005, 7)),
             hypothesis(Source::Refined, Some(1), &blocks(2.006, 8)),
         ];
-        assert_eq!(choose(&h, 2.0, |_, _| false), 0);
-        // A refinement of the nominal that ties is taken over the nominal itself.
+        assert_eq!(choose(&h, 2.0, |_, _| false, beats(&h)), 0);
+        // A refinement of the nominal that ties is taken over the nominal itself where the
+        // score cannot tell the two places apart; a move beyond that which lands no better
+        // on what both see (here: the whole scans) leaves the nominal standing.
         let mut with = h.to_vec();
         with.push(hypothesis(Source::RefinedFromNominal, Some(0), &blocks(2.004, 9)));
-        assert_eq!(choose(&with, 2.0, |_, _| false), 3);
+        let close = |a: usize, b: usize| a.min(b) == 0 && a.max(b) == 3;
+        assert_eq!(choose(&with, 2.0, close, beats(&with)), 3);
+        assert_eq!(choose(&with, 2.0, |_, _| false, beats(&with)), 0);
+        // A move that lands better is taken.
+        with[3] = hypothesis(Source::RefinedFromNominal, Some(0), &blocks(2.5, 9));
+        assert_eq!(choose(&with, 2.0, |_, _| false, beats(&with)), 3);
     }
 
     #[test]
@@ -368,7 +418,7 @@ mod tests {
             hypothesis(Source::Global { rank: 0 }, None, &blocks(3.0, 11)),
             hypothesis(Source::Global { rank: 1 }, None, &blocks(2.99, 12)),
         ];
-        let chosen = choose(&h, 2.0, |_, _| false);
+        let chosen = choose(&h, 2.0, |_, _| false, beats(&h));
         assert_eq!(chosen, 1);
         let selection = SensorSelection {
             sensor: "s".into(),

@@ -261,7 +261,40 @@ impl Scenes {
     /// brings into overlap (a slide along the ground brings more: the `sideways` twin's two
     /// flank sensors 2.5 m along it).
     pub fn score_with(&self, s: usize, o: usize, at: &[Pose], moved: &[Pose]) -> [SensorScore; 2] {
+        self.score_shared_over(s, &[o], at, moved)
+    }
+
+    /// [`Scenes::score_with`] against every other sensor: sensor `s` at two placements, judged
+    /// on the structure it shares with the others at both.
+    pub fn score_shared(&self, s: usize, at: &[Pose], moved: &[Pose]) -> [SensorScore; 2] {
+        let others: Vec<usize> = (0..self.surfaces.len()).filter(|&o| o != s).collect();
+        self.score_shared_over(s, &others, at, moved)
+    }
+
+    fn score_shared_over(
+        &self,
+        s: usize,
+        others: &[usize],
+        at: &[Pose],
+        moved: &[Pose],
+    ) -> [SensorScore; 2] {
         let mut scores = [SensorScore::default(), SensorScore::default()];
+        for &o in others {
+            self.add_shared(s, o, at, moved, &mut scores);
+        }
+        scores
+    }
+
+    /// Sensor `s` against sensor `o` at `at` and at `moved`, the points beside a surface of
+    /// the other at both, added to `scores`.
+    fn add_shared(
+        &self,
+        s: usize,
+        o: usize,
+        at: &[Pose],
+        moved: &[Pose],
+        scores: &mut [SensorScore; 2],
+    ) {
         let t = |poses: &[Pose]| poses[o].inverse() * poses[s];
         let (t_at, t_moved) = (t(at), t(moved));
         for (mine, other) in self.shared_frames(s, o) {
@@ -271,7 +304,7 @@ impl Scenes {
             ];
             for (source, target, ts) in both {
                 let block = scores[0].blocks.len();
-                for score in &mut scores {
+                for score in scores.iter_mut() {
                     score.blocks.resize(block + source.block_count, [0.0; 2]);
                 }
                 for k in 0..source.samples.len() {
@@ -287,7 +320,6 @@ impl Scenes {
                 }
             }
         }
-        scores
     }
 
     /// Sensor `s`'s and sensor `o`'s surfaces of each frame both scored, in `s`'s order.
