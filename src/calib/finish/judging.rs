@@ -93,9 +93,13 @@ pub(super) fn judge(
             let pairs = &frame_pairs[s];
             sensor_evidence(name, pairs, clouds, &surfaces, &before, &after, ground.as_ref())
         });
-        let others: Vec<(&SensorResult, f64)> = (results.iter().enumerate())
-            .filter(|(_, o)| o.name != *name)
-            .map(|(o, other)| (other, scenes.overlap_with(s, o, &placed)))
+        // The share of this sensor's points beside each other sensor's surfaces.
+        let shares: Vec<f64> = (0..results.len())
+            .map(|o| if o == s { 0.0 } else { scenes.overlap_with(s, o, &placed) })
+            .collect();
+        let others: Vec<(&SensorResult, f64)> = (results.iter().zip(&shares).enumerate())
+            .filter(|&(o, _)| o != s)
+            .map(|(_, (other, &share))| (other, share))
             .collect();
         let level = views.levelling.get(s);
         let mut v = judge::judge_sensor(
@@ -127,7 +131,7 @@ pub(super) fn judge(
                     .then(|| {
                         (0..results.len())
                             .filter(|&o| o != s && o != r)
-                            .map(|o| (o, scenes.overlap_with(s, o, &placed)))
+                            .map(|o| (o, shares[o]))
                             .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
                     })
                     .flatten()

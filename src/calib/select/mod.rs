@@ -245,8 +245,9 @@ pub fn choose(
         let ((sa, va), (sb, vb)) = (key(a), key(b));
         sb.cmp(&sa).then(vb.total_cmp(&va)).then(a.cmp(&b))
     });
-    let root_stands = allowed(&family) && value(family) >= nominal.score.value();
-    members.into_iter().find(|&h| supported(h)).unwrap_or(if root_stands { family } else { 0 })
+    // Another family always holds its best; in the nominal's, nothing supported leaves the
+    // nominal.
+    members.into_iter().find(|&h| supported(h)).unwrap_or(0)
 }
 
 /// Chooses each non-reference sensor's hypothesis by [`choose`], each scored on `scenes`
