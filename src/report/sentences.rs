@@ -192,7 +192,8 @@ impl fmt::Display for ReasonKind {
             ),
             ReasonKind::Observability { free, weak, spread } => {
                 let sigma = format!(
-                    "one sigma: roll, pitch, yaw {:.3} {:.3} {:.3} deg; x, y, z {:.1} {:.1} {:.1} mm",
+                    "the structure alone, one sigma at the overlap's centre: roll, pitch, yaw \
+                     {:.3} {:.3} {:.3} deg; x, y, z {:.1} {:.1} {:.1} mm",
                     deg(spread.rotation[0]),
                     deg(spread.rotation[1]),
                     deg(spread.rotation[2]),
