@@ -154,7 +154,10 @@ fn judge_evidence(
     say: &mut impl FnMut(Level, ReasonKind),
 ) {
     let a: &Agreement = &e.after;
-    if a.overlap() < MIN_OVERLAP {
+    // Nothing to stand on: neither a share of the scan nor points enough to judge. A unit that
+    // overlaps its reference in a strip (a Mid-100's, a few degrees) shares little of its scan
+    // by design; enough points in that strip are judged like any overlap.
+    if a.overlap() < MIN_OVERLAP && a.overlapping < MIN_OVERLAPPING {
         // A neighbour whose overlap would have passed names the reference to choose.
         let neighbour = neighbour.filter(|(_, share)| *share >= MIN_OVERLAP);
         let (overlap, overlapping) = (a.overlap(), a.overlapping);
@@ -292,5 +295,61 @@ pub(super) fn compare_methods(calibrations: &mut [&mut Calibration]) {
         }
         let kind = ReasonKind::Methods { agree, differ };
         c.verdict.reasons.push(Reason { level: Level::Good, kind });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::evidence::Observability;
+
+    /// Evidence on a sensor: `overlapping` of `points` beside the reference's surfaces, 80 %
+    /// of them agreeing, every direction pinned to 0.01 deg / 1 mm.
+    fn evidence(points: usize, overlapping: usize) -> SensorEvidence {
+        let agreeing = overlapping * 4 / 5;
+        let after = Agreement {
+            points,
+            overlapping,
+            agreeing,
+            structure: [points, overlapping, agreeing],
+            radius: 0.3,
+            tolerance: 0.03,
+        };
+        let pinned = Observability { rotation: [1e-4; 3], translation: [1e-3; 3] };
+        SensorEvidence {
+            sensor: "unit".into(),
+            before: after,
+            after,
+            observability: pinned,
+            frame_observability: pinned,
+            noise: 0.01,
+        }
+    }
+
+    /// The reasons said, each as its level and whether it is `NothingOverlaps`, `FewPoints`.
+    fn levels(e: &SensorEvidence) -> Vec<(Level, &'static str)> {
+        let mut said = Vec::new();
+        judge_evidence(e, None, &mut |level, kind| {
+            let name = match kind {
+                ReasonKind::NothingOverlaps { .. } => "nothing",
+                ReasonKind::FewPoints { .. } => "few",
+                _ => "other",
+            };
+            said.push((level, name));
+        });
+        said
+    }
+
+    #[test]
+    fn a_strip_of_overlap_with_points_enough_is_judged_not_failed() {
+        // 4 % of the scan, 800 points: a narrow unit's strip, agreeing.
+        let strip = levels(&evidence(20_000, 800));
+        assert!(strip.iter().all(|(level, _)| *level == Level::Good), "{strip:?}");
+        // 4 % and 100 points: nothing to stand on.
+        let none = levels(&evidence(2_500, 100));
+        assert_eq!(none, vec![(Level::Failed, "nothing")]);
+        // A quarter of the scan but 100 points: too few to judge.
+        let few = levels(&evidence(400, 100));
+        assert_eq!(few, vec![(Level::Check, "few")]);
     }
 }

@@ -20,8 +20,10 @@ pub const USABLE_WITHIN: (f64, f64) = (1.0 * std::f64::consts::PI / 180.0, 0.1);
 /// Fewest ground patches seen by two sensors to judge their grounds by.
 pub const MIN_GROUND_PATCHES: usize = 3;
 
-/// Below this share of a sensor's compared points overlapping the reference's surfaces, the
-/// result has nothing to stand on (the twin: 0.28 or more; OpenCalib's raw guess: 0.00).
+/// Below this share of a sensor's compared points overlapping the reference's surfaces, and
+/// with fewer than [`MIN_OVERLAPPING`] of them, the result has nothing to stand on (the twin:
+/// 0.28 or more; OpenCalib's raw guess: 0.00; a Mid-100's units, overlapping in a strip: 0.05
+/// and a thousand points).
 pub const MIN_OVERLAP: f64 = 0.05;
 /// Fewest overlapping points to judge agreement by.
 pub const MIN_OVERLAPPING: usize = 200;
