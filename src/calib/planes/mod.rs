@@ -16,8 +16,8 @@
 //!
 //! Planes are per frame, so a target that moves between frames costs nothing (for a static
 //! scene the relative pose is as well determined: each plane compares the sensors' samples of
-//! it). A motion beyond `max_departure` is trusted only where it stands out of its own
-//! uncertainty (`significance`); else the refinement stays.
+//! it). The motion is a hypothesis like any stage's: the selection takes it or keeps the
+//! refinement (`calib::select`), by how the scans land, not by how far it moved.
 
 mod detect;
 mod solve;
@@ -58,17 +58,6 @@ pub struct PlaneSettings {
     pub robust_scale: f64,
     /// Gauss-Newton iterations (at most).
     pub iterations: usize,
-    /// A sensor motion beyond this (rad, m) is taken only when it is `significance` standard
-    /// errors of its own or more on some axis; else the refinement stays.
-    pub max_departure: (f64, f64),
-    /// Beyond `max_departure`, a motion that exceeds this many of its own standard errors
-    /// (the adjustment's covariance) on some axis, the rotation about a vehicle axis or the
-    /// sensor's position along one, is what the planes pin and the frame pairs missed (the
-    /// Hesai rig's PandarQT units: 4.0-17.7); a motion within a few is the noise of a weakly
-    /// held solve (the Livox units beside their reference in a strip: 0.9-1.5). Three: a chance
-    /// excess on one of six axes is then about 1.6 %. The motion taken is a hypothesis: the
-    /// selection still weighs it against the refinement.
-    pub significance: f64,
     /// Edge (m) of the patches of a plane whose residuals the precision takes as one: what
     /// the plane model misses is shared by neighbouring points.
     pub patch: f64,
@@ -90,8 +79,6 @@ impl Default for PlaneSettings {
             max_planes_per_cluster: 5,
             robust_scale: 0.03,
             iterations: 10,
-            max_departure: (0.2f64.to_radians(), 0.02),
-            significance: 3.0,
             patch: 1.0,
             seed: 0,
         }
@@ -103,11 +90,11 @@ impl Default for PlaneSettings {
 pub struct SensorAdjustment {
     /// Sensor index.
     pub sensor: usize,
-    /// The motion found, applied on the left of every frame's correction when accepted.
+    /// The motion found, applied on the left of every frame's correction (none without
+    /// points).
     pub motion: Pose,
     /// Points of this sensor used (all frames).
     pub points: usize,
-    pub accepted: bool,
     /// What the points allow: the spread of the motion's estimate.
     pub precision: Option<Precision>,
 }
@@ -210,38 +197,24 @@ pub fn adjust(
     for s in (0..sensors).filter(|&s| s != reference && means[s].is_some()) {
         let points = observations.iter().filter(|o| o.sensor == s).count();
         let motion = solution.motions[s];
-        let before = means[s].unwrap_or_else(Pose::identity) * Point3::from(origins[s]);
-        let origin = motion * before;
+        let origin = motion * means[s].unwrap_or_else(Pose::identity) * Point3::from(origins[s]);
         let precision = solution.precision(s, &origin.coords);
-        let (angle, shift) = (motion.rotation.angle(), motion.translation.vector.norm());
-        let within = angle <= settings.max_departure.0 && shift <= settings.max_departure.1;
-        let sigmas = precision.map_or(0.0, |p| {
-            let turn = motion.rotation.scaled_axis();
-            let moved = origin - before;
-            let z = |value: f64, sigma: f64| if sigma > 0.0 { value.abs() / sigma } else { 0.0 };
-            (0..3)
-                .map(|i| z(turn[i], p.rotation[i]).max(z(moved[i], p.position[i])))
-                .fold(0.0, f64::max)
-        });
-        let accepted = points > 0 && (within || sigmas >= settings.significance);
-        if accepted {
+        if points > 0 {
             corrections[s].iter_mut().for_each(|(_, c)| *c = motion * *c);
         }
-        outcomes.push(SensorAdjustment { sensor: s, motion, points, accepted, precision });
+        outcomes.push(SensorAdjustment { sensor: s, motion, points, precision });
     }
     outcomes
 }
 
 impl SensorAdjustment {
-    /// What to note on the sensor: the motion applied, or why the refinement stays.
-    pub fn note(&self, limit: (f64, f64)) -> NoteKind {
+    /// What to note on the sensor: the motion found, or that it had no points.
+    pub fn note(&self) -> NoteKind {
         let (angle, shift) = (self.motion.rotation.angle(), self.motion.translation.vector.norm());
-        if self.accepted {
-            NoteKind::PlanesApplied { angle, shift, points: self.points }
-        } else if self.points == 0 {
+        if self.points == 0 {
             NoteKind::PlanesWithoutPoints
         } else {
-            NoteKind::PlanesRejected { angle, shift, limit }
+            NoteKind::PlanesApplied { angle, shift, points: self.points }
         }
     }
 }
