@@ -29,7 +29,7 @@ pub enum NoteKind {
     /// the frame keeps JRMPC's correction.
     RefinementDeparted { angle: f64, distance: f64, limit: (f64, f64) },
     /// The plane adjustment moved every frame of the sensor by this much, from `points`
-    /// points on planes: a hypothesis the selection takes or leaves.
+    /// points on planes.
     PlanesApplied { angle: f64, shift: f64, points: usize },
     /// JRMPC's correction tilted the frame's up axis by `angle` (rad), beyond `limit`, against
     /// the ground levelling had fixed: left out, the refinement started from the levelled
@@ -37,6 +37,8 @@ pub enum NoteKind {
     StartTilted { angle: f64, limit: f64 },
     /// The plane adjustment found none of the sensor's points on planes; the refinement stays.
     PlanesWithoutPoints,
+    /// The plane adjustment's motion went beyond `limit`; the refinement stays.
+    PlanesRejected { angle: f64, shift: f64, limit: (f64, f64) },
 }
 
 /// Why a sensor was not levelled.

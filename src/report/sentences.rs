@@ -61,6 +61,12 @@ impl fmt::Display for NoteKind {
             NoteKind::PlanesWithoutPoints => {
                 f.write_str("plane adjustment: no points on planes; kept the refinement")
             }
+            NoteKind::PlanesRejected { angle, shift, .. } => write!(
+                f,
+                "plane adjustment moved {:.3} deg / {:.1} mm; kept the refinement",
+                angle.to_degrees(),
+                shift * 1e3
+            ),
         }
     }
 }
@@ -78,6 +84,7 @@ impl NoteKind {
             NoteKind::StartTilted { .. } => "startTilted",
             NoteKind::PlanesApplied { .. } => "planesApplied",
             NoteKind::PlanesWithoutPoints => "planesWithoutPoints",
+            NoteKind::PlanesRejected { .. } => "planesRejected",
         }
     }
 }

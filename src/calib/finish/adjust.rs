@@ -37,14 +37,14 @@ pub(super) fn adjust_chosen(
     );
     let mut planes_at = vec![None; n];
     for a in &adjustments {
-        if a.points > 0 {
+        if a.accepted {
             let s = a.sensor;
             let parent = hypotheses.chosen[s];
             let correction = a.motion * hypotheses.list[s][parent].correction;
             let hypothesis = Hypothesis::new(Source::Planes, correction, Some(parent));
             planes_at[s] = Some((hypotheses.push(s, hypothesis, adjusted[s].clone()), a.precision));
         }
-        let kind = a.note();
+        let kind = a.note(plane_settings.max_departure);
         notes.push(Note { sensor: views.sensors[a.sensor].clone(), frame: None, kind });
     }
     if planes_at.iter().any(Option::is_some) {

@@ -16,8 +16,7 @@
 //!
 //! Planes are per frame, so a target that moves between frames costs nothing (for a static
 //! scene the relative pose is as well determined: each plane compares the sensors' samples of
-//! it). The motion is a hypothesis like any stage's: the selection takes it or keeps the
-//! refinement (`calib::select`), by how the scans land, not by how far it moved.
+//! it). A motion beyond `max_departure` is not trusted and the refinement stays.
 
 mod detect;
 mod solve;
@@ -58,6 +57,8 @@ pub struct PlaneSettings {
     pub robust_scale: f64,
     /// Gauss-Newton iterations (at most).
     pub iterations: usize,
+    /// A sensor motion beyond this (rad, m) is rejected: the refinement stays.
+    pub max_departure: (f64, f64),
     /// Edge (m) of the patches of a plane whose residuals the precision takes as one: what
     /// the plane model misses is shared by neighbouring points.
     pub patch: f64,
@@ -79,6 +80,7 @@ impl Default for PlaneSettings {
             max_planes_per_cluster: 5,
             robust_scale: 0.03,
             iterations: 10,
+            max_departure: (0.2f64.to_radians(), 0.02),
             patch: 1.0,
             seed: 0,
         }
@@ -90,11 +92,11 @@ impl Default for PlaneSettings {
 pub struct SensorAdjustment {
     /// Sensor index.
     pub sensor: usize,
-    /// The motion found, applied on the left of every frame's correction (none without
-    /// points).
+    /// The motion found, applied on the left of every frame's correction when accepted.
     pub motion: Pose,
     /// Points of this sensor used (all frames).
     pub points: usize,
+    pub accepted: bool,
     /// What the points allow: the spread of the motion's estimate.
     pub precision: Option<Precision>,
 }
@@ -199,22 +201,27 @@ pub fn adjust(
         let motion = solution.motions[s];
         let origin = motion * means[s].unwrap_or_else(Pose::identity) * Point3::from(origins[s]);
         let precision = solution.precision(s, &origin.coords);
-        if points > 0 {
+        let (angle, shift) = (motion.rotation.angle(), motion.translation.vector.norm());
+        let accepted =
+            points > 0 && angle <= settings.max_departure.0 && shift <= settings.max_departure.1;
+        if accepted {
             corrections[s].iter_mut().for_each(|(_, c)| *c = motion * *c);
         }
-        outcomes.push(SensorAdjustment { sensor: s, motion, points, precision });
+        outcomes.push(SensorAdjustment { sensor: s, motion, points, accepted, precision });
     }
     outcomes
 }
 
 impl SensorAdjustment {
-    /// What to note on the sensor: the motion found, or that it had no points.
-    pub fn note(&self) -> NoteKind {
+    /// What to note on the sensor: the motion applied, or why the refinement stays.
+    pub fn note(&self, limit: (f64, f64)) -> NoteKind {
         let (angle, shift) = (self.motion.rotation.angle(), self.motion.translation.vector.norm());
-        if self.points == 0 {
+        if self.accepted {
+            NoteKind::PlanesApplied { angle, shift, points: self.points }
+        } else if self.points == 0 {
             NoteKind::PlanesWithoutPoints
         } else {
-            NoteKind::PlanesApplied { angle, shift, points: self.points }
+            NoteKind::PlanesRejected { angle, shift, limit }
         }
     }
 }

@@ -83,7 +83,7 @@ fn recovers_a_small_motion_between_two_sensors() {
         &PlaneSettings::default(),
     );
     assert_eq!(outcomes.len(), 1);
-    assert!(outcomes[0].points > 0, "{outcomes:?}");
+    assert!(outcomes[0].accepted, "{outcomes:?}");
     for (_, c) in &corrections[1] {
         let error = c.inverse() * truth;
         let (deg, m) = (error.rotation.angle().to_degrees(), error.translation.vector.norm());
@@ -119,11 +119,9 @@ fn finds_the_faces_of_a_cube_and_drops_its_edges() {
 }
 
 #[test]
-fn the_motion_is_applied_whatever_its_size_and_noted() {
-    // The selection, not a limit here, decides whether the adjustment stands: its motion goes
-    // on every frame's correction and the note says how far.
+fn a_motion_beyond_the_limit_is_rejected() {
     let cube = Vector3::new(10.0, 0.0, 0.25);
-    // 0.057 deg of yaw about the origin: 1 cm at the cube, beyond a limit of 0.03 deg.
+    // 0.057 deg of yaw about the origin: 1 cm at the cube.
     let truth = pose_from_xyz_rpy([0.0, 0.0, 0.0], [0.0, 0.0, 0.001]);
     let a = scene(cube, 0.5, 0.03, 0.0, 1);
     let b: Vec<Vector3<f64>> = scene(cube, 0.5, 0.03, 0.0, 2)
@@ -134,15 +132,13 @@ fn the_motion_is_applied_whatever_its_size_and_noted() {
     let refs: Vec<&[[f32; 3]]> = clouds.iter().map(|c| c.as_slice()).collect();
     let pairs = vec![vec![(0, 0)], vec![(0, 1)]];
     let mut corrections = vec![vec![((0, 0), Pose::identity())], vec![((0, 1), Pose::identity())]];
+    let settings =
+        PlaneSettings { max_departure: (0.03f64.to_radians(), 0.02), ..Default::default() };
     let ground = Plane { normal: Vector3::z(), offset: 0.0 };
-    let settings = PlaneSettings::default();
     let outcomes = adjust(&refs, &ORIGINS, &pairs, 0, &mut corrections, Some(ground), &settings);
+    assert!(!outcomes[0].accepted, "{outcomes:?}");
     assert!((outcomes[0].motion.rotation.angle() - 0.001).abs() < 1e-4, "{outcomes:?}");
-    assert_eq!(corrections[1][0].1, outcomes[0].motion);
-    let NoteKind::PlanesApplied { angle, .. } = outcomes[0].note() else {
-        panic!("{:?}", outcomes[0].note());
-    };
-    assert!((angle - 0.001).abs() < 1e-4);
+    assert_eq!(corrections[1][0].1, Pose::identity());
 }
 
 #[test]
