@@ -97,9 +97,9 @@ pub(super) fn judge(
         let shares: Vec<f64> = (0..results.len())
             .map(|o| if o == s { 0.0 } else { scenes.overlap_with(s, o, &placed) })
             .collect();
-        let others: Vec<(&SensorResult, f64)> = (results.iter().zip(&shares).enumerate())
+        let others: Vec<(&SensorResult, f64)> = (results.iter().enumerate())
             .filter(|&(o, _)| o != s)
-            .map(|(_, (other, &share))| (other, share))
+            .map(|(o, other)| (other, shares[o]))
             .collect();
         let level = views.levelling.get(s);
         let mut v = judge::judge_sensor(
