@@ -3,6 +3,8 @@
 
 use nalgebra::Vector3;
 
+use crate::se3::Pose;
+
 use super::super::Precision;
 use super::super::notes::Note;
 use super::super::planes;
@@ -25,16 +27,30 @@ pub(super) fn adjust_chosen(
     let origins: Vec<Vector3<f64>> =
         views.pre_aligned.iter().map(|p| p.translation.vector).collect();
     let ground = views.reference_ground().map(|(plane, _)| plane);
-    let mut adjusted = hypotheses.chosen_frames();
-    let adjustments = planes::adjust(
-        clouds,
-        &origins,
-        &views.pairs,
-        views.reference,
-        &mut adjusted,
-        ground,
-        plane_settings,
-    );
+    // Two windows for the ground, two hypotheses (see `PlaneSettings::ground_above`): the one
+    // that cuts what stands on a road, and the one that keeps a steep view's noise whole. The
+    // sensors' grounds, patch by patch, tell which the rig's returns call for.
+    let windows = [plane_settings.edge_distance, plane_settings.assign_distance];
+    let mut tried = windows.map(|ground_above| {
+        let settings = planes::PlaneSettings { ground_above, ..plane_settings.clone() };
+        let mut adjusted = hypotheses.chosen_frames();
+        let adjustments = planes::adjust(
+            clouds,
+            &origins,
+            &views.pairs,
+            views.reference,
+            &mut adjusted,
+            ground,
+            &settings,
+        );
+        let apart = grounds_apart(views, hypotheses, &adjustments);
+        (adjusted, adjustments, apart)
+    });
+    let keep = match (tried[0].2, tried[1].2) {
+        (Some(cut), Some(whole)) if whole < cut => 1,
+        _ => 0,
+    };
+    let (adjusted, adjustments, _) = std::mem::take(&mut tried[keep]);
     let mut planes_at = vec![None; n];
     for a in &adjustments {
         if a.accepted {
@@ -60,4 +76,31 @@ pub(super) fn adjust_chosen(
         }
     }
     (notes, precision)
+}
+
+/// How far the sensors' grounds lie apart once `adjustments` are applied to the chosen
+/// hypotheses: the root mean square of each non-reference sensor's height against the others,
+/// patch by patch (`Scenes::ground_agreement`); `None` where no two sensors share ground.
+fn grounds_apart(
+    views: &Views,
+    hypotheses: &Hypotheses,
+    adjustments: &[planes::SensorAdjustment],
+) -> Option<f64> {
+    let ground = views.ground?;
+    let mut placed: Vec<Pose> = (0..views.sensors.len())
+        .map(|s| {
+            let chosen = hypotheses.list[s].get(hypotheses.chosen[s]);
+            chosen.map_or_else(Pose::identity, |h| h.correction) * views.nominals[s]
+        })
+        .collect();
+    for a in adjustments.iter().filter(|a| a.accepted) {
+        placed[a.sensor] = a.motion * placed[a.sensor];
+    }
+    let heights: Vec<f64> = (0..placed.len())
+        .filter(|&s| s != views.reference)
+        .filter_map(|s| views.scenes.ground_agreement(s, &placed, &ground))
+        .map(|g| g.height)
+        .collect();
+    (!heights.is_empty())
+        .then(|| (heights.iter().map(|h| h * h).sum::<f64>() / heights.len() as f64).sqrt())
 }

@@ -24,7 +24,7 @@ pub(super) fn frame_observations(
     let mut rng = Pcg64::seed_from_u64(seed);
     // Clusters above the reference's ground, and their planes.
     let above: Vec<usize> = (0..points.len())
-        .filter(|&i| ground.distance(&points[i].1) > settings.edge_distance)
+        .filter(|&i| ground.distance(&points[i].1) > settings.ground_above)
         .collect();
     let mut cluster_planes: Vec<(Vector3<f64>, Vector3<f64>, Vec<FramePlane>)> = Vec::new();
     let margin = Vector3::repeat(2.0 * settings.assign_distance);

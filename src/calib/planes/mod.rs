@@ -43,6 +43,12 @@ pub struct PlaneSettings {
     /// Points within this distance (m) of a second plane of their cluster (an edge) are left
     /// out: about 3 times the range noise (2 cm measured worse on the twin, 4-5 cm no better).
     pub edge_distance: f64,
+    /// Points more than this (m) above the reference's ground go to the clusters; the ground
+    /// takes the rest within `assign_distance`. At `edge_distance` it leaves out what stands
+    /// on a road (grass, kerbs, litter); at `assign_distance` it keeps the whole noise of a
+    /// sensor that sees the ground steeply, whose upper tail the lower cut takes off (5 mm
+    /// low on the `sideways` twin). `gmm` tries both (`calib::finish`).
+    pub ground_above: f64,
     /// Clusters above the ground: points closer than about this (m) join (grid cells).
     pub cluster_gap: f64,
     /// Fewest points that make a plane, and fewest per sensor for it to count.
@@ -74,6 +80,7 @@ impl Default for PlaneSettings {
             // 0.0091 deg; 8 cm, 3 cm -0.022 deg.
             assign_distance: 0.05,
             edge_distance: 0.03,
+            ground_above: 0.03,
             cluster_gap: 0.15,
             min_plane_points: 30,
             min_sensor_points: 10,
