@@ -11,6 +11,16 @@ pub struct Note {
     pub kind: NoteKind,
 }
 
+/// The ground window the plane adjustment kept: how far (m) above the reference's ground its
+/// ground reached, and how far apart the sensors' grounds lay (root mean square, m) with it
+/// and with the window it left (`None` where no two sensors share ground).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GroundWindow {
+    pub above: f64,
+    pub apart: Option<f64>,
+    pub other: Option<f64>,
+}
+
 /// Angles in rad, distances in m.
 #[derive(Clone, Debug, PartialEq)]
 pub enum NoteKind {
@@ -29,8 +39,8 @@ pub enum NoteKind {
     /// the frame keeps JRMPC's correction.
     RefinementDeparted { angle: f64, distance: f64, limit: (f64, f64) },
     /// The plane adjustment moved every frame of the sensor by this much, from `points`
-    /// points on planes.
-    PlanesApplied { angle: f64, shift: f64, points: usize },
+    /// points on planes, with the ground `window` it kept.
+    PlanesApplied { angle: f64, shift: f64, points: usize, window: GroundWindow },
     /// JRMPC's correction tilted the frame's up axis by `angle` (rad), beyond `limit`, against
     /// the ground levelling had fixed: left out, the refinement started from the levelled
     /// pre-alignment.

@@ -52,12 +52,26 @@ impl fmt::Display for NoteKind {
                 angle.to_degrees(),
                 limit.to_degrees()
             ),
-            NoteKind::PlanesApplied { angle, shift, points } => write!(
-                f,
-                "plane adjustment: moved {:.4} deg / {:.2} mm ({points} points)",
-                angle.to_degrees(),
-                shift * 1e3
-            ),
+            NoteKind::PlanesApplied { angle, shift, points, window } => {
+                write!(
+                    f,
+                    "plane adjustment: moved {:.4} deg / {:.2} mm ({points} points; ground up \
+                     to {:.0} cm above the reference's",
+                    angle.to_degrees(),
+                    shift * 1e3,
+                    window.above * 1e2
+                )?;
+                if let (Some(apart), Some(other)) = (window.apart, window.other) {
+                    write!(
+                        f,
+                        ", where the sensors' grounds lie {:.1} mm apart against {:.1} mm with \
+                         the other window",
+                        apart * 1e3,
+                        other * 1e3
+                    )?;
+                }
+                f.write_str(")")
+            }
             NoteKind::PlanesWithoutPoints => {
                 f.write_str("plane adjustment: no points on planes; kept the refinement")
             }

@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 use crate::se3::Pose;
 
 use super::super::Precision;
-use super::super::notes::Note;
+use super::super::notes::{GroundWindow, Note};
 use super::super::planes;
 use super::super::select::{Hypothesis, Source};
 use super::super::views::Views;
@@ -50,6 +50,8 @@ pub(super) fn adjust_chosen(
         (Some(cut), Some(whole)) if whole < cut => 1,
         _ => 0,
     };
+    let window =
+        GroundWindow { above: windows[keep], apart: tried[keep].2, other: tried[1 - keep].2 };
     let (adjusted, adjustments, _) = std::mem::take(&mut tried[keep]);
     let mut planes_at = vec![None; n];
     for a in &adjustments {
@@ -60,7 +62,7 @@ pub(super) fn adjust_chosen(
             let hypothesis = Hypothesis::new(Source::Planes, correction, Some(parent));
             planes_at[s] = Some((hypotheses.push(s, hypothesis, adjusted[s].clone()), a.precision));
         }
-        let kind = a.note(plane_settings.max_departure);
+        let kind = a.note(plane_settings.max_departure, window);
         notes.push(Note { sensor: views.sensors[a.sensor].clone(), frame: None, kind });
     }
     if planes_at.iter().any(Option::is_some) {

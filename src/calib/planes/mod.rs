@@ -26,7 +26,7 @@ mod tests;
 use nalgebra::{Point3, Vector3};
 
 use super::average::robust_average;
-use super::notes::NoteKind;
+use super::notes::{GroundWindow, NoteKind};
 use super::pairs::PairCorrections;
 use crate::plane::Plane;
 use crate::se3::Pose;
@@ -221,10 +221,10 @@ pub fn adjust(
 
 impl SensorAdjustment {
     /// What to note on the sensor: the motion applied, or why the refinement stays.
-    pub fn note(&self, limit: (f64, f64)) -> NoteKind {
+    pub fn note(&self, limit: (f64, f64), window: GroundWindow) -> NoteKind {
         let (angle, shift) = (self.motion.rotation.angle(), self.motion.translation.vector.norm());
         if self.accepted {
-            NoteKind::PlanesApplied { angle, shift, points: self.points }
+            NoteKind::PlanesApplied { angle, shift, points: self.points, window }
         } else if self.points == 0 {
             NoteKind::PlanesWithoutPoints
         } else {
