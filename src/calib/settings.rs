@@ -223,6 +223,11 @@ impl Settings {
         if self.components == 0 {
             return Err(CalibError::InvalidSetting("components must be at least 1"));
         }
+        if self.planes.as_ref().is_some_and(|p| p.ground_windows.is_empty()) {
+            return Err(CalibError::InvalidSetting(
+                "the plane adjustment needs at least one ground window (planes.ground_windows)",
+            ));
+        }
         self.global.check().map_err(CalibError::InvalidSetting)
     }
 }

@@ -166,6 +166,17 @@ fn bad_rigs_are_typed_errors() {
     rig.reference = Some("nope".into());
     assert_eq!(calibrate(&rig), Some(CalibError::UnknownReference("nope".into())));
 
+    // A plane adjustment with no ground window to run in.
+    let planes = calib::PlaneSettings { ground_windows: Vec::new(), ..Default::default() };
+    let no_window = Settings { planes: Some(planes), ..Settings::default() };
+    let error =
+        calib::calibrate(&rig_of(&truth), calib::Method::Gmm, &no_window, |_| Control::Continue)
+            .err();
+    assert!(
+        matches!(error, Some(CalibError::InvalidSetting(what)) if what.contains("ground_windows")),
+        "{error:?}"
+    );
+
     let mut rig = rig_of(&truth);
     rig.nominal[1].1.translation.vector.x = f64::NAN;
     assert_eq!(calibrate(&rig), Some(CalibError::NonFiniteNominal("sensor_2".into())));

@@ -27,32 +27,39 @@ pub(super) fn adjust_chosen(
     let origins: Vec<Vector3<f64>> =
         views.pre_aligned.iter().map(|p| p.translation.vector).collect();
     let ground = views.reference_ground().map(|(plane, _)| plane);
-    // Two windows for the ground, two hypotheses (see `PlaneSettings::ground_above`): the one
-    // that cuts what stands on a road, and the one that keeps a steep view's noise whole. The
-    // sensors' grounds, patch by patch, tell which the rig's returns call for.
-    let windows = [plane_settings.edge_distance, plane_settings.assign_distance];
-    let mut tried = windows.map(|ground_above| {
-        let settings = planes::PlaneSettings { ground_above, ..plane_settings.clone() };
-        let mut adjusted = hypotheses.chosen_frames();
-        let adjustments = planes::adjust(
-            clouds,
-            &origins,
-            &views.pairs,
-            views.reference,
-            &mut adjusted,
-            ground,
-            &settings,
-        );
-        let apart = grounds_apart(views, hypotheses, &adjustments);
-        (adjusted, adjustments, apart)
-    });
-    let keep = match (tried[0].2, tried[1].2) {
-        (Some(cut), Some(whole)) if whole < cut => 1,
-        _ => 0,
+    // The ground's windows are hypotheses (`PlaneSettings::ground_windows`): one cuts what
+    // stands on a road, another keeps a steep view's noise whole. The sensors' grounds, patch
+    // by patch, tell which the rig's returns call for; without shared ground, the first.
+    let windows = &plane_settings.ground_windows;
+    let mut tried: Vec<_> = windows
+        .iter()
+        .map(|&above| {
+            let mut adjusted = hypotheses.chosen_frames();
+            let adjustments = planes::adjust(
+                clouds,
+                &origins,
+                &views.pairs,
+                views.reference,
+                &mut adjusted,
+                ground.map(|g| (g, above)),
+                plane_settings,
+            );
+            let apart = grounds_apart(views, hypotheses, &adjustments);
+            (adjusted, adjustments, apart)
+        })
+        .collect();
+    if tried.is_empty() {
+        return (notes, precision);
+    }
+    let apart: Vec<Option<f64>> = tried.iter().map(|t| t.2).collect();
+    // The first of the closest (ties keep the earlier window).
+    let keep = match apart.iter().copied().collect::<Option<Vec<f64>>>() {
+        Some(all) => (0..all.len()).fold(0, |best, k| if all[k] < all[best] { k } else { best }),
+        None => 0,
     };
-    let window =
-        GroundWindow { above: windows[keep], apart: tried[keep].2, other: tried[1 - keep].2 };
-    let (adjusted, adjustments, _) = std::mem::take(&mut tried[keep]);
+    let other = (0..apart.len()).filter(|&k| k != keep).filter_map(|k| apart[k]).reduce(f64::min);
+    let window = GroundWindow { above: windows[keep], apart: apart[keep], other };
+    let (adjusted, adjustments, _) = tried.swap_remove(keep);
     let mut planes_at = vec![None; n];
     for a in &adjustments {
         if a.accepted {

@@ -11,11 +11,13 @@ use super::{FramePlane, Observation, PlaneSettings};
 use crate::cloud::bounds;
 use crate::plane::{Plane, principal_axes};
 
-/// Finds one frame's planes among `points` (sensor, vehicle-frame position) and appends them
-/// and the points assigned to them.
+/// Finds one frame's planes among `points` (sensor, vehicle-frame position) on the
+/// reference's `ground`, where points up to `above_ground` (m) above it may still be ground,
+/// and appends them and the points assigned to them.
 pub(super) fn frame_observations(
     points: &[(usize, Vector3<f64>)],
     ground: &Plane,
+    above_ground: f64,
     settings: &PlaneSettings,
     seed: u64,
     planes: &mut Vec<FramePlane>,
@@ -23,9 +25,8 @@ pub(super) fn frame_observations(
 ) {
     let mut rng = Pcg64::seed_from_u64(seed);
     // Clusters above the reference's ground, and their planes.
-    let above: Vec<usize> = (0..points.len())
-        .filter(|&i| ground.distance(&points[i].1) > settings.ground_above)
-        .collect();
+    let above: Vec<usize> =
+        (0..points.len()).filter(|&i| ground.distance(&points[i].1) > above_ground).collect();
     let mut cluster_planes: Vec<(Vector3<f64>, Vector3<f64>, Vec<FramePlane>)> = Vec::new();
     let margin = Vector3::repeat(2.0 * settings.assign_distance);
     for cluster in clusters(points, &above, settings.cluster_gap) {

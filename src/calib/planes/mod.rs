@@ -43,12 +43,12 @@ pub struct PlaneSettings {
     /// Points within this distance (m) of a second plane of their cluster (an edge) are left
     /// out: about 3 times the range noise (2 cm measured worse on the twin, 4-5 cm no better).
     pub edge_distance: f64,
-    /// Points more than this (m) above the reference's ground go to the clusters; the ground
-    /// takes the rest within `assign_distance`. At `edge_distance` it leaves out what stands
-    /// on a road (grass, kerbs, litter); at `assign_distance` it keeps the whole noise of a
-    /// sensor that sees the ground steeply, whose upper tail the lower cut takes off (5 mm
-    /// low on the `sideways` twin). `gmm` tries both (`calib::finish`).
-    pub ground_above: f64,
+    /// How far (m) above the reference's ground a point may still be ground (the clusters
+    /// take the rest), one run of the adjustment per value; the run whose sensors' grounds
+    /// meet best stands (`calib::finish`). 3 cm leaves out what stands on a road (grass,
+    /// kerbs, litter); 5 cm keeps the whole noise of a sensor that sees the ground steeply,
+    /// whose upper tail the 3 cm cut takes off (5 mm low on the `sideways` twin).
+    pub ground_windows: Vec<f64>,
     /// Clusters above the ground: points closer than about this (m) join (grid cells).
     pub cluster_gap: f64,
     /// Fewest points that make a plane, and fewest per sensor for it to count.
@@ -80,7 +80,7 @@ impl Default for PlaneSettings {
             // 0.0091 deg; 8 cm, 3 cm -0.022 deg.
             assign_distance: 0.05,
             edge_distance: 0.03,
-            ground_above: 0.03,
+            ground_windows: vec![0.03, 0.05],
             cluster_gap: 0.15,
             min_plane_points: 30,
             min_sensor_points: 10,
@@ -148,17 +148,18 @@ impl FramePlane {
 /// Adjusts `corrections` (per sensor, per frame pair `(reference view, sensor view)`, as
 /// the refinement leaves them) by one motion per non-reference sensor. `origins` are the
 /// sensors' positions in the clouds' frame (for [`Precision::position`]); `ground` is the
-/// reference's ground plane in the vehicle frame; without it nothing is done.
+/// reference's ground plane in the vehicle frame and how far (m) above it a point may still be
+/// ground; without it nothing is done.
 pub fn adjust(
     clouds: &[&[[f32; 3]]],
     origins: &[Vector3<f64>],
     pairs: &[Vec<(usize, usize)>],
     reference: usize,
     corrections: &mut [PairCorrections],
-    ground: Option<Plane>,
+    ground: Option<(Plane, f64)>,
     settings: &PlaneSettings,
 ) -> Vec<SensorAdjustment> {
-    let Some(ground) = ground else {
+    let Some((ground, above)) = ground else {
         return Vec::new();
     };
     let sensors = pairs.len();
@@ -199,7 +200,8 @@ pub fn adjust(
             })
             .collect();
         let seed = settings.seed.wrapping_add(f as u64);
-        frame_observations(&points, &ground, settings, seed, &mut planes, &mut observations);
+        let (found, used) = (&mut planes, &mut observations);
+        frame_observations(&points, &ground, above, settings, seed, found, used);
     }
     let solution = solve(&observations, &mut planes, sensors, reference, settings);
     let mut outcomes = Vec::new();

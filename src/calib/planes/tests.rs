@@ -79,7 +79,7 @@ fn recovers_a_small_motion_between_two_sensors() {
         &pairs,
         0,
         &mut corrections,
-        Some(ground),
+        Some((ground, 0.03)),
         &PlaneSettings::default(),
     );
     assert_eq!(outcomes.len(), 1);
@@ -103,7 +103,7 @@ fn finds_the_faces_of_a_cube_and_drops_its_edges() {
     let ground = Plane { normal: Vector3::z(), offset: 0.0 };
     let (mut planes, mut observations) = (Vec::new(), Vec::new());
     let settings = PlaneSettings::default();
-    frame_observations(&points, &ground, &settings, 0, &mut planes, &mut observations);
+    frame_observations(&points, &ground, 0.03, &settings, 0, &mut planes, &mut observations);
     // Ground, front, side, top.
     assert_eq!(planes.len(), 4, "{planes:?}");
     for o in &observations {
@@ -135,7 +135,8 @@ fn a_motion_beyond_the_limit_is_rejected() {
     let settings =
         PlaneSettings { max_departure: (0.03f64.to_radians(), 0.02), ..Default::default() };
     let ground = Plane { normal: Vector3::z(), offset: 0.0 };
-    let outcomes = adjust(&refs, &ORIGINS, &pairs, 0, &mut corrections, Some(ground), &settings);
+    let outcomes =
+        adjust(&refs, &ORIGINS, &pairs, 0, &mut corrections, Some((ground, 0.03)), &settings);
     assert!(!outcomes[0].accepted, "{outcomes:?}");
     assert!((outcomes[0].motion.rotation.angle() - 0.001).abs() < 1e-4, "{outcomes:?}");
     assert_eq!(corrections[1][0].1, Pose::identity());
