@@ -54,6 +54,7 @@ fn declarations() -> String {
         NoteReport,
         SelectionReport,
         HypothesisReport,
+        GroundReport,
         LevellingReport,
         BevAlignment,
         GlobalReport,

@@ -285,7 +285,14 @@ contradiction: number,
 /**
  * Share of the points compared with another sensor's surface beside them (0..1).
  */
-overlap: number, };
+overlap: number, 
+/**
+ * How its ground meets the other sensors' where they see the same patches; absent
+ * without a reference ground or shared patches.
+ */
+ground: GroundReport | null, };
+
+export type GroundReport = { patches: number, height: number, tilt: number, heightSigma: number, tiltSigma: number, };
 
 export type LevellingReport = { sensor: string, 
 /**

@@ -72,12 +72,9 @@ pub(super) fn judge_sensor(inputs: SensorInputs, others: &[(&SensorResult, f64)]
         // `good` needs the grounds within its promise as measured; `failed` needs them beyond
         // `check`'s by more than the selection's test allows for chance, so that a right result
         // whose few patches scatter is not thrown away.
-        let beyond = |(angle, distance): (f64, f64), z: f64| {
-            g.tilt - z * g.tilt_sigma > angle || g.height - z * g.height_sigma > distance
-        };
-        let level = if beyond(USABLE_WITHIN, inputs.z) {
+        let level = if g.beyond(USABLE_WITHIN, inputs.z) {
             Level::Failed
-        } else if beyond(GOOD_WITHIN, 0.0) {
+        } else if g.beyond(GOOD_WITHIN, 0.0) {
             Level::Check
         } else {
             Level::Good

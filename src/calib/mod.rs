@@ -67,7 +67,9 @@ pub use progress::{Progress, Stage};
 pub use result::{Calibration, Levelling, Reconstruction, SensorResult, Spread};
 pub use rig::{Rig, Scan};
 pub use run::{MethodOutcome, Run};
-pub use select::{Hypothesis, SelectSettings, SensorScore, SensorSelection, Source};
+pub use select::{
+    GroundAgreement, Hypothesis, SelectSettings, SensorScore, SensorSelection, Source,
+};
 pub use settings::{EmProfile, InitialSigma, Method, Settings, Stages};
 pub use verdict::{Axis, Level, Reason, ReasonKind, SensorVerdict, Verdict};
 pub use views::{JrmpcInput, Views};

@@ -118,22 +118,16 @@ impl Views {
         let nominals: Vec<Pose> = sensors.iter().map(|s| rig.nominal_of(s)).collect();
         let threads = settings.jrmpc.threads;
 
-        // The start: the nominal or one of the global stage's candidates, by the selection.
+        // The start: the nominal or one of the global stage's candidates, by the selection;
+        // not by the grounds yet: a right candidate may be tilted until it is levelled.
         let scenes = Scenes::new(&frame_scans(rig, &sensors), r, &settings.select, threads);
         let mut hypotheses: Vec<Vec<Hypothesis>> =
             (0..sensors.len()).map(|s| roots(global.get(s).filter(|_| s != r))).collect();
         let mut start: Vec<usize> = hypotheses.iter().map(|h| usize::from(h.len() > 1)).collect();
-        select::choose_all(
-            &scenes,
-            &nominals,
-            r,
-            &mut hypotheses,
-            &mut start,
-            &settings.select,
-            threads,
-        );
-        let starts: Vec<Pose> =
-            (0..sensors.len()).map(|s| hypotheses[s][start[s]].correction * nominals[s]).collect();
+        let on =
+            select::Scoring { scenes: &scenes, nominals: &nominals, reference: r, ground: None };
+        select::choose_all(&on, &mut hypotheses, &mut start, &settings.select, threads);
+        let starts = select::placed(&hypotheses, &start, &nominals);
         let roi = match rig.roi {
             Some(roi) => roi,
             None => region::overlap_region(&sensor_scans(rig, &sensors), &starts, r)
@@ -154,15 +148,7 @@ impl Views {
             }
         }
         if levelling.iter().any(|l| l.skipped.is_none() && l.motion != Pose::identity()) {
-            select::choose_all(
-                &scenes,
-                &nominals,
-                r,
-                &mut hypotheses,
-                &mut start,
-                &settings.select,
-                threads,
-            );
+            select::choose_all(&on, &mut hypotheses, &mut start, &settings.select, threads);
         }
         for (s, level) in levelling.iter_mut().enumerate().filter(|(s, _)| *s != r) {
             let kept = hypotheses[s][start[s]].source == Source::Levelled;

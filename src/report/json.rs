@@ -518,6 +518,29 @@ pub struct HypothesisReport {
     pub contradiction: f64,
     /// Share of the points compared with another sensor's surface beside them (0..1).
     pub overlap: f64,
+    /// How its ground meets the other sensors' where they see the same patches; absent
+    /// without a reference ground or shared patches.
+    pub ground: Option<GroundReport>,
+}
+
+/// Two sensors' grounds compared patch by patch: the patches both see, the offset (m) and
+/// angle (rad) between the grounds, and one sigma of each.
+#[cfg_attr(feature = "ts", derive(ts_rs::TS))]
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct GroundReport {
+    pub patches: usize,
+    pub height: f64,
+    pub tilt: f64,
+    pub height_sigma: f64,
+    pub tilt_sigma: f64,
+}
+
+impl From<&crate::calib::GroundAgreement> for GroundReport {
+    fn from(g: &crate::calib::GroundAgreement) -> Self {
+        let (patches, height, tilt) = (g.patches, g.height, g.tilt);
+        Self { patches, height, tilt, height_sigma: g.height_sigma, tilt_sigma: g.tilt_sigma }
+    }
 }
 
 impl From<&crate::calib::SensorSelection> for SelectionReport {
@@ -537,6 +560,7 @@ impl From<&crate::calib::SensorSelection> for SelectionReport {
                 landing: h.score.landing(),
                 contradiction: h.score.contradiction(),
                 overlap: h.score.overlap(),
+                ground: h.ground.as_ref().map(GroundReport::from),
             })
             .collect();
         Self { sensor: s.sensor.clone(), chosen: s.chosen, hypotheses }

@@ -10,8 +10,8 @@ mod text;
 
 pub use drift::{DriftReport, LimitReport, SensorDriftReport, drift_findings, drift_table};
 pub use json::{
-    CandidateReport, GlobalReport, HistoryReport, HypothesisReport, LevellingReport, NoteReport,
-    OverlayReport, PlacementReport, ReasonReport, ReconstructionReport, Report, RoiReport,
-    SelectionReport, SensorReport, SensorVerdictReport, Value, VerdictReport,
+    CandidateReport, GlobalReport, GroundReport, HistoryReport, HypothesisReport, LevellingReport,
+    NoteReport, OverlayReport, PlacementReport, ReasonReport, ReconstructionReport, Report,
+    RoiReport, SelectionReport, SensorReport, SensorVerdictReport, Value, VerdictReport,
 };
 pub use text::{comparison, summary, verdict};

@@ -2,7 +2,8 @@
 // 1280x720 and 1400x900 the verdict and every sensor's extrinsic are in view with nothing
 // scrolled; each reason of the verdict is said as often as the result has it (once per sensor
 // that has it), not again in a banner and a card; a sensor-to-sensor transform equal to the
-// extrinsic is not printed again; one frame shows no spread. Screenshots of both sizes go to
+// extrinsic is not printed again; one frame shows no spread; the selection's table is the
+// result's. Screenshots of both sizes go to
 // SHOTS. And before a run: the file table fits the side panel, no name cut off.
 import assert from 'node:assert/strict';
 import { SHOTS } from './harness.js';
@@ -40,6 +41,24 @@ async function inView(page, size) {
   assert.ok(await inViewport(page.getByTestId('reference-line')), `${size}: the reference's row is in view`);
 }
 
+// The selection's table says what the result's selection holds: per sensor a row per
+// hypothesis in its order, the chosen one marked, and where a hypothesis's ground was compared
+// with the others', how far apart (mm / deg).
+async function selectionShown(page, r) {
+  for (const s of r.selection) {
+    const rows = page.locator(`[data-testid=hypothesis][data-sensor="${s.sensor}"]`);
+    assert.equal(await rows.count(), s.hypotheses.length, `${s.sensor}: a row per hypothesis`);
+    assert.deepEqual(await rows.evaluateAll((all) => all.map((row) => row.dataset.stage)), s.hypotheses.map((h) => h.stage));
+    const chosen = page.locator(`[data-testid=hypothesis][data-sensor="${s.sensor}"][data-chosen]`);
+    assert.equal(await chosen.getAttribute('data-stage'), s.hypotheses[s.chosen].stage, `${s.sensor}: the chosen row`);
+    const grounds = await rows.evaluateAll((all) => all.map((row) => row.lastElementChild.textContent));
+    s.hypotheses.forEach((h, i) => {
+      const said = h.ground ? `${(1000 * h.ground.height).toFixed(1)} mm / ${(h.ground.tilt * 180 / Math.PI).toFixed(3)} deg` : '';
+      assert.equal(grounds[i], said, `${s.sensor}: hypothesis ${i}'s grounds`);
+    });
+  }
+}
+
 // After a run: the checks above, and `${SHOTS}/${name}-1280x720.png`, `-1400x900.png`.
 export async function glance(page, name) {
   await page.setViewportSize({ width: 1280, height: 720 });
@@ -56,6 +75,7 @@ export async function glance(page, name) {
     assert.equal(await relative.locator('pre').count(), same(s.relative, s.extrinsic) ? 0 : 1, `${s.name}: T_ref_s printed only when it differs`);
     if (s.spread.frames < 2) assert.equal(await page.locator(`.answer-sensor[data-sensor="${s.name}"] .spread`).count(), 0, `${s.name}: no spread for one frame`);
   }
+  await selectionShown(page, r);
   await still(page);
   await page.screenshot({ path: `${SHOTS}/${name}-1280x720.png` });
   await page.setViewportSize({ width: 1400, height: 900 });

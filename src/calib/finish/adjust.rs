@@ -3,12 +3,10 @@
 
 use nalgebra::Vector3;
 
-use crate::se3::Pose;
-
 use super::super::Precision;
 use super::super::notes::{GroundWindow, Note};
 use super::super::planes;
-use super::super::select::{Hypothesis, Source};
+use super::super::select::{self, Hypothesis, Source};
 use super::super::views::Views;
 use super::hypotheses::Hypotheses;
 
@@ -96,12 +94,7 @@ fn grounds_apart(
     adjustments: &[planes::SensorAdjustment],
 ) -> Option<f64> {
     let ground = views.ground?;
-    let mut placed: Vec<Pose> = (0..views.sensors.len())
-        .map(|s| {
-            let chosen = hypotheses.list[s].get(hypotheses.chosen[s]);
-            chosen.map_or_else(Pose::identity, |h| h.correction) * views.nominals[s]
-        })
-        .collect();
+    let mut placed = select::placed(&hypotheses.list, &hypotheses.chosen, &views.nominals);
     for a in adjustments.iter().filter(|a| a.accepted) {
         placed[a.sensor] = a.motion * placed[a.sensor];
     }

@@ -124,10 +124,14 @@ impl Hypotheses {
             self.chosen = self.list.iter().map(|h| h.len() - 1).collect();
         }
         let mut picked = self.chosen.clone();
+        let on = select::Scoring {
+            scenes: &views.scenes,
+            nominals: &views.nominals,
+            reference: views.reference,
+            ground: views.ground.as_ref(),
+        };
         select::choose_all(
-            &views.scenes,
-            &views.nominals,
-            views.reference,
+            &on,
             &mut self.list,
             &mut picked,
             &views.settings.select,

@@ -10,6 +10,7 @@
 use nalgebra::{Matrix3, Matrix4, Point3, Vector2, Vector3, Vector4};
 
 use super::score::Scenes;
+use crate::calib::verdict::MIN_GROUND_PATCHES;
 use crate::plane::{GroundFrame, Plane};
 use crate::se3::Pose;
 
@@ -37,6 +38,16 @@ pub struct GroundAgreement {
     pub tilt_sigma: f64,
 }
 
+impl GroundAgreement {
+    /// The grounds lie apart beyond `(angle, distance)` (rad, m) by more than `z` of their
+    /// sigmas, on enough patches to judge by.
+    pub fn beyond(&self, (angle, distance): (f64, f64), z: f64) -> bool {
+        self.patches >= MIN_GROUND_PATCHES
+            && (self.tilt - z * self.tilt_sigma > angle
+                || self.height - z * self.height_sigma > distance)
+    }
+}
+
 impl Scenes {
     /// Sensor `s`'s ground against every other sensor's, patch by patch on `ground` (the
     /// reference's, vehicle frame), each sensor at `poses` (`T_vehicle_sensor`); `None` when no
@@ -50,7 +61,7 @@ impl Scenes {
         let frame = GroundFrame::new(*ground);
         // Per (sensor, frame name, patch): the points (in-plane u, v, height).
         let patches = |sensor: usize| {
-            let mut out: std::collections::BTreeMap<(String, i64, i64), Vec<Vector3<f64>>> =
+            let mut out: std::collections::BTreeMap<(&str, i64, i64), Vec<Vector3<f64>>> =
                 Default::default();
             for (name, surface) in self.frames_of(sensor) {
                 for (i, p) in surface.points.iter().enumerate() {
@@ -64,7 +75,7 @@ impl Scenes {
                     let uv = frame.along(&p.coords);
                     let cell = ((uv.x / PATCH).floor() as i64, (uv.y / PATCH).floor() as i64);
                     let at = Vector3::new(uv.x, uv.y, height);
-                    out.entry((name.to_string(), cell.0, cell.1)).or_default().push(at);
+                    out.entry((name, cell.0, cell.1)).or_default().push(at);
                 }
             }
             out

@@ -10,7 +10,11 @@
 //!    further from its nominal position than a tape measure errs (`position_tolerance`; no
 //!    limit for a sensor whose nominal is the identity, which says nothing of its place): a
 //!    symmetric scene (a road lined alike on both sides) fits a mirrored placement as well as
-//!    the right one, and only the nominal's position tells them apart;
+//!    the right one, and only the nominal's position tells them apart Nor one whose
+//!    ground lies apart from the other sensors' beyond what the verdict calls usable
+//!    ([`GroundAgreement::beyond`], patch by patch), while another meets it: the grounds are
+//!    evidence no registration fitted (a stacked pair can overlay its structure upside down,
+//!    its grounds metres apart);
 //! 2. of the rest, those the best does not beat by more than the score's own noise (a paired
 //!    comparison over spatial blocks: Student's t at the level of `z` standard errors, its
 //!    degrees of freedom the blocks that differ), and those closer to the best than the score
@@ -42,6 +46,8 @@ pub use ground::GroundAgreement;
 pub use score::SensorScore;
 pub use score::{FrameScans, Scenes};
 
+use crate::calib::verdict::USABLE_WITHIN;
+use crate::plane::Plane;
 use crate::se3::Pose;
 
 /// The selection's settings.
@@ -157,13 +163,16 @@ pub struct Hypothesis {
     /// How far (m, root mean square over the sensor's scored points) it places the sensor's
     /// points from where the chosen hypothesis does.
     pub apart: f64,
+    /// How its ground meets the other sensors' where they see the same patches; `None`
+    /// without a reference ground or shared patches.
+    pub ground: Option<GroundAgreement>,
 }
 
 impl Hypothesis {
     /// A hypothesis not scored yet.
     pub fn new(source: Source, correction: Pose, parent: Option<usize>) -> Self {
         let score = SensorScore::default();
-        Self { source, correction, parent, score, plausible: true, apart: 0.0 }
+        Self { source, correction, parent, score, plausible: true, apart: 0.0, ground: None }
     }
 }
 
@@ -220,7 +229,12 @@ pub fn choose(
 ) -> usize {
     let Some(nominal) = hypotheses.first() else { return 0 };
     let value = |h: usize| hypotheses[h].score.value();
-    let allowed = |h: &usize| *h == 0 || hypotheses[*h].plausible;
+    // The grounds are evidence the registrations did not fit: a placement whose ground the
+    // verdict would fail is not taken while one that meets the others' ground is on offer.
+    let grounded = |h: usize| !hypotheses[h].ground.is_some_and(|g| g.beyond(USABLE_WITHIN, z));
+    let any_grounded = (1..hypotheses.len()).any(|h| hypotheses[h].plausible && grounded(h));
+    let allowed =
+        |h: &usize| *h == 0 || (hypotheses[*h].plausible && (grounded(*h) || !any_grounded));
     let best = (0..hypotheses.len())
         .filter(allowed)
         .max_by(|&a, &b| value(a).total_cmp(&value(b)))
@@ -250,35 +264,43 @@ pub fn choose(
     members.into_iter().find(|&h| supported(h)).unwrap_or(0)
 }
 
-/// Chooses each non-reference sensor's hypothesis by [`choose`], each scored on `scenes`
-/// with the other sensors at their chosen ones (`chosen[s]`, updated; the reference `r` keeps
-/// its nominal): two passes, so that a sensor first scored against another's wrong placement
-/// is scored again against its chosen one. `nominals[s]` is sensor s's nominal
-/// `T_vehicle_sensor`; every hypothesis's score is set.
+/// What every hypothesis is scored against: the scans, each sensor's nominal
+/// `T_vehicle_sensor`, the reference (which keeps its nominal) and its ground (vehicle frame),
+/// where it has one.
+pub(crate) struct Scoring<'a> {
+    pub scenes: &'a Scenes,
+    pub nominals: &'a [Pose],
+    pub reference: usize,
+    pub ground: Option<&'a Plane>,
+}
+
+/// Chooses each non-reference sensor's hypothesis by [`choose`], each scored with the other
+/// sensors at their chosen ones (`chosen[s]`, updated): two passes, so that a sensor first
+/// scored against another's wrong placement is scored again against its chosen one. Every
+/// hypothesis's score is set, and its ground's agreement with the others'.
 pub(crate) fn choose_all(
-    scenes: &Scenes,
-    nominals: &[Pose],
-    r: usize,
+    on: &Scoring,
     hypotheses: &mut [Vec<Hypothesis>],
     chosen: &mut [usize],
     settings: &SelectSettings,
     threads: usize,
 ) {
+    let Scoring { scenes, nominals, reference: r, ground } = *on;
     let pose = |hypotheses: &[Vec<Hypothesis>], o: usize, h: usize| {
         hypotheses[o].get(h).map_or_else(Pose::identity, |h| h.correction) * nominals[o]
     };
     for _pass in 0..2 {
         for s in (0..hypotheses.len()).filter(|&s| s != r) {
-            let poses: Vec<Pose> =
-                (0..hypotheses.len()).map(|o| pose(hypotheses, o, chosen[o])).collect();
+            let poses = placed(hypotheses, chosen, nominals);
             let candidates: Vec<usize> = (0..hypotheses[s].len()).collect();
             let scores = crate::on_threads(&candidates, crate::threads_here(threads), |&h| {
                 let mut at = poses.clone();
                 at[s] = pose(hypotheses, s, h);
-                scenes.score(s, &at)
+                (scenes.score(s, &at), ground.and_then(|g| scenes.ground_agreement(s, &at, g)))
             });
-            for (h, score) in hypotheses[s].iter_mut().zip(scores) {
+            for (h, (score, ground)) in hypotheses[s].iter_mut().zip(scores) {
                 h.score = score;
+                h.ground = ground;
             }
             let plausible = within_tolerance(&hypotheses[s], &nominals[s], settings);
             for (h, plausible) in hypotheses[s].iter_mut().zip(plausible) {
@@ -310,6 +332,21 @@ pub(crate) fn choose_all(
             }
         }
     }
+}
+
+/// Each sensor at its chosen hypothesis (`T_vehicle_sensor`): `hypotheses[s][chosen[s]]` on
+/// top of `nominals[s]`; a sensor with none at its nominal.
+pub(crate) fn placed(
+    hypotheses: &[Vec<Hypothesis>],
+    chosen: &[usize],
+    nominals: &[Pose],
+) -> Vec<Pose> {
+    (0..nominals.len())
+        .map(|s| {
+            let h = hypotheses.get(s).and_then(|list| list.get(chosen[s]));
+            h.map_or_else(Pose::identity, |h| h.correction) * nominals[s]
+        })
+        .collect()
 }
 
 /// Per hypothesis, whether it keeps the sensor within the position tolerance of its nominal
@@ -360,6 +397,7 @@ mod tests {
             score,
             plausible: true,
             apart: 1.0,
+            ground: None,
         }
     }
 
@@ -410,6 +448,33 @@ mod tests {
         // A move that lands better is taken.
         with[3] = hypothesis(Source::RefinedFromNominal, Some(0), &blocks(2.5, 9));
         assert_eq!(choose(&with, 2.0, |_, _| false, beats(&with)), 3);
+    }
+
+    #[test]
+    fn a_placement_whose_ground_lies_apart_is_not_taken_while_another_meets_it() {
+        let apart = |height: f64| GroundAgreement {
+            patches: 20,
+            height,
+            tilt: 0.0,
+            height_sigma: 0.005,
+            tilt_sigma: 0.001,
+        };
+        let mut h = vec![
+            hypothesis(Source::Nominal, None, &blocks(1.0, 13)),
+            hypothesis(Source::Global { rank: 0 }, None, &blocks(3.0, 14)),
+            hypothesis(Source::Global { rank: 1 }, None, &blocks(2.0, 15)),
+        ];
+        // The best overlay stands a metre off the others' ground; the second meets it.
+        h[1].ground = Some(apart(1.0));
+        h[2].ground = Some(apart(0.004));
+        assert_eq!(choose(&h, 2.0, |_, _| false, beats(&h)), 2);
+        // Within what the verdict calls usable (10 cm), or when no placement meets the ground
+        // either, the grounds do not decide.
+        h[1].ground = Some(apart(0.09));
+        assert_eq!(choose(&h, 2.0, |_, _| false, beats(&h)), 1);
+        h[1].ground = Some(apart(1.0));
+        h[2].ground = Some(apart(0.8));
+        assert_eq!(choose(&h, 2.0, |_, _| false, beats(&h)), 1);
     }
 
     #[test]

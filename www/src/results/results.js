@@ -133,6 +133,10 @@ function moved(m) {
   return [degrees(angle), Math.hypot(m[3], m[7], m[11])];
 }
 
+// How far a hypothesis's ground lies from the other sensors', where they share ground patches.
+/** @param {import('../result').GroundReport | null} g */
+const groundText = (g) => (g ? `${(1000 * g.height).toFixed(1)} mm / ${degrees(g.tilt).toFixed(3)} deg` : '');
+
 // Every stage's hypothesis per sensor, scored on the whole scans, the chosen first in the
 // summary: how the answer was decided.
 /** @param {import('../result').SelectionReport[]} selection */
@@ -147,11 +151,11 @@ function selectionHtml(selection) {
     const chosen = i === s.chosen;
     return `<tr${chosen ? ' class="chosen"' : ''} data-testid="hypothesis" data-sensor="${esc(s.sensor)}" data-stage="${h.stage}"${chosen ? ' data-chosen' : ''}>` +
       `<td>${i === 0 ? esc(s.sensor) : ''}</td><td>${chosen ? '▶ ' : ''}${stageText(h)}</td>` +
-      `<td>${(100 * h.score).toFixed(1)} %</td><td>${(100 * h.landing).toFixed(1)} %</td><td>${(100 * h.contradiction).toFixed(1)} %</td><td>${(100 * h.overlap).toFixed(1)} %</td><td>${deg.toFixed(3)} deg / ${m.toFixed(3)} m</td></tr>`;
+      `<td>${(100 * h.score).toFixed(1)} %</td><td>${(100 * h.landing).toFixed(1)} %</td><td>${(100 * h.contradiction).toFixed(1)} %</td><td>${(100 * h.overlap).toFixed(1)} %</td><td>${deg.toFixed(3)} deg / ${m.toFixed(3)} m</td><td>${groundText(h.ground)}</td></tr>`;
   }));
   return `<details class="selection" data-testid="selection"><summary>Selection: ${summary}</summary>
-    <p class="hint">Every stage proposes a placement; each is scored on the whole scans by the share of points landing on the other sensors' surfaces (and theirs on its), less the share standing where another sensor saw through (its free space), and the rule picks one: never below the nominal, the latest stage among those the scans cannot tell apart.</p>
-    <div class="table-wrap"><table class="compare"><tr><th>sensor</th><th>hypothesis</th><th>score</th><th>landing</th><th>in free space</th><th>overlap</th><th>from the nominal</th></tr>${rows.join('')}</table></div></details>`;
+    <p class="hint">Every stage proposes a placement; each is scored on the whole scans by the share of points landing on the other sensors' surfaces (and theirs on its), less the share standing where another sensor saw through (its free space), and the rule picks one: never below the nominal, never one whose ground lies apart from the other sensors' (patch by patch) beyond what is usable while another meets it, the latest stage among those the scans cannot tell apart.</p>
+    <div class="table-wrap"><table class="compare"><tr><th>sensor</th><th>hypothesis</th><th>score</th><th>landing</th><th>in free space</th><th>overlap</th><th>from the nominal</th><th>grounds apart</th></tr>${rows.join('')}</table></div></details>`;
 }
 
 // `results`: one report per method run; the first is shown in detail. `failures`: {method, error}
