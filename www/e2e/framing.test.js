@@ -64,5 +64,14 @@ test('OpenCalib 0001: framed on the data, centred by every preset, focus on each
   await waitForStatus(page, /^Done/, 180_000);
   await page.locator('#focus').selectOption('all');
   await glance(page, 'opencalib-0001');
+  // The selection opened: every stage's hypothesis, how it scored, how far its ground lies
+  // from the others'.
+  const selection = page.getByTestId('selection');
+  await selection.locator('summary').click();
+  assert.ok(await selection.evaluate((d) => d.open), 'the selection opens');
+  await selection.screenshot({ path: `${SHOTS}/opencalib-0001-selection.png` });
+  // The table scrolls sideways in the panel: its last columns, the grounds among them.
+  await selection.locator('.table-wrap').evaluate((w) => { w.scrollLeft = w.scrollWidth; });
+  await selection.screenshot({ path: `${SHOTS}/opencalib-0001-selection-grounds.png` });
   assert.deepEqual(problems, []);
 });
