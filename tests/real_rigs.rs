@@ -110,11 +110,13 @@ fn the_livox_units_keep_their_right_start() {
 
 /// OpenCalib's Hesai rig and its loops: a Pandar64 and four PandarQT, guesses 39-72 deg
 /// off, no truth. The QTs overlap the Pandar64 and each other in narrow strips; registered to
-/// each other alone from the joint result, some pairs move 0.8 deg / 5-16 cm where the joint
-/// result claims about 0.1 deg / 1 cm: the verdict must say so, and no sensor of an open loop
-/// may read `good`.
+/// each other alone from the joint result, qt_202 and qt_203 move 0.90 deg / 4.7 cm, beyond
+/// what `good` promises: neither may read `good`, nor any sensor of a loop the verdict reports
+/// open. Whether that loop reads open depends on the claim: with the grounds' disagreement in
+/// it (qt_202's grounds 11.5 ± 2.3 mm apart against a 10 mm claim), the 4.7 cm gap lies within
+/// three combined sigmas, and the grounds and the overlap's agreement say `check` instead.
 #[test]
-fn the_hesai_rig_reports_the_loops_it_cannot_close() {
+fn the_hesai_rig_calls_no_sensor_of_an_open_loop_good() {
     use gmmcalib::calib::verdict::ReasonKind;
     use gmmcalib::io::opencalib;
     let Some(data) = shared() else {
@@ -134,7 +136,9 @@ fn the_hesai_rig_reports_the_loops_it_cannot_close() {
     let settings = calib::Settings { target: Target::None, ..Default::default() };
     let result =
         calib::calibrate(&rig, calib::Method::Gmm, &settings, |_| Control::Continue).unwrap();
-    let mut open = 0;
+    for v in result.verdict.sensors.iter().filter(|v| ["qt_202", "qt_203"].contains(&&*v.sensor)) {
+        assert_ne!(v.level, Level::Good, "{}: {:?}", v.sensor, v.reasons);
+    }
     for v in &result.verdict.sensors {
         for r in &v.reasons {
             if let ReasonKind::LoopOpen { other, angle, distance } = &r.kind {
@@ -145,9 +149,7 @@ fn the_hesai_rig_reports_the_loops_it_cannot_close() {
                     distance * 1e2
                 );
                 assert_ne!(v.level, Level::Good, "{}: {:?}", v.sensor, v.reasons);
-                open += 1;
             }
         }
     }
-    assert!(open >= 2, "no loop reported open: {:?}", result.verdict);
 }

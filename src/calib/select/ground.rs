@@ -36,6 +36,9 @@ pub struct GroundAgreement {
     /// One sigma of each, from the patches' scatter about the fitted plane of differences.
     pub height_sigma: f64,
     pub tilt_sigma: f64,
+    /// The axis (unit, vehicle frame, in the ground plane) about which its ground is tilted
+    /// against the others'; zero without a tilt.
+    pub axis: [f64; 3],
 }
 
 impl GroundAgreement {
@@ -92,8 +95,12 @@ impl Scenes {
                 differences.push((Vector3::new(centre.x, centre.y, d), 1.0 / variance));
             }
         }
-        let [height, tilt, height_sigma, tilt_sigma] = offset_and_tilt(&differences)?;
-        Some(GroundAgreement { patches: differences.len(), height, tilt, height_sigma, tilt_sigma })
+        let ([height, tilt, height_sigma, tilt_sigma], slope) = offset_and_tilt(&differences)?;
+        // A rotation w tilts the heights along u by -w.v and along v by w.u (u x v = normal).
+        let axis = (frame.u * slope.y - frame.v * slope.x).try_normalize(1e-12);
+        let axis = axis.map_or([0.0; 3], Into::into);
+        let patches = differences.len();
+        Some(GroundAgreement { patches, height, tilt, height_sigma, tilt_sigma, axis })
     }
 }
 
@@ -102,8 +109,9 @@ impl Scenes {
 /// median deviations, in units of their own errors): its value at the patches' weighted
 /// centroid (m, absolute), its slope as an angle (rad), and one sigma of each, the patches'
 /// weights scaled by their scatter about the plane (terrain and quantisation the patches'
-/// own fits do not see). A single patch gives its difference and no tilt.
-fn offset_and_tilt(differences: &[(Vector3<f64>, f64)]) -> Option<[f64; 4]> {
+/// own fits do not see). A single patch gives its difference and no tilt. With them the slope
+/// (along u, v).
+fn offset_and_tilt(differences: &[(Vector3<f64>, f64)]) -> Option<([f64; 4], Vector2<f64>)> {
     // The plane's centre, coefficients and normal matrix's inverse. Fewer than three patches,
     // or patches in one row (which leave the slope across it free), claim no tilt: the
     // weighted mean alone.
@@ -157,7 +165,7 @@ fn offset_and_tilt(differences: &[(Vector3<f64>, f64)]) -> Option<[f64; 4]> {
         None => (scale * inverse[(1, 1)].max(inverse[(2, 2)])).max(0.0).sqrt(),
     };
     let height_sigma = (scale * inverse[(0, 0)]).max(0.0).sqrt();
-    Some([c[0].abs(), slope.norm().atan(), height_sigma, tilt_sigma])
+    Some(([c[0].abs(), slope.norm().atan(), height_sigma, tilt_sigma], slope))
 }
 
 /// How far `mine` lies above `theirs` in one patch (points as (u, v, h)): one plane
@@ -235,7 +243,9 @@ mod tests {
                 differences.push((Vector3::new(u, v, 0.005 + slope * u + scatter), 1e6));
             }
         }
-        let [height, tilt, height_sigma, tilt_sigma] = offset_and_tilt(&differences).unwrap();
+        let ([height, tilt, height_sigma, tilt_sigma], slope) =
+            offset_and_tilt(&differences).unwrap();
+        assert!(slope.y.abs() < 3.0 * tilt_sigma, "{slope}");
         // 60 patches of 3 mm: 0.39 mm on the offset; the claims alone would say 0.13 mm.
         assert!(height_sigma > 0.0003 && height_sigma < 0.0005, "{height_sigma}");
         assert!((height - 0.005).abs() < 3.0 * height_sigma, "{height} +- {height_sigma}");

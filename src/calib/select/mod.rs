@@ -458,6 +458,7 @@ mod tests {
             tilt: 0.0,
             height_sigma: 0.005,
             tilt_sigma: 0.001,
+            axis: [0.0; 3],
         };
         let mut h = vec![
             hypothesis(Source::Nominal, None, &blocks(1.0, 13)),
