@@ -10,11 +10,11 @@
 //!    further from its nominal position than a tape measure errs (`position_tolerance`; no
 //!    limit for a sensor whose nominal is the identity, which says nothing of its place): a
 //!    symmetric scene (a road lined alike on both sides) fits a mirrored placement as well as
-//!    the right one, and only the nominal's position tells them apart Nor one whose
+//!    the right one, and only the nominal's position tells them apart; nor one whose
 //!    ground lies apart from the other sensors' beyond what the verdict calls usable
 //!    ([`GroundAgreement::beyond`], patch by patch), while another meets it: the grounds are
-//!    evidence no registration fitted (a stacked pair can overlay its structure upside down,
-//!    its grounds metres apart);
+//!    evidence beside the structure the score weighs (a stacked pair can overlay its
+//!    structure upside down, its grounds metres apart);
 //! 2. of the rest, those the best does not beat by more than the score's own noise (a paired
 //!    comparison over spatial blocks: Student's t at the level of `z` standard errors, its
 //!    degrees of freedom the blocks that differ), and those closer to the best than the score
@@ -229,8 +229,8 @@ pub fn choose(
 ) -> usize {
     let Some(nominal) = hypotheses.first() else { return 0 };
     let value = |h: usize| hypotheses[h].score.value();
-    // The grounds are evidence the registrations did not fit: a placement whose ground the
-    // verdict would fail is not taken while one that meets the others' ground is on offer.
+    // The grounds are evidence beside the structure: a placement whose ground the verdict
+    // would fail is not taken while one that meets the others' ground is on offer.
     let grounded = |h: usize| !hypotheses[h].ground.is_some_and(|g| g.beyond(USABLE_WITHIN, z));
     let any_grounded = (1..hypotheses.len()).any(|h| hypotheses[h].plausible && grounded(h));
     let allowed =
