@@ -54,8 +54,12 @@ pub(super) fn average_frames(
 /// how sharply its own objective bends, not how far a change a thousand times below the noise
 /// moves the answer (OpenCalib under jitter: 0.2 deg / 2 cm against a claimed 0.01-0.04 deg /
 /// 4 mm). Nor finer than the sensors' grounds agree with the result
-/// ([`add_ground_disagreement`]).
-pub(super) fn floor_precision(views: &Views, results: &mut [SensorResult]) {
+/// ([`add_ground_disagreement`]). Returns each sensor's ground against the others', patch by
+/// patch at the result, for the verdict.
+pub(super) fn floor_precision(
+    views: &Views,
+    results: &mut [SensorResult],
+) -> Vec<Option<GroundAgreement>> {
     let placed: Vec<Pose> = results.iter().map(|x| x.extrinsic).collect();
     let floors: Vec<Option<([f64; 3], [f64; 3])>> = (0..results.len())
         .map(|s| {
@@ -83,6 +87,7 @@ pub(super) fn floor_precision(views: &Views, results: &mut [SensorResult]) {
         }
         result.precision = Some(p);
     }
+    grounds
 }
 
 /// Where the sensors' grounds lie apart beyond what their own noise and the claim allow

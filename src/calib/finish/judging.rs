@@ -10,18 +10,19 @@ use super::super::loops;
 use super::super::notes::{Note, NoteKind};
 use super::super::pairs::FramePairs;
 use super::super::result::{Reconstruction, SensorResult};
-use super::super::select::SensorSelection;
+use super::super::select::{GroundAgreement, SensorSelection};
 use super::super::verdict::{Level, Verdict};
 use super::super::views::Views;
 use crate::se3::Pose;
 
 /// What the calibration is judged on besides the views: the frame pairs (their ICP and fixed
-/// clouds), what was left out, the selection, the reconstruction, and EM's `(converged,
-/// iterations)` where it ran.
+/// clouds), what was left out, the selection, each sensor's ground against the others' at the
+/// result, the reconstruction, and EM's `(converged, iterations)` where it ran.
 pub(super) struct Judged<'a> {
     pub(super) pairs: Option<&'a FramePairs>,
     pub(super) skipped: &'a [Note],
     pub(super) selection: &'a [SensorSelection],
+    pub(super) grounds: &'a [Option<GroundAgreement>],
     pub(super) reconstruction: &'a Reconstruction,
     pub(super) em: Option<(bool, usize)>,
 }
@@ -49,11 +50,7 @@ pub(super) fn judge(
     let count = |notes: &[Note], sensor: &str, kinds: &dyn Fn(&NoteKind) -> bool| {
         notes.iter().filter(|n| n.sensor == sensor && kinds(&n.kind)).count()
     };
-    // Each sensor's ground against the others', patch by patch, at the result.
     let placed: Vec<Pose> = results.iter().map(|r| r.extrinsic).collect();
-    let grounds: Vec<_> = (0..results.len())
-        .map(|s| ground.filter(|_| s != r).and_then(|g| scenes.ground_agreement(s, &placed, &g)))
-        .collect();
     // Each pair of the other sensors registered to each other alone, from the result.
     let loops = match on.pairs {
         Some(p) => {
@@ -111,7 +108,7 @@ pub(super) fn judge(
                     matches!(k, NoteKind::FrameOutlier { .. } | NoteKind::PairFailed { .. })
                 }),
                 selection: on.selection.iter().find(|x| x.sensor == *name),
-                ground: grounds[s],
+                ground: on.grounds[s],
                 loops: (loops.iter())
                     .filter(|g| g.a == s || g.b == s)
                     .map(|g| {

@@ -42,7 +42,7 @@ pub(super) fn finish(
     let selection = hypotheses.into_selection(&views);
     // 5. The extrinsics: averaged over frames, their precision floored by the scans.
     let mut results = extrinsics::average_frames(&views, &per_pair, &precision, &mut skipped)?;
-    extrinsics::floor_precision(&views, &mut results);
+    let grounds = extrinsics::floor_precision(&views, &mut results);
     // 6. The reconstruction.
     let (mut reconstruction, iterations, converged, cancelled, history) = match registration {
         Some(reg) => {
@@ -60,6 +60,7 @@ pub(super) fn finish(
         pairs: pairs.as_ref(),
         skipped: &skipped,
         selection: &selection,
+        grounds: &grounds,
         reconstruction: &reconstruction,
         em: (iterations > 0).then_some((converged, iterations)),
     };

@@ -286,16 +286,13 @@ pub(crate) fn choose_all(
     threads: usize,
 ) {
     let Scoring { scenes, nominals, reference: r, ground } = *on;
-    let pose = |hypotheses: &[Vec<Hypothesis>], o: usize, h: usize| {
-        hypotheses[o].get(h).map_or_else(Pose::identity, |h| h.correction) * nominals[o]
-    };
     for _pass in 0..2 {
         for s in (0..hypotheses.len()).filter(|&s| s != r) {
             let poses = placed(hypotheses, chosen, nominals);
             let candidates: Vec<usize> = (0..hypotheses[s].len()).collect();
             let scores = crate::on_threads(&candidates, crate::threads_here(threads), |&h| {
                 let mut at = poses.clone();
-                at[s] = pose(hypotheses, s, h);
+                at[s] = placed_at(hypotheses, nominals, s, h);
                 (scenes.score(s, &at), ground.and_then(|g| scenes.ground_agreement(s, &at, g)))
             });
             for (h, (score, ground)) in hypotheses[s].iter_mut().zip(scores) {
@@ -341,12 +338,13 @@ pub(crate) fn placed(
     chosen: &[usize],
     nominals: &[Pose],
 ) -> Vec<Pose> {
-    (0..nominals.len())
-        .map(|s| {
-            let h = hypotheses.get(s).and_then(|list| list.get(chosen[s]));
-            h.map_or_else(Pose::identity, |h| h.correction) * nominals[s]
-        })
-        .collect()
+    (0..nominals.len()).map(|s| placed_at(hypotheses, nominals, s, chosen[s])).collect()
+}
+
+/// Sensor `s` at its hypothesis `h` (`T_vehicle_sensor`); at its nominal where it has none.
+fn placed_at(hypotheses: &[Vec<Hypothesis>], nominals: &[Pose], s: usize, h: usize) -> Pose {
+    let h = hypotheses.get(s).and_then(|list| list.get(h));
+    h.map_or_else(Pose::identity, |h| h.correction) * nominals[s]
 }
 
 /// Per hypothesis, whether it keeps the sensor within the position tolerance of its nominal
