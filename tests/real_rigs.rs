@@ -3,6 +3,9 @@
 //!
 //! OpenCalib's Hesai rig: the loops among its four PandarQT, measured and reported.
 //!
+//! GMMCalib's chair example: a ROI around a chair in a room; the room, which the selection
+//! scores and the stage on the whole scans registers, brings starts off back to its answer.
+//!
 //! The Livox Mid-100: three solid-state units whose driver already gives them in one
 //! frame, so identity is within 0.4 deg / 1 cm of MLCC's estimate; adjacent units overlap in a
 //! strip a few degrees wide. Overlap alone rewards piling one unit's cone onto another's (the
@@ -152,4 +155,81 @@ fn the_hesai_rig_calls_no_sensor_of_an_open_loop_good() {
             }
         }
     }
+}
+
+/// GMMCalib's CADCalib example: a chair 7 m out in a room, its ROI around the chair, its CAD
+/// model as the target. At the config's nominal 47 % of the scans land on each other's
+/// surfaces; 0.48 deg away (as far as GMMCalib's own CAD answer lies from it) 15-32 %. On the
+/// chair alone nothing beat such a start and it was kept (`check`); the whole scans bring every
+/// start of the range (±3 deg, ±10 cm) back to the room's answer but one, where a
+/// refinement on the chair alone lands 0.43 deg off and the score's resolution on these dense
+/// scans cannot part the two: that one must not read `good`.
+#[test]
+fn the_chair_example_returns_to_what_the_room_says() {
+    let Some(data) = shared() else {
+        eprintln!("skipped: no ../shared/data");
+        return;
+    };
+    let dir = data.join("gmmcalib/chair");
+    let text = std::fs::read_to_string(dir.join("config.yaml")).unwrap();
+    let config = gmmcalib::config::Config::from_yaml(&text, "config.yaml").unwrap();
+    let nominal = config.nominal_poses();
+    let mut scans = Vec::new();
+    for (sensor, _) in &nominal {
+        for frame in 1..=3 {
+            let mut s = scan(&dir.join(format!("data/{sensor}/{frame}.pcd")), sensor);
+            s.frame = frame.to_string();
+            scans.push(s);
+        }
+    }
+    let mesh = std::fs::read(dir.join("chair.obj")).unwrap();
+    let target = Target::from_mesh_file(&mesh, "chair.obj").unwrap();
+    let settings = calib::Settings { target, ..Default::default() };
+    let room = nominal[0].1;
+    // Starts off by roll, pitch, yaw (deg) and x, y, z (m) from the room's answer.
+    let starts = [
+        ([0.48f64, 0.0, 0.0], [0.0, 0.0, 0.0]),
+        ([0.0, 0.48, 0.0], [0.0, 0.0, 0.0]),
+        ([0.0, 0.0, 3.0], [0.1, 0.0, 0.0]),
+        ([3.0, -3.0, 0.0], [0.0, 0.1, -0.1]),
+    ];
+    let mut back = 0;
+    for (rpy, xyz) in starts {
+        let turn = nalgebra::UnitQuaternion::from_euler_angles(
+            rpy[0].to_radians(),
+            rpy[1].to_radians(),
+            rpy[2].to_radians(),
+        );
+        let start = Pose::from_parts(
+            (room.translation.vector + nalgebra::Vector3::from(xyz)).into(),
+            turn * room.rotation,
+        );
+        let mut nominal = nominal.clone();
+        nominal[0].1 = start;
+        let rig = Rig { scans: scans.clone(), nominal, roi: config.roi, reference: None };
+        let result =
+            calib::calibrate(&rig, calib::Method::Gmm, &settings, |_| Control::Continue).unwrap();
+        let sensor = &result.sensors[0];
+        let relative = result.sensors[1].extrinsic.inverse() * sensor.extrinsic;
+        let off = room_relative(&config).inverse() * relative;
+        let (angle, distance) = (off.rotation.angle().to_degrees(), off.translation.vector.norm());
+        let level = result.verdict.sensors.iter().find(|v| v.sensor == sensor.name).unwrap().level;
+        let chosen = result.selection[0].chosen().source.name();
+        println!(
+            "start {rpy:?} deg {xyz:?} m: {angle:.3} deg / {:.1} mm from the room's answer, {chosen}, {level:?}",
+            distance * 1e3
+        );
+        if angle < 0.01 && distance < 0.01 {
+            back += 1;
+        } else {
+            assert_ne!(level, Level::Good, "{angle} deg / {distance} m off");
+        }
+    }
+    assert!(back >= 3, "{back} of 4 starts came back");
+}
+
+/// The config's `T_sensor2_sensor1`: what the room says.
+fn room_relative(config: &gmmcalib::config::Config) -> Pose {
+    let n = config.nominal_poses();
+    n[1].1.inverse() * n[0].1
 }

@@ -259,7 +259,7 @@ chosen: number, hypotheses: Array<HypothesisReport>, };
 export type HypothesisReport = { 
 /**
  * `nominal`, `global`, `levelled`, `jrmpc`, `cad`, `refinedFromNominal`,
- * `refinedFromStart`, `refined` or `planes`.
+ * `refinedFromStart`, `refined`, `refinedOnScene` or `planes`.
  */
 stage: string, 
 /**

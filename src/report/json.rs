@@ -502,7 +502,7 @@ pub struct SelectionReport {
 #[serde(rename_all = "camelCase")]
 pub struct HypothesisReport {
     /// `nominal`, `global`, `levelled`, `jrmpc`, `cad`, `refinedFromNominal`,
-    /// `refinedFromStart`, `refined` or `planes`.
+    /// `refinedFromStart`, `refined`, `refinedOnScene` or `planes`.
     pub stage: &'static str,
     /// A global candidate's rank (0: the global stage's best overlay).
     pub rank: Option<usize>,

@@ -6,6 +6,7 @@ mod adjust;
 mod extrinsics;
 mod hypotheses;
 mod judging;
+mod scene;
 
 use super::CalibError;
 use super::pairs::FramePairs;
@@ -32,6 +33,11 @@ pub(super) fn finish(
     // 2. The selection: one hypothesis per sensor, on the whole scans.
     hypotheses.check_own_results(&views)?;
     hypotheses.choose(&views);
+    // 2b. Where the registrations saw a region, the chosen refined on the whole scans, and
+    // chosen again.
+    if scene::refine_on_scene(&views, &mut hypotheses) {
+        hypotheses.choose(&views);
+    }
     // 3. The joint plane adjustment of the chosen, one more hypothesis, chosen again.
     let clouds: Vec<&[[f32; 3]]> = views.views.iter().map(|v| v.cloud.points.as_slice()).collect();
     let (plane_adjustment, precision) = adjust::adjust_chosen(&views, &clouds, &mut hypotheses);

@@ -107,7 +107,8 @@ impl Default for SelectSettings {
     }
 }
 
-/// Where a hypothesis came from, in pipeline order: later stages started from earlier ones.
+/// Where a hypothesis came from, in pipeline order (but [`Source::RefinedOnScene`]): later
+/// stages started from earlier ones, and stand where the score cannot tell the two apart.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", tag = "stage")]
 pub enum Source {
@@ -121,6 +122,11 @@ pub enum Source {
     Jrmpc,
     /// `cad`'s registration onto the target's model.
     Cad,
+    /// ICP on the selection's whole scans, started from the chosen refinement, where the
+    /// registrations saw a region (a target's, or the user's). Before the frame pairs'
+    /// refinements it starts from: on the thinned scans it is coarser than they are (`stacked`
+    /// twin: 35 mm against 0.4 mm), so where the score cannot tell them apart they stand.
+    RefinedOnScene,
     /// The frame pairs' ICP started from the nominal.
     RefinedFromNominal,
     /// The frame pairs' ICP started from the chosen start.
@@ -140,6 +146,7 @@ impl Source {
             Source::Levelled => "levelled",
             Source::Jrmpc => "jrmpc",
             Source::Cad => "cad",
+            Source::RefinedOnScene => "refinedOnScene",
             Source::RefinedFromNominal => "refinedFromNominal",
             Source::RefinedFromStart => "refinedFromStart",
             Source::Refined => "refined",

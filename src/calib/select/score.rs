@@ -331,7 +331,7 @@ impl Scenes {
     }
 
     /// Sensor `s`'s scored frames: (frame name, surface).
-    pub(super) fn frames_of(&self, s: usize) -> impl Iterator<Item = (&str, &Surface)> {
+    pub(crate) fn frames_of(&self, s: usize) -> impl Iterator<Item = (&str, &Surface)> {
         self.surfaces.get(s).into_iter().flatten().map(|(f, surface)| (f.as_str(), surface))
     }
 

@@ -124,7 +124,8 @@ function comparisonHtml(results, truth, failures) {
 const stageText = (/** @type {import('../result').HypothesisReport} */ h) => ({
   nominal: 'nominal', global: `global candidate ${h.rank + 1}`, levelled: 'levelled start',
   jrmpc: 'JRMPC', cad: 'CAD registration', refinedFromNominal: 'refined from the nominal',
-  refinedFromStart: 'refined from the start', refined: 'refined', planes: 'plane adjustment',
+  refinedFromStart: 'refined from the start', refined: 'refined',
+  refinedOnScene: 'refined on the whole scans', planes: 'plane adjustment',
 })[h.stage] ?? h.stage;
 
 // How far a 4×4 row-major correction moves a sensor: rotation (deg) and translation (m).
