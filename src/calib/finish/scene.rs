@@ -15,15 +15,15 @@ use crate::se3::Pose;
 
 /// Adds, per non-reference sensor, the frame pairs' ICP on the selection's scans (every frame
 /// both sensors have there, whole, thinned) from its chosen hypothesis; whether any was added.
-/// Nothing where the region was the scans' overlap itself, for a paper method (it keeps its
-/// own result) or one without a refinement.
+/// Nothing where the region was the scans' overlap itself, nor for a paper method (it keeps
+/// its own result).
 pub(super) fn refine_on_scene(views: &Views, hypotheses: &mut Hypotheses) -> bool {
     if views.roi_source == RoiSource::Overlap || !views.stages.select {
         return false;
     }
-    let Some(settings) = views.stages.pairs.clone() else { return false };
+    // `gmm`'s refinement, `cad`'s too: it has none of its own.
     let ground = views.reference_ground().filter(|_| views.stages.ground_normals);
-    let icp = PairIcp { settings, ground };
+    let icp = PairIcp { settings: views.settings.refine.clone(), ground };
     let r = views.reference;
     // The reference's scans where the views are: at its pre-alignment.
     let frames: Vec<(&str, Vec<[f32; 3]>)> = (views.scenes.frames_of(r))

@@ -118,15 +118,15 @@ pub enum Source {
     Global { rank: usize },
     /// The start levelled onto the reference's ground, and searched from above when on.
     Levelled,
+    /// ICP on the selection's whole scans, started from the chosen hypothesis, where the
+    /// registrations saw a region (a target's, or the user's). Ordered before every stage it
+    /// may start from: on the thinned scans it is coarser than they are (`stacked` twin:
+    /// 35 mm against 0.4 mm), so where the score cannot tell them apart they stand.
+    RefinedOnScene,
     /// JRMPC's joint registration.
     Jrmpc,
     /// `cad`'s registration onto the target's model.
     Cad,
-    /// ICP on the selection's whole scans, started from the chosen refinement, where the
-    /// registrations saw a region (a target's, or the user's). Before the frame pairs'
-    /// refinements it starts from: on the thinned scans it is coarser than they are (`stacked`
-    /// twin: 35 mm against 0.4 mm), so where the score cannot tell them apart they stand.
-    RefinedOnScene,
     /// The frame pairs' ICP started from the nominal.
     RefinedFromNominal,
     /// The frame pairs' ICP started from the chosen start.
