@@ -186,6 +186,8 @@ fn the_chair_example_returns_to_what_the_room_says() {
     let target = Target::from_mesh_file(&mesh, "chair.obj").unwrap();
     let settings = calib::Settings { target, ..Default::default() };
     let room = nominal[0].1;
+    // What the room says, as `T_sensor2_sensor1`.
+    let room_relative = nominal[1].1.inverse() * room;
     // Starts off by roll, pitch, yaw (deg) and x, y, z (m) from the room's answer.
     let starts = [
         ([0.48f64, 0.0, 0.0], [0.0, 0.0, 0.0]),
@@ -211,7 +213,7 @@ fn the_chair_example_returns_to_what_the_room_says() {
             let result = calib::calibrate(&rig, method, &settings, |_| Control::Continue).unwrap();
             let sensor = &result.sensors[0];
             let relative = result.sensors[1].extrinsic.inverse() * sensor.extrinsic;
-            let off = room_relative(&config).inverse() * relative;
+            let off = room_relative.inverse() * relative;
             let (angle, distance) =
                 (off.rotation.angle().to_degrees(), off.translation.vector.norm());
             let level =
@@ -231,10 +233,4 @@ fn the_chair_example_returns_to_what_the_room_says() {
         }
         assert!(back >= 3, "{}: {back} of 4 starts came back", method.name());
     }
-}
-
-/// The config's `T_sensor2_sensor1`: what the room says.
-fn room_relative(config: &gmmcalib::config::Config) -> Pose {
-    let n = config.nominal_poses();
-    n[1].1.inverse() * n[0].1
 }
