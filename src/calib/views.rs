@@ -4,7 +4,7 @@
 //! frame. [`Views`] owns what the later stages need.
 
 use super::global::{GlobalAlignment, GlobalStage};
-use super::grounds::{level_grounds, sensor_ground};
+use super::grounds::{level_sensor, reference_levelling, sensor_ground};
 use super::notes::{LevellingSkipped, Note, NoteKind};
 use super::pairs::{FramePairs, PairCorrections, PairIcp, PairStart};
 use super::placed::{place_targets, roi_around_targets};
@@ -135,26 +135,77 @@ impl Views {
         };
 
         // Level, then search from above, when the stages say so: a hypothesis like any other.
-        let mut levelling = if stages.level {
-            level_grounds(rig, &roi, &sensors, &starts, r, settings, &stages)
-        } else {
-            Vec::new()
-        };
-        for (s, level) in levelling.iter().enumerate().filter(|(s, _)| *s != r) {
-            if level.skipped.is_none() && level.motion != Pose::identity() {
-                let correction = level.motion * hypotheses[s][start[s]].correction;
-                let parent = Some(start[s]);
-                hypotheses[s].push(Hypothesis::new(Source::Levelled, correction, parent));
+        // Every global candidate is levelled, not only the start: one in the right basin may
+        // score below the nominal until levelled (the global stage's ground, one RANSAC draw on
+        // the whole scan, may lie degrees off the one found near the region). The nominal is
+        // levelled only as the start: where it is not, a candidate beat it, and a levelling far
+        // from it is no longer the user's guess, which the selection favours on a tie. The
+        // bird's-eye search, which costs fifty levellings, runs from the start, and from another
+        // candidate only once its levelling is chosen.
+        let reference_ground =
+            stages.level.then(|| sensor_ground(rig, &roi, &sensors, &starts[r], r, settings));
+        let mut levelling: Vec<Levelling> = match &reference_ground {
+            Some(reference) => {
+                sensors.iter().map(|name| reference_levelling(name, reference)).collect()
             }
+            None => Vec::new(),
+        };
+        let level = |s: usize, parent: usize, hypotheses: &[Vec<Hypothesis>], search: bool| {
+            let from = hypotheses[s][parent].correction * nominals[s];
+            let reference = reference_ground.as_ref().expect("levelling has a reference ground");
+            level_sensor(rig, &roi, &sensors, &from, s, r, reference, settings, &stages, search)
+        };
+        // Per sensor, its `Levelled` hypotheses and the levelling behind each.
+        let mut levelled_from: Vec<Vec<(usize, Levelling)>> = vec![Vec::new(); sensors.len()];
+        let jobs: Vec<(usize, usize)> = (0..sensors.len())
+            .filter(|&s| s != r && reference_ground.is_some())
+            .flat_map(|s| {
+                // The nominal, where it is not the start, was beaten by a candidate already.
+                let start = start[s];
+                (0..hypotheses[s].len()).filter(move |&k| k != 0 || k == start).map(move |k| (s, k))
+            })
+            .collect();
+        let found = crate::on_threads(&jobs, crate::threads_here(threads), |&(s, k)| {
+            level(s, k, &hypotheses, k == start[s])
+        });
+        for (&(s, parent), l) in jobs.iter().zip(found) {
+            if parent == start[s] {
+                // Reported unless another root's levelling is chosen.
+                levelling[s] = l.clone();
+            }
+            add_levelled(&mut hypotheses[s], &mut levelled_from[s], parent, l);
         }
-        if levelling.iter().any(|l| l.skipped.is_none() && l.motion != Pose::identity()) {
+        let before = start.clone();
+        if jobs.iter().any(|&(s, _)| !levelled_from[s].is_empty()) {
+            select::choose_all(&on, &mut hypotheses, &mut start, &settings.select, threads);
+        }
+        // Another root's levelling chosen: the bird's-eye search from that root too.
+        let searched: Vec<(usize, usize)> = (0..sensors.len())
+            .filter(|&s| stages.bev.is_some() && s != r)
+            .filter_map(|s| {
+                let parent = hypotheses[s][start[s]].parent?;
+                let other =
+                    hypotheses[s][start[s]].source == Source::Levelled && parent != before[s];
+                other.then_some((s, parent))
+            })
+            .collect();
+        let found = crate::on_threads(&searched, crate::threads_here(threads), |&(s, k)| {
+            level(s, k, &hypotheses, true)
+        });
+        for (&(s, parent), l) in searched.iter().zip(found) {
+            add_levelled(&mut hypotheses[s], &mut levelled_from[s], parent, l);
+        }
+        if !searched.is_empty() {
             select::choose_all(&on, &mut hypotheses, &mut start, &settings.select, threads);
         }
         for (s, level) in levelling.iter_mut().enumerate().filter(|(s, _)| *s != r) {
-            let kept = hypotheses[s][start[s]].source == Source::Levelled;
-            if level.skipped.is_none() && level.motion != Pose::identity() && !kept {
-                level.motion = Pose::identity();
-                level.skipped = Some(LevellingSkipped::ScoredWorse);
+            match levelled_from[s].iter().find(|(k, _)| *k == start[s]) {
+                Some((_, chosen)) => *level = chosen.clone(),
+                None if level.skipped.is_none() && level.motion != Pose::identity() => {
+                    level.motion = Pose::identity();
+                    level.skipped = Some(LevellingSkipped::ScoredWorse);
+                }
+                None => {}
             }
         }
         let levelled: Vec<Pose> =
@@ -162,9 +213,9 @@ impl Views {
 
         // Without levelling, the reference's ground is found for the reconstruction's fit and
         // the verdict's structure.
-        let ground = match levelling.get(r) {
-            Some(l) => l.ground,
-            None => sensor_ground(rig, &roi, &sensors, &starts, r, settings).1.map(|(g, _)| g),
+        let ground = match &reference_ground {
+            Some((_, ground)) => ground.map(|(g, _)| g),
+            None => sensor_ground(rig, &roi, &sensors, &starts[r], r, settings).1.map(|(g, _)| g),
         };
 
         // Pre-align and crop: to the user's ROI, else around the targets found in the
@@ -432,6 +483,21 @@ fn roots(global: Option<&GlobalAlignment>) -> Vec<Hypothesis> {
         }
     }
     roots
+}
+
+/// A sensor's hypothesis levelled from its hypothesis `parent` by `l`, when `l` moved it;
+/// `levelled` keeps which levelling each such hypothesis came from.
+fn add_levelled(
+    hypotheses: &mut Vec<Hypothesis>,
+    levelled: &mut Vec<(usize, Levelling)>,
+    parent: usize,
+    l: Levelling,
+) {
+    if l.skipped.is_none() && l.motion != Pose::identity() {
+        let correction = l.motion * hypotheses[parent].correction;
+        levelled.push((hypotheses.len(), l));
+        hypotheses.push(Hypothesis::new(Source::Levelled, correction, Some(parent)));
+    }
 }
 
 /// Each sensor's scans, frame by frame, in its own frame: (frame name, points).

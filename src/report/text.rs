@@ -167,10 +167,7 @@ fn selection(out: &mut String, c: &Calibration) {
         let _ = writeln!(out, "  {}", s.sensor);
         for (i, h) in s.hypotheses.iter().enumerate() {
             let mark = if i == s.chosen { "*" } else { " " };
-            let stage = match h.source {
-                crate::calib::Source::Global { rank } => format!("global #{}", rank + 1),
-                other => other.name().to_string(),
-            };
+            let stage = stage_name(&s.hypotheses, i);
             let ground = h.ground.map_or(String::new(), |g| {
                 format!("; grounds {:.1} mm / {:.3} deg apart", 1e3 * g.height, g.tilt.to_degrees())
             });
@@ -185,6 +182,18 @@ fn selection(out: &mut String, c: &Calibration) {
                 h.correction.translation.vector.norm()
             );
         }
+    }
+}
+
+/// Hypothesis `i`'s stage as the table names it; a levelling with the root it levelled, since
+/// every root is levelled.
+fn stage_name(hypotheses: &[crate::calib::Hypothesis], i: usize) -> String {
+    use crate::calib::Source;
+    let h = &hypotheses[i];
+    match (h.source, h.parent) {
+        (Source::Global { rank }, _) => format!("global #{}", rank + 1),
+        (Source::Levelled, Some(p)) => format!("levelled {}", stage_name(hypotheses, p)),
+        (other, _) => other.name().to_string(),
     }
 }
 

@@ -42,8 +42,8 @@ async function inView(page, size) {
 }
 
 // The selection's table says what the result's selection holds: per sensor a row per
-// hypothesis in its order, the chosen one marked, and where a hypothesis's ground was compared
-// with the others', how far apart (mm / deg).
+// hypothesis in its order, named (a levelling by what it levelled), the chosen one marked, and
+// where a hypothesis's ground was compared with the others', how far apart (mm / deg).
 async function selectionShown(page, r) {
   for (const s of r.selection) {
     const rows = page.locator(`[data-testid=hypothesis][data-sensor="${s.sensor}"]`);
@@ -51,6 +51,11 @@ async function selectionShown(page, r) {
     assert.deepEqual(await rows.evaluateAll((all) => all.map((row) => row.dataset.stage)), s.hypotheses.map((h) => h.stage));
     const chosen = page.locator(`[data-testid=hypothesis][data-sensor="${s.sensor}"][data-chosen]`);
     assert.equal(await chosen.getAttribute('data-stage'), s.hypotheses[s.chosen].stage, `${s.sensor}: the chosen row`);
+    // A levelling is named by what it levelled: every global candidate is levelled.
+    const named = await rows.evaluateAll((all) => all.map((row) => row.children[1].textContent.replace(/^▶ /, '')));
+    s.hypotheses.forEach((h, i) => {
+      if (h.stage === 'levelled' && h.parent != null) assert.equal(named[i], `levelled ${named[h.parent]}`, `${s.sensor}: hypothesis ${i}'s name`);
+    });
     const grounds = await rows.evaluateAll((all) => all.map((row) => row.lastElementChild.textContent));
     s.hypotheses.forEach((h, i) => {
       const said = h.ground ? `${(1000 * h.ground.height).toFixed(1)} mm / ${(h.ground.tilt * 180 / Math.PI).toFixed(3)} deg` : '';

@@ -15,7 +15,7 @@ pub fn usage() -> String {
 const OWN_USAGE: &str = "\
        gmmcalib inspect FILE|BAG_FOLDER
        gmmcalib simulate --out DIR [--preset paper|paper-roof|paper-chair|...] [--frames F]
-                          [--seed S] [--max-angle-deg 3] [--max-yaw-deg DEG]
+                          [--seed S] [--start K] [--max-angle-deg 3] [--max-yaw-deg DEG]
                           [--max-translation 0.1] [--move SENSOR:ROLL,PITCH,YAW,X,Y,Z]
        gmmcalib experiment --out DIR [--preset paper|...] [--trials N] [--frames F]
                           [--seed S] [--methods gmm,jrmpc,p2p,p2l,gicp] [--threads T]
@@ -41,7 +41,8 @@ const OWN_HELP: &str = "\
   simulate: writes the digital twin in that layout (DIR/config.yaml with miscalibrated nominal
   extrinsics, DIR/data/sensor_N/F.pcd) plus DIR/truth.json; the first sensor is the reference
   and keeps its true mount. --move turns and shifts a sensor's true mount in its own frame
-  (deg, m), as a sensor knocked out of place: the drift check's test rig.
+  (deg, m), as a sensor knocked out of place: the drift check's test rig. --start K: the
+  nominals of the study's start K of seed S (drawn from seed 1000 S + K), to look at one trial.
   experiment: the paper's experiment; every method on the same frames of each trial; writes
   DIR/summary.json, trials.csv, table.md and SVG plots.
   study: accuracy on the twin: seeds 1..=N of the scans, each calibrated from --starts wrong
@@ -71,6 +72,9 @@ pub struct TwinArgs {
     pub preset: String,
     pub frames: usize,
     pub seed: u64,
+    /// The study's start whose nominals to draw (from seed `1000 seed + start`); `None`: the
+    /// scans' seed draws them.
+    pub start: Option<u64>,
     /// Miscalibration bound per rotation axis (deg).
     pub max_angle_deg: f64,
     /// Yaw's bound (deg) when it differs from the other axes'.
@@ -89,6 +93,7 @@ impl Default for TwinArgs {
             preset: "paper".into(),
             frames: 5,
             seed: 0,
+            start: None,
             max_angle_deg: gmmcalib::twin::MAX_MISCALIBRATION_ANGLE.to_degrees(),
             max_yaw_deg: None,
             max_translation: gmmcalib::twin::MAX_MISCALIBRATION_TRANSLATION,
@@ -232,6 +237,13 @@ fn twin_flag(twin: &mut TwinArgs, flag: &str, value: &str) -> Result<bool, Strin
                 .parse()
                 .map_err(|_| format!("{flag} expects a non-negative integer, got '{value}'"))?
         }
+        "--start" => {
+            twin.start = Some(
+                value
+                    .parse()
+                    .map_err(|_| format!("{flag} expects a non-negative integer, got '{value}'"))?,
+            )
+        }
         "--max-angle-deg" => twin.max_angle_deg = non_negative(flag, value)?,
         "--max-yaw-deg" => twin.max_yaw_deg = Some(non_negative(flag, value)?),
         "--max-translation" => twin.max_translation = non_negative(flag, value)?,
@@ -361,11 +373,12 @@ mod tests {
     #[test]
     fn parses_simulate_and_experiment() {
         let Ok(Command::Simulate(s)) =
-            parse(args("simulate --out o --frames=3 --seed 9 --max-angle-deg 1.5"))
+            parse(args("simulate --out o --frames=3 --seed 9 --start 1 --max-angle-deg 1.5"))
         else {
             panic!("expected simulate");
         };
         assert_eq!((s.out, s.twin.frames, s.twin.seed), (PathBuf::from("o"), 3, 9));
+        assert_eq!(s.twin.start, Some(1));
         assert_eq!((s.twin.preset.as_str(), s.twin.max_angle_deg), ("paper", 1.5));
         assert!((s.twin.max_translation - 0.1).abs() < 1e-12);
         let Ok(Command::Experiment(e)) =
@@ -387,6 +400,7 @@ mod tests {
         assert!(matches!(parse(args("")), Ok(Command::Help)));
         assert!(parse(args("simulate --frames 2")).unwrap_err().contains("--out"));
         assert!(parse(args("simulate --out o --seed -1")).unwrap_err().contains("--seed"));
+        assert!(parse(args("simulate --out o --start x")).unwrap_err().contains("--start"));
         assert!(parse(args("experiment --out o --max-translation -1")).is_err());
         assert!(parse(args("experiment --out o --trials 0")).is_err());
         assert!(parse(args("study --bev maybe")).unwrap_err().contains("on or off"));

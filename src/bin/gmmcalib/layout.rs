@@ -26,6 +26,12 @@ pub fn model(name: &str) -> Result<Model, String> {
         .ok_or_else(|| format!("unknown preset '{name}' (expected {})", twin::PRESETS.join(", ")))
 }
 
+/// The seed that draws the nominals of the study's start `start` of scan seed `seed`, so that
+/// `simulate --seed S --start K` writes out the study's trial.
+pub fn start_seed(seed: u64, start: u64) -> u64 {
+    seed * 1000 + start
+}
+
 impl TwinFiles {
     /// The twin of `args` with the scans of `seed` (the twin's seed rule).
     pub fn new(args: &TwinArgs, seed: u64) -> Result<Self, String> {
@@ -48,6 +54,7 @@ impl TwinFiles {
         let yaw = args.max_yaw_deg.map_or(angle, f64::to_radians);
         let bounds = Miscalibration {
             angle: [angle, angle, yaw],
+            seed: args.start.map(|k| start_seed(seed, k)),
             ..Miscalibration::within(angle, args.max_translation)
         };
         let mut twin = Twin::new(&model, args.frames, seed, &bounds);

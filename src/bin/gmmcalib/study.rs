@@ -13,7 +13,7 @@ use gmmcalib::se3::xyz_rpy;
 use gmmcalib::twin::{self, Miscalibration, Model, Twin};
 
 use crate::args::StudyArgs;
-use crate::layout::model;
+use crate::layout::{model, start_seed};
 use crate::parallel::on_threads;
 
 /// One trial: the errors per non-reference sensor, and what the run cost and said.
@@ -64,7 +64,7 @@ pub fn run(a: &StudyArgs) -> Result<(), String> {
             let draw = Miscalibration {
                 angle: [angle, angle, yaw],
                 translation: [translation; 3],
-                seed: Some(seed * 1000 + start),
+                seed: Some(start_seed(seed, start)),
             };
             // A calibration that fails is a finding of the study, not the end of it.
             Ok(trial(&model, a.frames, seed, &draw, (method, &settings), a.notes, a.jitter))

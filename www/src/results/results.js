@@ -120,13 +120,17 @@ function comparisonHtml(results, truth, failures) {
   return `<table class="compare">${head}${body.join('')}${failed.join('')}</table>`;
 }
 
-// A stage's name as the selection reports it, in words.
-const stageText = (/** @type {import('../result').HypothesisReport} */ h) => ({
-  nominal: 'nominal', global: `global candidate ${h.rank + 1}`, levelled: 'levelled start',
-  jrmpc: 'JRMPC', cad: 'CAD registration', refinedFromNominal: 'refined from the nominal',
-  refinedFromStart: 'refined from the start', refined: 'refined',
-  refinedOnScene: 'refined on the whole scans', planes: 'plane adjustment',
-})[h.stage] ?? h.stage;
+// A stage's name as the selection reports it, in words; a levelling with the root it levelled
+// (every root is levelled).
+/** @param {import('../result').HypothesisReport} h @param {import('../result').HypothesisReport[]} all @returns {string} */
+const stageText = (h, all) => (h.stage === 'levelled' && h.parent != null && all[h.parent]
+  ? `levelled ${stageText(all[h.parent], all)}`
+  : ({
+    nominal: 'nominal', global: `global candidate ${h.rank + 1}`, levelled: 'levelled',
+    jrmpc: 'JRMPC', cad: 'CAD registration', refinedFromNominal: 'refined from the nominal',
+    refinedFromStart: 'refined from the start', refined: 'refined',
+    refinedOnScene: 'refined on the whole scans', planes: 'plane adjustment',
+  })[h.stage] ?? h.stage);
 
 // How far a 4×4 row-major correction moves a sensor: rotation (deg) and translation (m).
 function moved(m) {
@@ -145,13 +149,13 @@ function selectionHtml(selection) {
   if (!selection.length) return '';
   const summary = selection.map((s) => {
     const c = s.hypotheses[s.chosen];
-    return `${esc(s.sensor)}: ${stageText(c)} (score ${(100 * c.score).toFixed(1)} %; nominal ${(100 * s.hypotheses[0].score).toFixed(1)} %)`;
+    return `${esc(s.sensor)}: ${stageText(c, s.hypotheses)} (score ${(100 * c.score).toFixed(1)} %; nominal ${(100 * s.hypotheses[0].score).toFixed(1)} %)`;
   }).join('; ');
   const rows = selection.flatMap((s) => s.hypotheses.map((h, i) => {
     const [deg, m] = moved(h.correction);
     const chosen = i === s.chosen;
     return `<tr${chosen ? ' class="chosen"' : ''} data-testid="hypothesis" data-sensor="${esc(s.sensor)}" data-stage="${h.stage}"${chosen ? ' data-chosen' : ''}>` +
-      `<td>${i === 0 ? esc(s.sensor) : ''}</td><td>${chosen ? '▶ ' : ''}${stageText(h)}</td>` +
+      `<td>${i === 0 ? esc(s.sensor) : ''}</td><td>${chosen ? '▶ ' : ''}${stageText(h, s.hypotheses)}</td>` +
       `<td>${(100 * h.score).toFixed(1)} %</td><td>${(100 * h.landing).toFixed(1)} %</td><td>${(100 * h.contradiction).toFixed(1)} %</td><td>${(100 * h.overlap).toFixed(1)} %</td><td>${deg.toFixed(3)} deg / ${m.toFixed(3)} m</td><td>${groundText(h.ground)}</td></tr>`;
   }));
   return `<details class="selection" data-testid="selection"><summary>Selection: ${summary}</summary>
