@@ -15,12 +15,13 @@ use crate::cloud::Aabb;
 use crate::plane::Plane;
 use crate::se3::Pose;
 
+/// A sensor's points near the ROI (vehicle frame, at a start) and the ground plane found among
+/// them with its inliers: [`sensor_ground`]'s answer.
+pub(super) type NearGround = (Vec<Vector3<f64>>, Option<(Plane, usize)>);
+
 /// The reference `r`'s levelling: none, its ground (`reference`, [`sensor_ground`]) being the
 /// one the others are levelled onto.
-pub(super) fn reference_levelling(
-    name: &str,
-    (_, ground): &(Vec<Vector3<f64>>, Option<(Plane, usize)>),
-) -> Levelling {
+pub(super) fn reference_levelling(name: &str, (_, ground): &NearGround) -> Levelling {
     Levelling {
         sensor: name.to_string(),
         ground: ground.map(|(p, _)| p),
@@ -44,7 +45,7 @@ pub(super) fn level_sensor(
     start: &Pose,
     s: usize,
     r: usize,
-    (reference_points, reference_ground): &(Vec<Vector3<f64>>, Option<(Plane, usize)>),
+    (reference_points, reference_ground): &NearGround,
     settings: &Settings,
     stages: &Stages,
     search: bool,
@@ -84,7 +85,7 @@ pub(super) fn sensor_ground(
     start: &Pose,
     s: usize,
     settings: &Settings,
-) -> (Vec<Vector3<f64>>, Option<(Plane, usize)>) {
+) -> NearGround {
     let bounds = level::search_box(roi, settings.ground.margin);
     let points: Vec<_> = rig
         .scans

@@ -142,23 +142,21 @@ impl Views {
         // from it is no longer the user's guess, which the selection favours on a tie. The
         // bird's-eye search, which costs fifty levellings, runs from the start, and from another
         // candidate only once its levelling is chosen.
-        let reference_ground =
-            stages.level.then(|| sensor_ground(rig, &roi, &sensors, &starts[r], r, settings));
-        let mut levelling: Vec<Levelling> = match &reference_ground {
-            Some(reference) => {
-                sensors.iter().map(|name| reference_levelling(name, reference)).collect()
-            }
-            None => Vec::new(),
+        // The reference's ground: what the others are levelled onto, and, levelled or not,
+        // the reconstruction's fit and the verdict's structure.
+        let reference = sensor_ground(rig, &roi, &sensors, &starts[r], r, settings);
+        let mut levelling: Vec<Levelling> = match stages.level {
+            true => sensors.iter().map(|name| reference_levelling(name, &reference)).collect(),
+            false => Vec::new(),
         };
         let level = |s: usize, parent: usize, hypotheses: &[Vec<Hypothesis>], search: bool| {
             let from = hypotheses[s][parent].correction * nominals[s];
-            let reference = reference_ground.as_ref().expect("levelling has a reference ground");
-            level_sensor(rig, &roi, &sensors, &from, s, r, reference, settings, &stages, search)
+            level_sensor(rig, &roi, &sensors, &from, s, r, &reference, settings, &stages, search)
         };
         // Per sensor, its `Levelled` hypotheses and the levelling behind each.
         let mut levelled_from: Vec<Vec<(usize, Levelling)>> = vec![Vec::new(); sensors.len()];
         let jobs: Vec<(usize, usize)> = (0..sensors.len())
-            .filter(|&s| s != r && reference_ground.is_some())
+            .filter(|&s| s != r && stages.level)
             .flat_map(|s| {
                 // The nominal, where it is not the start, was beaten by a candidate already.
                 let start = start[s];
@@ -211,12 +209,7 @@ impl Views {
         let levelled: Vec<Pose> =
             (0..sensors.len()).map(|s| hypotheses[s][start[s]].correction).collect();
 
-        // Without levelling, the reference's ground is found for the reconstruction's fit and
-        // the verdict's structure.
-        let ground = match &reference_ground {
-            Some((_, ground)) => ground.map(|(g, _)| g),
-            None => sensor_ground(rig, &roi, &sensors, &starts[r], r, settings).1.map(|(g, _)| g),
-        };
+        let ground = reference.1.map(|(g, _)| g);
 
         // Pre-align and crop: to the user's ROI, else around the targets found in the
         // reference's points, else to where the clouds overlap.
