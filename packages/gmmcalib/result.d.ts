@@ -271,7 +271,8 @@ rank: number | null,
  */
 parent: number | null, correction: Matrix4, 
 /**
- * The selection's score: `landing` less `contradiction` (-1..1).
+ * The selection's score: `landing` less three times `contradiction`
+ * (`select::CONTRADICTION_WEIGHT`; -3..1).
  */
 score: number, 
 /**

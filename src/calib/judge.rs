@@ -119,13 +119,19 @@ pub(super) fn judge_sensor(inputs: SensorInputs, others: &[(&SensorResult, f64)]
     }
 }
 
-/// What the selection says: the nominal kept, a rival placement the scans cannot rule out, a
-/// method's own result worse than its nominal.
+/// What the selection says: the nominal kept, a placement the scans contradict, a rival
+/// placement the scans cannot rule out, a method's own result worse than its nominal.
 fn judge_selection(selection: &SensorSelection, z: f64, say: &mut impl FnMut(Level, ReasonKind)) {
     let chosen = selection.chosen();
     let nominal = selection.nominal();
     if chosen.source == Source::Nominal && selection.hypotheses.len() > 1 {
         say(Level::Check, ReasonKind::NominalKept { share: nominal.score.value() });
+    }
+    // Below zero the free space outweighs the landing: right placements put one point in
+    // another's free space per ten landing or fewer, chance overlays one per two to four.
+    if chosen.score.value() < 0.0 {
+        let (landing, contradiction) = (chosen.score.landing(), chosen.score.contradiction());
+        say(Level::Failed, ReasonKind::Contradicted { landing, contradiction });
     }
     if nominal.score.beats(&chosen.score, z) {
         let (share, nominal) = (chosen.score.value(), nominal.score.value());

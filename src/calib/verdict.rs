@@ -126,6 +126,10 @@ pub enum ReasonKind {
     /// `angle` (rad) and `distance` (m) away, landing `share` of the points against the
     /// chosen's `chosen`.
     Rival { source: Source, angle: f64, distance: f64, share: f64, chosen: f64 },
+    /// The scans contradict the chosen placement: `contradiction` of its points stand where
+    /// another sensor saw through, weighing more than the `landing` share on their surfaces
+    /// (the selection's score below zero).
+    Contradicted { landing: f64, contradiction: f64 },
     /// The method's own result lands the scans worse than the nominal did (`share` against
     /// the nominal's `nominal`): a paper method that slid away.
     WorseThanNominal { share: f64, nominal: f64 },

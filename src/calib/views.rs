@@ -135,9 +135,10 @@ impl Views {
         };
 
         // Level, then search from above, when the stages say so: a hypothesis like any other.
-        // Every global candidate is levelled, not only the start: one in the right basin may
-        // score below the nominal until levelled (the global stage's ground, one RANSAC draw on
-        // the whole scan, may lie degrees off the one found near the region). The nominal is
+        // The best-scored global candidates are levelled, not only the start: one in the right
+        // basin may score below the nominal until levelled (the global stage's ground, one
+        // RANSAC draw on the whole scan, may lie degrees off the one found near the region). The
+        // nominal is
         // levelled only as the start: where it is not, a candidate beat it, and a levelling far
         // from it is no longer the user's guess, which the selection favours on a tie. The
         // bird's-eye search, which costs fifty levellings, runs from the start, and from another
@@ -160,7 +161,9 @@ impl Views {
             .flat_map(|s| {
                 // The nominal, where it is not the start, was beaten by a candidate already.
                 let start = start[s];
-                (0..hypotheses[s].len()).filter(move |&k| k != 0 || k == start).map(move |k| (s, k))
+                let best = best_scored(&hypotheses[s], LEVELLED_CANDIDATES);
+                let levelled = move |k: &usize| *k == start || best.contains(k);
+                (0..hypotheses[s].len()).filter(levelled).map(move |k| (s, k))
             })
             .collect();
         let found = crate::on_threads(&jobs, crate::threads_here(threads), |&(s, k)| {
@@ -476,6 +479,22 @@ fn roots(global: Option<&GlobalAlignment>) -> Vec<Hypothesis> {
         }
     }
     roots
+}
+
+/// Global candidates levelled besides the start: a levelling costs about as much as scoring
+/// every candidate, so the candidates are scored first and the best few levelled.
+const LEVELLED_CANDIDATES: usize = 5;
+
+/// The indices of the `count` best-scored global candidates among `hypotheses` (ties to the
+/// earlier).
+fn best_scored(hypotheses: &[Hypothesis], count: usize) -> Vec<usize> {
+    let mut global: Vec<usize> = (0..hypotheses.len())
+        .filter(|&k| matches!(hypotheses[k].source, Source::Global { .. }))
+        .collect();
+    let value = |k: usize| hypotheses[k].score.value();
+    global.sort_by(|&a, &b| value(b).total_cmp(&value(a)).then(a.cmp(&b)));
+    global.truncate(count);
+    global
 }
 
 /// A sensor's hypothesis levelled from its hypothesis `parent` by `l`, when `l` moved it;

@@ -376,6 +376,9 @@ impl From<&Reason> for ReasonReport {
                 vec![("frames", Number(*frames as f64)), ("of", Number(*of as f64))]
             }
             ReasonKind::NominalKept { share } => vec![("share", Number(*share))],
+            ReasonKind::Contradicted { landing, contradiction } => {
+                vec![("landing", Number(*landing)), ("contradiction", Number(*contradiction))]
+            }
             ReasonKind::Rival { source, angle, distance, share, chosen } => vec![
                 ("stage", Text(source.name().into())),
                 ("angle", Number(*angle)),
@@ -510,7 +513,8 @@ pub struct HypothesisReport {
     pub parent: Option<usize>,
     #[cfg_attr(feature = "ts", ts(type = "Matrix4"))]
     pub correction: [f64; 16],
-    /// The selection's score: `landing` less `contradiction` (-1..1).
+    /// The selection's score: `landing` less three times `contradiction`
+    /// (`select::CONTRADICTION_WEIGHT`; -3..1).
     pub score: f64,
     /// Share of the points compared that land on another sensor's surfaces (0..1).
     pub landing: f64,

@@ -245,9 +245,17 @@ impl fmt::Display for ReasonKind {
             }
             ReasonKind::NominalKept { share } => write!(
                 f,
-                "no stage landed the scans better on the others' than the nominal ({:.0} % \
-                 land): the nominal is the answer",
+                "no stage landed the scans better on the others' than the nominal (it scores \
+                 {:.0} %): the nominal is the answer",
                 100.0 * share
+            ),
+            ReasonKind::Contradicted { landing, contradiction } => write!(
+                f,
+                "{:.1} % of its points stand where another sensor saw through, against {:.1} % \
+                 landing on their surfaces: the scans contradict this placement (a wrong \
+                 result, or a scene that changed between the sensors' views)",
+                100.0 * contradiction,
+                100.0 * landing
             ),
             ReasonKind::Rival { source, angle, distance, share, chosen } => write!(
                 f,
@@ -382,6 +390,7 @@ impl ReasonKind {
             ReasonKind::FramesDisagree { .. } => "framesDisagree",
             ReasonKind::FramesLeftOut { .. } => "framesLeftOut",
             ReasonKind::NominalKept { .. } => "nominalKept",
+            ReasonKind::Contradicted { .. } => "contradicted",
             ReasonKind::Rival { .. } => "rival",
             ReasonKind::WorseThanNominal { .. } => "worseThanNominal",
             ReasonKind::FarFromNominal { .. } => "farFromNominal",

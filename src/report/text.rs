@@ -160,8 +160,9 @@ fn selection(out: &mut String, c: &Calibration) {
     }
     let _ = writeln!(
         out,
-        "\nselection (share of the points landing on the other sensors' surfaces, less the share \
-         standing where they saw through; how far its ground lies from theirs):"
+        "\nselection (share of the points landing on the other sensors' surfaces, less {} times \
+         the share standing where they saw through; how far its ground lies from theirs):",
+        crate::calib::select::CONTRADICTION_WEIGHT
     );
     for s in &c.selection {
         let _ = writeln!(out, "  {}", s.sensor);
@@ -171,10 +172,11 @@ fn selection(out: &mut String, c: &Calibration) {
             let ground = h.ground.map_or(String::new(), |g| {
                 format!("; grounds {:.1} mm / {:.3} deg apart", 1e3 * g.height, g.tilt.to_degrees())
             });
+            let w = crate::calib::select::CONTRADICTION_WEIGHT;
             let _ = writeln!(
                 out,
-                "  {mark} {stage:<20} {:>5.1} % ({:>4.1} - {:>4.1})   {:>7.3} deg {:>7.3} m from the \
-                 nominal{ground}",
+                "  {mark} {stage:<20} {:>5.1} % ({:>4.1} - {w} x {:>4.1})   {:>7.3} deg {:>7.3} m \
+                 from the nominal{ground}",
                 100.0 * h.score.value(),
                 100.0 * h.score.landing(),
                 100.0 * h.score.contradiction(),

@@ -51,7 +51,7 @@ async function selectionShown(page, r) {
     assert.deepEqual(await rows.evaluateAll((all) => all.map((row) => row.dataset.stage)), s.hypotheses.map((h) => h.stage));
     const chosen = page.locator(`[data-testid=hypothesis][data-sensor="${s.sensor}"][data-chosen]`);
     assert.equal(await chosen.getAttribute('data-stage'), s.hypotheses[s.chosen].stage, `${s.sensor}: the chosen row`);
-    // A levelling is named by what it levelled: every global candidate is levelled.
+    // A levelling is named by what it levelled: the best-scored global candidates are levelled.
     const named = await rows.evaluateAll((all) => all.map((row) => row.children[1].textContent.replace(/^▶ /, '')));
     s.hypotheses.forEach((h, i) => {
       if (h.stage === 'levelled' && h.parent != null) assert.equal(named[i], `levelled ${named[h.parent]}`, `${s.sensor}: hypothesis ${i}'s name`);

@@ -43,7 +43,7 @@ pub use surface::Surface;
 use serde::{Deserialize, Serialize};
 
 pub use ground::GroundAgreement;
-pub use score::SensorScore;
+pub use score::{CONTRADICTION_WEIGHT, SensorScore};
 pub use score::{FrameScans, Scenes};
 
 use crate::calib::verdict::USABLE_WITHIN;

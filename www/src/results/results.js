@@ -159,7 +159,7 @@ function selectionHtml(selection) {
       `<td>${(100 * h.score).toFixed(1)} %</td><td>${(100 * h.landing).toFixed(1)} %</td><td>${(100 * h.contradiction).toFixed(1)} %</td><td>${(100 * h.overlap).toFixed(1)} %</td><td>${deg.toFixed(3)} deg / ${m.toFixed(3)} m</td><td>${groundText(h.ground)}</td></tr>`;
   }));
   return `<details class="selection" data-testid="selection"><summary>Selection: ${summary}</summary>
-    <p class="hint">Every stage proposes a placement; each is scored on the whole scans by the share of points landing on the other sensors' surfaces (and theirs on its), less the share standing where another sensor saw through (its free space), and the rule picks one: never below the nominal, never one whose ground lies apart from the other sensors' (patch by patch) beyond what is usable while another meets it, the latest stage among those the scans cannot tell apart.</p>
+    <p class="hint">Every stage proposes a placement; each is scored on the whole scans by the share of points landing on the other sensors' surfaces (and theirs on its), less three times the share standing where another sensor saw through (its free space: a chance overlay lands points on broad planes, a right one rarely stands in free space), and the rule picks one: never below the nominal, never one whose ground lies apart from the other sensors' (patch by patch) beyond what is usable while another meets it, the latest stage among those the scans cannot tell apart.</p>
     <div class="table-wrap"><table class="compare"><tr><th>sensor</th><th>hypothesis</th><th>score</th><th>landing</th><th>in free space</th><th>overlap</th><th>from the nominal</th><th>grounds apart</th></tr>${rows.join('')}</table></div></details>`;
 }
 
