@@ -252,15 +252,14 @@ fn method_all_reports_the_methods_that_ran_when_others_fail() {
         assert!(error.contains("sensor_2") && error.contains("ROI"), "{error}");
         assert!(stdout.contains(&format!("{name}: {error}")), "{stdout}");
     }
-    // Without the global stage gmm's bird's-eye search cannot reach that far, says so, and
-    // the verdict fails it: with no method trusted, the exit status says so (2).
+    // Without the global stage gmm's bird's-eye search cannot reach that far: what it finds
+    // stands where the reference saw through, scores below the nominal, and the nominal puts
+    // none of sensor_2's points in the region. With two sensors none may be left out: the run
+    // fails naming the sensor and the region.
     let out = gmmcalib(&tmp.0, &["--global", "off", "--json", json_path.to_str().unwrap()]);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert_eq!(out.status.code(), Some(2), "{stdout}");
-    assert!(stdout.starts_with("verdict: FAILED"), "{stdout}");
-    let result: Value = serde_json::from_str(&fs::read_to_string(&json_path).unwrap()).unwrap();
-    let warning = result["levelling"][1]["warning"].as_str().unwrap_or_default();
-    assert!(warning.contains("nominal extrinsic may be"), "{}", result["levelling"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("sensor_2") && stderr.contains("ROI"), "{stderr}");
     // When every method fails, the run fails, naming each one's problem.
     let out = gmmcalib(&tmp.0, &["--method", "all", "--iterations", "20", "--reference", "nobody"]);
     assert!(!out.status.success());
