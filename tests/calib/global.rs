@@ -298,6 +298,28 @@ fn a_global_candidate_is_judged_as_its_levelling_leaves_it() {
     );
 }
 
+/// The `mid100` study's trial `start` of `seed` (the study's draw), calibrated with
+/// `runners_up` global candidates besides the best: the result, and the `left` unit's error.
+fn mid100_left(seed: u64, start: u64, runners_up: usize) -> (calib::Calibration, Pose) {
+    let model = Model::by_name("mid100").expect("the zoo's Mid-100");
+    let draw = Miscalibration {
+        angle: [45.0 * D, 45.0 * D, 180.0 * D],
+        translation: [1.0; 3],
+        seed: Some(1000 * seed + start),
+    };
+    let twin = Twin::new(&model, 5, seed, &draw);
+    let mut settings = calib::Settings { target: model.target(), ..Default::default() };
+    settings.global.correlate.runners_up = runners_up;
+    let result =
+        calib::calibrate(&twin.rig(), calib::Method::Gmm, &settings, |_| Control::Continue)
+            .expect("calibration");
+    let errors = eval::sensor_errors(&twin, &result);
+    // The errors skip the reference, the twin's first sensor.
+    let k = twin.truth.iter().position(|(name, _)| name == "left").expect("left") - 1;
+    let error = errors[k].as_ref().expect("the left unit's result").error;
+    (result, error)
+}
+
 /// A Mid-100's `left` unit from a tape-measure nominal (the `mid100` study's seed 1, start 0):
 /// it shares a strip about 8 deg wide with the middle unit. The global stage's best overlays
 /// turn it 90-125 deg so that its view piles onto the middle unit's: more of it lands (13-18 %
@@ -307,23 +329,8 @@ fn a_global_candidate_is_judged_as_its_levelling_leaves_it() {
 /// in the right basin and must not read `failed`.
 #[test]
 fn a_narrow_unit_is_placed_by_what_its_overlap_shows() {
-    let model = Model::by_name("mid100").expect("the zoo's Mid-100");
-    let draw = Miscalibration {
-        angle: [45.0 * D, 45.0 * D, 180.0 * D],
-        translation: [1.0; 3],
-        seed: Some(1000),
-    };
-    let twin = Twin::new(&model, 5, 1, &draw);
-    let mut settings = calib::Settings { target: model.target(), ..Default::default() };
     // Nine overlays: with the default five the right one is not among them (`CorrelateSettings`).
-    settings.global.correlate.runners_up = 8;
-    let result =
-        calib::calibrate(&twin.rig(), calib::Method::Gmm, &settings, |_| Control::Continue)
-            .expect("calibration");
-    let errors = eval::sensor_errors(&twin, &result);
-    // The errors skip the reference, the twin's first sensor.
-    let k = twin.truth.iter().position(|(name, _)| name == "left").expect("left") - 1;
-    let error = errors[k].as_ref().expect("the left unit's result").error;
+    let (result, error) = mid100_left(1, 0, 8);
     let (deg, m) = (error.rotation.angle() / D, error.translation.vector.norm());
     assert!(deg < 0.5 && m < 0.05, "{deg:.3} deg {:.1} mm", m * 1e3);
     let verdict = result.verdict.sensors.iter().find(|v| v.sensor == "left").unwrap();
@@ -350,21 +357,7 @@ fn a_narrow_unit_is_placed_by_what_its_overlap_shows() {
 #[test]
 fn a_placement_the_free_space_contradicts_is_failed() {
     use gmmcalib::calib::verdict::ReasonKind;
-    let model = Model::by_name("mid100").expect("the zoo's Mid-100");
-    let draw = Miscalibration {
-        angle: [45.0 * D, 45.0 * D, 180.0 * D],
-        translation: [1.0; 3],
-        seed: Some(4001),
-    };
-    let twin = Twin::new(&model, 5, 4, &draw);
-    let mut settings = calib::Settings { target: model.target(), ..Default::default() };
-    settings.global.correlate.runners_up = 4;
-    let result =
-        calib::calibrate(&twin.rig(), calib::Method::Gmm, &settings, |_| Control::Continue)
-            .expect("calibration");
-    let errors = eval::sensor_errors(&twin, &result);
-    let k = twin.truth.iter().position(|(name, _)| name == "left").expect("left") - 1;
-    let error = errors[k].as_ref().expect("the left unit's result").error;
+    let (result, error) = mid100_left(4, 1, 4);
     assert!(error.rotation.angle() / D > 1.0, "the five candidates hold the right one now");
     let verdict = result.verdict.sensors.iter().find(|v| v.sensor == "left").unwrap();
     assert_eq!(verdict.level, Level::Failed, "{:?}", verdict.reasons);
