@@ -6,7 +6,10 @@
 //! 1. coarse (0.5 m cells, 2 deg): for every yaw over the full turn, the FFT cross-correlation
 //!    of the sensor's occupancy grid with the reference's (blurred) gives the score of every
 //!    shift at once; two yaws share one complex FFT (one in the real part, one in the
-//!    imaginary part, since both grids are real);
+//!    imaginary part, since both grids are real). The reference's closeness is quantised to
+//!    integer steps and the transforms run in f64, so every correlation is an exact integer
+//!    after rounding: the peaks and their order are the same on every platform (an f32
+//!    transform's rounding differs between native SIMD and wasm, and reordered near-ties);
 //! 2. fine (0.1 m cells, 0.25 deg): a direct search around each distinct coarse peak;
 //! 3. the best, and the runners-up that are distinct from it (another yaw or shift), each with
 //!    its score: a symmetric scene (cubes in a row, a corridor) shows as a runner-up scoring
@@ -20,7 +23,7 @@
 use std::sync::Arc;
 
 use nalgebra::{Unit, UnitQuaternion, Vector2, Vector3};
-use rustfft::num_complex::Complex32;
+use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 use serde::{Deserialize, Serialize};
 
@@ -48,10 +51,10 @@ pub struct CorrelateSettings {
     pub fine_yaw_step: f64,
     /// Runners-up reported besides the best, each a hypothesis the selection scores (the best
     /// five of them levelled). A narrow unit's right overlay ranks below overlays that pile its
-    /// view onto its neighbour's: on the `mid100` twin 8 put the `left` unit in the right basin
-    /// in 8 of 10 tape-measure trials where 4 did in 2, for 14 % on GMMCalib's cube sample. Not
-    /// the default yet: the low-ranked overlays tie to f32 rounding, which differs between
-    /// native code and wasm, and the page's list then differs from the CLI's.
+    /// view onto its neighbour's: on the `mid100` twin eight put the `left` unit in the right
+    /// basin in 8 of 10 tape-measure trials where four did in 2, for 14 % on GMMCalib's cube
+    /// sample. The low-ranked ones tie closely; the coarse stage's exact sums keep their order
+    /// the same in native code and wasm.
     pub runners_up: usize,
     /// Two candidates are distinct when their yaws differ by more than this (rad) or they put
     /// the centroid of the sensor's structure more than `distinct_shift` (m) apart (a yaw and a
@@ -76,7 +79,7 @@ impl Default for CorrelateSettings {
             fine_cell: 0.1,
             fine_blur: 0.15,
             fine_yaw_step: 0.25f64.to_radians(),
-            runners_up: 4,
+            runners_up: 8,
             distinct_yaw: 15f64.to_radians(),
             distinct_shift: 1.0,
             as_good: 0.05,
@@ -241,21 +244,21 @@ fn smooth(mut n: usize) -> bool {
 /// A 2-D FFT of a square grid in place, by rows then columns (transposing between).
 struct Fft2 {
     size: usize,
-    fft: Arc<dyn Fft<f32>>,
-    scratch: Vec<Complex32>,
+    fft: Arc<dyn Fft<f64>>,
+    scratch: Vec<Complex64>,
 }
 
 impl Fft2 {
-    fn new(planner: &mut FftPlanner<f32>, size: usize, inverse: bool) -> Self {
+    fn new(planner: &mut FftPlanner<f64>, size: usize, inverse: bool) -> Self {
         let fft =
             if inverse { planner.plan_fft_inverse(size) } else { planner.plan_fft_forward(size) };
-        let scratch = vec![Complex32::default(); fft.get_inplace_scratch_len()];
+        let scratch = vec![Complex64::default(); fft.get_inplace_scratch_len()];
         Self { size, fft, scratch }
     }
 
     /// Transforms `data` (row-major); the result is left transposed, which is undone by the
     /// inverse transform of a product of two forward results.
-    fn run(&mut self, data: &mut [Complex32]) {
+    fn run(&mut self, data: &mut [Complex64]) {
         self.fft.process_with_scratch(data, &mut self.scratch);
         transpose(data, self.size);
         self.fft.process_with_scratch(data, &mut self.scratch);
@@ -263,13 +266,17 @@ impl Fft2 {
     }
 }
 
-fn transpose(data: &mut [Complex32], n: usize) {
+fn transpose(data: &mut [Complex64], n: usize) {
     for i in 0..n {
         for j in i + 1..n {
             data.swap(i * n + j, j * n + i);
         }
     }
 }
+
+/// The coarse correlation's closeness is counted in these steps (of 1): its sums stay below
+/// 2^53 by far, and their f64 transforms' errors below half a step.
+const CLOSENESS_STEPS: f64 = 256.0;
 
 /// Step 1: the coarse correlation over every yaw; the local maxima in the shift window of
 /// every yaw, distinct from each other, best first, as (score, yaw, shift in plane).
@@ -286,17 +293,20 @@ fn coarse_peaks(
     let mut planner = FftPlanner::new();
     let mut forward = Fft2::new(&mut planner, n, false);
     let mut inverse = Fft2::new(&mut planner, n, true);
-    let mut spectrum: Vec<Complex32> =
-        reference.values.iter().map(|&v| Complex32::new(v, 0.0)).collect();
+    let mut spectrum: Vec<Complex64> = reference
+        .values
+        .iter()
+        .map(|&v| Complex64::new((f64::from(v) * CLOSENESS_STEPS).round(), 0.0))
+        .collect();
     forward.run(&mut spectrum);
     let window = (settings.max_shift / cell).round() as i64;
     let steps = (std::f64::consts::TAU / settings.coarse_yaw_step).round() as usize;
     let yaw_of = |k: usize| crate::se3::wrap_angle(k as f64 * std::f64::consts::TAU / steps as f64);
     let mut peaks: Vec<(f64, f64, Vector2<f64>)> = Vec::new();
-    let mut data = vec![Complex32::default(); n * n];
-    let scale = 1.0 / (n * n) as f32;
+    let mut data = vec![Complex64::default(); n * n];
+    let scale = 1.0 / (n * n) as f64;
     for pair in (0..steps).collect::<Vec<_>>().chunks(2) {
-        data.fill(Complex32::default());
+        data.fill(Complex64::default());
         // Occupancy of each yaw's rotated structure: yaw a in the real part, b in the imaginary.
         let mut counts = [0usize; 2];
         for (part, &k) in pair.iter().enumerate() {
@@ -322,7 +332,9 @@ fn coarse_peaks(
             let score = |a: i64, b: i64| {
                 let index = a.rem_euclid(n as i64) as usize * n + b.rem_euclid(n as i64) as usize;
                 let c = data[index] * scale;
-                (if part == 0 { c.re } else { -c.im }) as f64 / counts[part].max(1) as f64
+                // An integer sum of closeness steps; the rounding drops the transform's error.
+                let sum = (if part == 0 { c.re } else { -c.im }).round();
+                sum / (CLOSENESS_STEPS * counts[part].max(1) as f64)
             };
             for a in -window..=window {
                 for b in -window..=window {

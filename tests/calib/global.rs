@@ -329,8 +329,9 @@ fn mid100_left(seed: u64, start: u64, runners_up: usize) -> (calib::Calibration,
 /// in the right basin and must not read `failed`.
 #[test]
 fn a_narrow_unit_is_placed_by_what_its_overlap_shows() {
-    // Nine overlays: with the default five the right one is not among them (`CorrelateSettings`).
+    // Nine overlays, the default: with five the right one is not among them (`CorrelateSettings`).
     let (result, error) = mid100_left(1, 0, 8);
+    assert_eq!(gmmcalib::calib::correlate::CorrelateSettings::default().runners_up, 8);
     let (deg, m) = (error.rotation.angle() / D, error.translation.vector.norm());
     assert!(deg < 0.5 && m < 0.05, "{deg:.3} deg {:.1} mm", m * 1e3);
     let verdict = result.verdict.sensors.iter().find(|v| v.sensor == "left").unwrap();
