@@ -260,6 +260,10 @@ fn method_all_reports_the_methods_that_ran_when_others_fail() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("sensor_2") && stderr.contains("ROI"), "{stderr}");
+    assert!(
+        stderr.contains("the global alignment, off here, searches for where it sits: --global on"),
+        "{stderr}"
+    );
     // When every method fails, the run fails, naming each one's problem.
     let out = gmmcalib(&tmp.0, &["--method", "all", "--iterations", "20", "--reference", "nobody"]);
     assert!(!out.status.success());

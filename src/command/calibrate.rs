@@ -121,8 +121,8 @@ pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
         Control::Continue
     });
     host.progress("");
-    if let [(_, outcome)] = outcomes.as_slice() {
-        let result = outcome.as_ref().map_err(|e| e.to_string())?;
+    if let [(method, outcome)] = outcomes.as_slice() {
+        let result = outcome.as_ref().map_err(|e| advised(e, *method, &settings))?;
         host.out(&report::summary(result));
         write_json(host, a.json.as_deref(), &Report::from(result))?;
         if let (Some(format), Some(bag)) = (&a.export, &bag) {
@@ -132,7 +132,9 @@ pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
     }
     let failures: Vec<String> = outcomes
         .iter()
-        .filter_map(|(m, r)| r.as_ref().err().map(|e| format!("{}: {e}", m.name())))
+        .filter_map(|(m, r)| {
+            r.as_ref().err().map(|e| format!("{}: {}", m.name(), advised(e, *m, &settings)))
+        })
         .collect();
     if failures.len() == outcomes.len() {
         return Err(failures.join("; "));
@@ -155,6 +157,22 @@ pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
         .map_err(|e| format!("JSON: {e}"))?;
     write_json(host, a.json.as_deref(), &entries)?;
     Ok(status(results.iter().map(|c| c.verdict.level)))
+}
+
+/// The error's text; where a sensor found no place in the region and `method`'s global
+/// alignment, which would have searched for one, was switched off, the flag that switches it
+/// on.
+fn advised(e: &calib::CalibError, method: Method, settings: &Settings) -> String {
+    use calib::CalibError::{NoPointsInRoi, OutsideOverlap};
+    let stages = calib::Stages::of(method, settings);
+    let searches = matches!(method, Method::Gmm | Method::Cad);
+    match e {
+        NoPointsInRoi(_) | OutsideOverlap(_) if searches && stages.global.is_none() => {
+            let flag = if settings.refine_only { "leave out --refine" } else { "--global on" };
+            format!("{e}; the global alignment, off here, searches for where it sits: {flag}")
+        }
+        _ => e.to_string(),
+    }
 }
 
 /// Writes `value` as pretty JSON to `path`, when given.
