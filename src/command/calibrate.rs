@@ -151,7 +151,10 @@ pub fn calibrate(a: &CalibrateArgs, host: &mut dyn Host) -> Result<u8, String> {
         .iter()
         .map(|(method, outcome)| match outcome {
             Ok(c) => serde_json::to_value(Report::from(c)),
-            Err(e) => Ok(serde_json::json!({ "method": method.name(), "error": e.to_string() })),
+            Err(e) => {
+                let error = advised(e, *method, &settings);
+                Ok(serde_json::json!({ "method": method.name(), "error": error }))
+            }
         })
         .collect::<Result<_, _>>()
         .map_err(|e| format!("JSON: {e}"))?;

@@ -330,8 +330,9 @@ fn mid100_left(seed: u64, start: u64, runners_up: usize) -> (calib::Calibration,
 #[test]
 fn a_narrow_unit_is_placed_by_what_its_overlap_shows() {
     // Nine overlays, the default: with five the right one is not among them (`CorrelateSettings`).
-    let (result, error) = mid100_left(1, 0, 8);
-    assert_eq!(gmmcalib::calib::correlate::CorrelateSettings::default().runners_up, 8);
+    let runners_up = gmmcalib::calib::correlate::CorrelateSettings::default().runners_up;
+    assert_eq!(runners_up, 8);
+    let (result, error) = mid100_left(1, 0, runners_up);
     let (deg, m) = (error.rotation.angle() / D, error.translation.vector.norm());
     assert!(deg < 0.5 && m < 0.05, "{deg:.3} deg {:.1} mm", m * 1e3);
     let verdict = result.verdict.sensors.iter().find(|v| v.sensor == "left").unwrap();
